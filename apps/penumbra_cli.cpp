@@ -1,0 +1,419 @@
+// penumbra command-line interface: devices | render | reference | compare | lights.
+// A thin layer over the public API; every penumbra::Error becomes one line on stderr and exit 2.
+#include <penumbra/penumbra.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+using namespace penumbra;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Args {
+  std::map<std::string, std::string> values;  // --name value
+  std::map<std::string, bool> flags;          // --name
+  std::vector<std::string> positional;
+};
+
+struct OptionSpec {
+  std::string name;     // without dashes
+  bool takesValue;
+  std::string help;
+};
+
+Args parse(int argc, char** argv, int first, const std::vector<OptionSpec>& specs,
+           const std::string& command) {
+  Args a;
+  for (int i = first; i < argc; ++i) {
+    std::string s = argv[i];
+    if (s.rfind("--", 0) == 0) {
+      std::string name = s.substr(2), value;
+      bool inlineValue = false;
+      auto eq = name.find('=');
+      if (eq != std::string::npos) {
+        value = name.substr(eq + 1);
+        name = name.substr(0, eq);
+        inlineValue = true;
+      }
+      const OptionSpec* spec = nullptr;
+      for (auto& o : specs)
+        if (o.name == name) spec = &o;
+      if (!spec) badInput("penumbra " + command + ": unknown option --" + name + " (see --help)");
+      if (spec->takesValue) {
+        if (!inlineValue) {
+          if (i + 1 >= argc) badInput("penumbra " + command + ": --" + name + " needs a value");
+          value = argv[++i];
+        }
+        a.values[name] = value;
+      } else {
+        a.flags[name] = true;
+      }
+    } else {
+      a.positional.push_back(s);
+    }
+  }
+  return a;
+}
+
+void printHelp(const std::string& usage, const std::string& what,
+               const std::vector<OptionSpec>& specs) {
+  std::cout << "usage: " << usage << "\n\n" << what << "\n\noptions:\n";
+  for (auto& o : specs) {
+    std::string left = "  --" + o.name + (o.takesValue ? " VALUE" : "");
+    std::cout << left << std::string(left.size() < 28 ? 28 - left.size() : 1, ' ') << o.help
+              << "\n";
+  }
+}
+
+long parseInt(const std::string& name, const std::string& text, long lo, long hi) {
+  char* end = nullptr;
+  errno = 0;
+  long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end || errno) badInput("--" + name + ": not an integer: '" + text + "'");
+  if (v < lo || v > hi)
+    badInput("--" + name + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+             "], got " + text);
+  return v;
+}
+
+float parseFloat(const std::string& name, const std::string& text) {
+  char* end = nullptr;
+  float v = std::strtof(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v))
+    badInput("--" + name + ": not a finite number: '" + text + "'");
+  return v;
+}
+
+void parseSize(const std::string& text, int& w, int& h) {
+  auto x = text.find('x');
+  if (x == std::string::npos) badInput("--size must look like WIDTHxHEIGHT, got '" + text + "'");
+  w = int(parseInt("size", text.substr(0, x), 1, 16384));
+  h = int(parseInt("size", text.substr(x + 1), 1, 16384));
+}
+
+std::string get(const Args& a, const std::string& name, const std::string& def) {
+  auto it = a.values.find(name);
+  return it == a.values.end() ? def : it->second;
+}
+bool has(const Args& a, const std::string& name) {
+  return a.values.count(name) || a.flags.count(name);
+}
+
+// Refuses an output path before any work is done: known extension, existing directory.
+void checkOutput(const std::string& path, const std::vector<std::string>& exts,
+                 const std::string& option) {
+  std::string ext = fs::path(path).extension().string();
+  for (auto& c : ext) c = char(std::tolower(c));
+  bool ok = false;
+  for (auto& e : exts) ok |= ext == e;
+  if (!ok) {
+    std::string list;
+    for (auto& e : exts) list += (list.empty() ? "" : ", ") + e;
+    badInput("--" + option + " " + path + ": unsupported extension '" + ext + "' (use " + list +
+             ")");
+  }
+  fs::path dir = fs::path(path).parent_path();
+  if (!dir.empty() && !fs::is_directory(dir))
+    badInput("--" + option + " " + path + ": directory " + dir.string() + " does not exist");
+}
+
+// Text files are written like images: to a temporary file, then renamed into place.
+void writeTextAtomic(const std::string& path, const std::string& text) {
+  fs::path target(path);
+  fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
+  {
+    std::ofstream f(tmp);
+    f << text;
+    f.close();
+    if (!f) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      badInput(path + ": cannot write");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) badInput(path + ": cannot move into place (" + ec.message() + ")");
+}
+
+const std::vector<OptionSpec> kSceneOptions = {
+    {"scene", true, "mesh file (OBJ, PLY, glTF/GLB, ...) or 'builtin' (default)"},
+    {"env", true, "environment map (EXR, HDR, PFM; equirectangular) or 'builtin' (default)"},
+    {"size", true, "image size WxH (default 640x360)"},
+    {"camera", true, "ex,ey,ez,tx,ty,tz[,fovy]: eye, target, vertical fov (default: framed)"},
+    {"no-ground", false, "do not add a ground plane under a loaded mesh"},
+    {"device", true, "OpenCL device: index or name substring (default $PENUMBRA_DEVICE or 0)"},
+    {"help", false, "show this help"},
+};
+
+std::vector<OptionSpec> with(std::vector<OptionSpec> base, const std::vector<OptionSpec>& more) {
+  base.insert(base.end() - 1, more.begin(), more.end());
+  return base;
+}
+
+struct SceneSetup {
+  Scene scene;
+  Environment env;
+  Camera camera;
+  int width = 640, height = 360;
+};
+
+SceneSetup loadSetup(const Args& a) {
+  SceneSetup s;
+  parseSize(get(a, "size", "640x360"), s.width, s.height);
+  Camera cam;
+  bool haveCamera = has(a, "camera");
+  if (haveCamera) cam = parseCamera(get(a, "camera", ""));
+  LoadOptions lo;
+  lo.addGround = !has(a, "no-ground");
+  s.scene = sceneFrom(get(a, "scene", "builtin"), lo);
+  s.env = environmentFrom(get(a, "env", "builtin"));
+  s.camera = haveCamera ? cam : frameCamera(s.scene, float(s.width) / float(s.height));
+  if (s.env.sanitizedPixels > 0)
+    std::cerr << "penumbra: " << s.env.source << ": replaced " << s.env.sanitizedPixels
+              << " pixel(s) holding NaN/Inf (" << s.env.nonFiniteValues
+              << " values) or negative radiance (" << s.env.negativeValues << " values)\n";
+  return s;
+}
+
+MedianCutOptions extractOptions(const Args& a) {
+  std::string method = get(a, "extract", "median-cut");
+  if (method != "median-cut")
+    badInput("--extract: unknown method '" + method + "' (available: median-cut)");
+  MedianCutOptions mc;
+  mc.lights = int(parseInt("lights", get(a, "lights", "32"), 1, PB_MAX_LIGHTS));
+  mc.faceSize = int(parseInt("face-size", get(a, "face-size", "256"), 1, 4096));
+  return mc;
+}
+
+int cmdDevices(int argc, char** argv) {
+  std::vector<OptionSpec> specs = {{"help", false, "show this help"}};
+  Args a = parse(argc, argv, 2, specs, "devices");
+  if (has(a, "help")) {
+    printHelp("penumbra devices", "Lists the OpenCL devices penumbra can use, with their index.",
+              specs);
+    return 0;
+  }
+  for (auto& d : listDevices())
+    std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << d.version << ", "
+              << (d.globalMemBytes >> 20) << " MiB, max work-group " << d.maxWorkGroupSize
+              << (d.fp64 ? ", fp64" : "") << (d.int64Atomics ? ", int64 atomics" : "") << "\n";
+  return 0;
+}
+
+int cmdRender(int argc, char** argv) {
+  auto specs = with(kSceneOptions, {
+      {"lights", true, "number of area lights extracted from the map (default 32)"},
+      {"extract", true, "light extraction method: median-cut (default)"},
+      {"face-size", true, "cube-map face size for extraction (default 256)"},
+      {"shadows", true, "mssm4 (default) | none"},
+      {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
+      {"moment-bias", true, "MSSM moment bias (default 3e-5)"},
+      {"depth-bias", true, "MSSM depth bias, normalized depth (default 0.002)"},
+      {"slope-bias", true, "MSSM receiver-slope bias factor (default 1.5)"},
+      {"light-size-scale", true, "scale of every light's size in the filters (default 1)"},
+      {"max-filter", true, "largest filter width in texels (default 27)"},
+      {"exposure", true, "PNG exposure multiplier (default 1)"},
+      {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
+      {"report", true, "write a JSON report (device, lights, timings, ...)"},
+  });
+  Args a = parse(argc, argv, 2, specs, "render");
+  if (has(a, "help")) {
+    printHelp("penumbra render [options]",
+              "Renders a scene lit by an environment map: median-cut area lights, moment soft "
+              "shadows (MSSM4), diffuse shading.",
+              specs);
+    return 0;
+  }
+  std::string out = get(a, "out", "penumbra.png");
+  checkOutput(out, {".png", ".exr"}, "out");
+  if (has(a, "report")) checkOutput(get(a, "report", ""), {".json"}, "report");
+  RenderOptions ro;
+  parseSize(get(a, "size", "640x360"), ro.width, ro.height);
+  ro.shadows = parseShadowTechnique(get(a, "shadows", "mssm4"));
+  ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", "256"), 1, 4096));
+  if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
+  if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
+  if (has(a, "slope-bias")) ro.mssm.slopeBias = parseFloat("slope-bias", get(a, "slope-bias", ""));
+  if (has(a, "light-size-scale"))
+    ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
+  if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
+  float exposure = parseFloat("exposure", get(a, "exposure", "1"));
+  MedianCutOptions mc = extractOptions(a);
+  SceneSetup s = loadSetup(a);
+
+  Context ctx(get(a, "device", ""));
+  ctx.resetTimings();
+  LightSet lights = extractMedianCut(ctx, s.env, mc);
+  Renderer renderer(ctx);
+  Frame f = renderer.render(s.scene, s.camera, lights, s.env, ro);
+  writeImage(out, f.image, exposure);
+  if (has(a, "report"))
+    writeTextAtomic(get(a, "report", ""), renderReportJson(ctx.info().name, lights, s.env, ro, f));
+  double total = f.timingsMs.back().second;
+  std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
+            << ro.height << ", " << lights.lights.size() << " lights, "
+            << toString(ro.shadows) << ", " << total << " ms on " << ctx.info().name << ")\n";
+  return 0;
+}
+
+int cmdReference(int argc, char** argv) {
+  auto specs = with(kSceneOptions, {
+      {"spp", true, "shadow-ray samples per pixel (default 256)"},
+      {"lights", true, "light-set mode: light the scene by N extracted lights instead of the map"},
+      {"extract", true, "light extraction method for light-set mode: median-cut (default)"},
+      {"face-size", true, "cube-map face size for extraction (default 256)"},
+      {"seed", true, "random seed (default 1)"},
+      {"threads", true, "CPU threads (default: all)"},
+      {"out", true, "output image .exr (default reference.exr) or .png"},
+  });
+  Args a = parse(argc, argv, 2, specs, "reference");
+  if (has(a, "help")) {
+    printHelp("penumbra reference [options]",
+              "Ray-traced ground truth (Embree): Monte Carlo direct lighting from the environment "
+              "map, or from the extracted light set with --lights N.",
+              specs);
+    return 0;
+  }
+  std::string out = get(a, "out", "reference.exr");
+  checkOutput(out, {".png", ".exr"}, "out");
+  ReferenceOptions ro;
+  parseSize(get(a, "size", "640x360"), ro.width, ro.height);
+  ro.spp = int(parseInt("spp", get(a, "spp", "256"), 1, 1 << 20));
+  ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", "1"), 0, 1L << 62));
+  ro.threads = int(parseInt("threads", get(a, "threads", "0"), 0, 1024));
+  bool lightMode = has(a, "lights");
+  MedianCutOptions mc = extractOptions(a);
+  SceneSetup s = loadSetup(a);
+  bool tty = isatty(2);
+  ro.progress = [tty](double f) {
+    if (tty) std::fprintf(stderr, "\rreference: %3d%%", int(f * 100));
+  };
+  Image img;
+  if (lightMode) {
+    Context ctx(get(a, "device", ""));
+    LightSet lights = extractMedianCut(ctx, s.env, mc);
+    img = referenceLights(s.scene, s.camera, lights, s.env, ro);
+  } else {
+    img = referenceEnvironment(s.scene, s.camera, s.env, ro);
+  }
+  if (tty) std::fprintf(stderr, "\rreference: 100%%\n");
+  writeImage(out, img);
+  std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
+            << ro.height << ", " << ro.spp << " spp, "
+            << (lightMode ? "light-set" : "environment") << " reference)\n";
+  return 0;
+}
+
+int cmdCompare(int argc, char** argv) {
+  std::vector<OptionSpec> specs = {{"out", true, "also write the metrics JSON to this file"},
+                                   {"help", false, "show this help"}};
+  Args a = parse(argc, argv, 2, specs, "compare");
+  if (has(a, "help")) {
+    printHelp("penumbra compare A B [--out metrics.json]",
+              "Compares image A with reference B over B's geometry pixels (alpha > 0.5): RMSE, "
+              "relative RMSE (RMSE / mean of B), PSNR, max abs error, as JSON.",
+              specs);
+    return 0;
+  }
+  if (a.positional.size() != 2)
+    badInput("penumbra compare needs two images, A and the reference B (got " +
+             std::to_string(a.positional.size()) + ")");
+  if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
+  Image A = readImage(a.positional[0]);
+  Image B = readImage(a.positional[1]);
+  std::string json = toJson(compareImages(A, B));
+  std::cout << json;
+  if (has(a, "out")) writeTextAtomic(get(a, "out", ""), json);
+  return 0;
+}
+
+int cmdLights(int argc, char** argv) {
+  std::vector<OptionSpec> specs = {
+      {"env", true, "environment map or 'builtin' (default)"},
+      {"lights", true, "number of lights (default 32)"},
+      {"extract", true, "median-cut (default)"},
+      {"face-size", true, "cube-map face size (default 256)"},
+      {"out", true, "write the light set JSON here (default: standard output)"},
+      {"overlay", true, "write the map with every light outlined to this PNG"},
+      {"device", true, "OpenCL device: index or name substring"},
+      {"help", false, "show this help"},
+  };
+  Args a = parse(argc, argv, 2, specs, "lights");
+  if (has(a, "help")) {
+    printHelp("penumbra lights [options]",
+              "Extracts area lights from an environment map and writes them as JSON.", specs);
+    return 0;
+  }
+  if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
+  if (has(a, "overlay")) checkOutput(get(a, "overlay", ""), {".png"}, "overlay");
+  MedianCutOptions mc = extractOptions(a);
+  Environment env = environmentFrom(get(a, "env", "builtin"));
+  Context ctx(get(a, "device", ""));
+  LightSet lights = extractMedianCut(ctx, env, mc);
+  std::string json = lights.toJson();
+  if (has(a, "out"))
+    writeTextAtomic(get(a, "out", ""), json);
+  else
+    std::cout << json;
+  if (has(a, "overlay")) writeLightOverlay(get(a, "overlay", ""), env, lights);
+  return 0;
+}
+
+void usage() {
+  std::cout << "penumbra " PENUMBRA_VERSION
+               " - soft shadows from area lights and HDR environment maps (OpenCL)\n\n"
+               "usage: penumbra COMMAND [options]    (penumbra COMMAND --help for details)\n\n"
+               "commands:\n"
+               "  devices     list OpenCL devices\n"
+               "  render      render a frame (median-cut lights, MSSM4 soft shadows)\n"
+               "  reference   ray-traced ground truth with Embree\n"
+               "  compare     error metrics of an image against a reference\n"
+               "  lights      extract area lights from an environment map\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    usage();
+    return 2;
+  }
+  std::string cmd = argv[1];
+  try {
+    if (cmd == "--help" || cmd == "-h" || cmd == "help") {
+      usage();
+      return 0;
+    }
+    if (cmd == "--version") {
+      std::cout << PENUMBRA_VERSION << "\n";
+      return 0;
+    }
+    if (cmd == "devices") return cmdDevices(argc, argv);
+    if (cmd == "render") return cmdRender(argc, argv);
+    if (cmd == "reference") return cmdReference(argc, argv);
+    if (cmd == "compare") return cmdCompare(argc, argv);
+    if (cmd == "lights") return cmdLights(argc, argv);
+    std::cerr << "penumbra: unknown command '" << cmd << "' (see penumbra --help)\n";
+    return 2;
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    std::cerr << "penumbra: " << toString(e.kind()) << ": " << msg << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "penumbra: internal error: " << e.what() << "\n";
+    return 2;
+  }
+}

@@ -1,0 +1,131 @@
+// Summed-area table throughput against the device's own copy bandwidth, measured in the same run.
+// A minimal SAT reads and writes each element once, so it is counted as 2 x image bytes, the same
+// traffic as a clEnqueueCopyBuffer of the image; fraction_of_copy_bw = SAT bytes/s / copy bytes/s
+// says how close the four launches come to that bound. Times are device time from profiling
+// events (the sum of the stage kernels' durations), reported through UseManualTime.
+//
+//   ./bench/bench_scan [--benchmark_filter=...]   (PENUMBRA_DEVICE picks the device)
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/scan.hpp"
+
+namespace {
+
+using penumbra::Context;
+using penumbra::ScanType;
+
+std::unique_ptr<Context> g_ctx;
+std::map<std::size_t, double> g_copyBytesPerSec;  // image bytes -> copy bandwidth (read + write)
+
+double eventSeconds(const cl::Event& ev) {
+  ev.wait();
+  auto t0 = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+  auto t1 = ev.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+  return double(t1 - t0) * 1e-9;
+}
+
+double copySeconds(const cl::Buffer& src, cl::Buffer& dst, std::size_t bytes) {
+  cl::Event ev;
+  g_ctx->queue().enqueueCopyBuffer(src, dst, 0, 0, bytes, nullptr, &ev);
+  return eventSeconds(ev);
+}
+
+cl::Buffer zeroed(std::size_t bytes, const char* what) {
+  cl::Buffer b = g_ctx->buffer(bytes, what);
+  const cl_int zero = 0;
+  g_ctx->fill(b, &zero, sizeof zero, bytes, what);
+  return b;
+}
+
+// Copy bandwidth for `bytes`, measured before any benchmark runs so the SAT benchmarks can divide
+// by it whatever order or filter the command line asks for.
+double measureCopy(std::size_t bytes) {
+  cl::Buffer src = zeroed(bytes, "copy source"), dst = zeroed(bytes, "copy destination");
+  copySeconds(src, dst, bytes);  // warm-up: first-touch allocation on the device
+  double total = 0;
+  int reps = 0;
+  while (reps < 5 || (total < 0.3 && reps < 200)) {
+    total += copySeconds(src, dst, bytes);
+    ++reps;
+  }
+  return 2.0 * double(bytes) * reps / total;
+}
+
+void BM_Copy(benchmark::State& state, std::size_t bytes) {
+  cl::Buffer src = zeroed(bytes, "copy source"), dst = zeroed(bytes, "copy destination");
+  copySeconds(src, dst, bytes);
+  for (auto _ : state) state.SetIterationTime(copySeconds(src, dst, bytes));
+  state.SetBytesProcessed(int64_t(state.iterations()) * 2 * int64_t(bytes));
+}
+
+void BM_Sat(benchmark::State& state, ScanType type, int n) {
+  const std::size_t bytes = std::size_t(n) * n * penumbra::scanElementBytes(type);
+  // Zeros stay zeros under repeated in-place scans: no overflow or infinities between iterations.
+  cl::Buffer data = zeroed(bytes, "sat bench image");
+  penumbra::summedAreaTable(*g_ctx, data, type, n, n);  // warm-up: builds the kernels
+  g_ctx->finish();
+  double total = 0;
+  for (auto _ : state) {
+    g_ctx->resetTimings();
+    penumbra::summedAreaTable(*g_ctx, data, type, n, n);
+    double s = 0;
+    for (auto& [stage, ms] : g_ctx->stageTimesMs()) s += ms * 1e-3;
+    state.SetIterationTime(s);
+    total += s;
+  }
+  g_ctx->resetTimings();
+  const double moved = 2.0 * double(bytes) * double(state.iterations());
+  state.SetBytesProcessed(int64_t(moved));
+  state.counters["GBps"] = total > 0 ? moved / total * 1e-9 : 0;
+  state.counters["fraction_of_copy_bw"] = total > 0 ? moved / total / g_copyBytesPerSec[bytes] : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  try {
+    g_ctx = std::make_unique<Context>();
+    std::fprintf(stderr, "device: %s (%s)\n", g_ctx->info().name.c_str(),
+                 g_ctx->info().platform.c_str());
+    struct Case {
+      ScanType type;
+      const char* name;
+      int n;
+    };
+    const Case cases[] = {{ScanType::Float4, "float4", 256},
+                          {ScanType::Float4, "float4", 1024},
+                          {ScanType::Float4, "float4", 2048},
+                          {ScanType::Long4, "long4", 1024},
+                          {ScanType::Long4, "long4", 2048}};
+    for (const Case& c : cases) {
+      std::size_t bytes = std::size_t(c.n) * c.n * penumbra::scanElementBytes(c.type);
+      if (!g_copyBytesPerSec.count(bytes)) {
+        g_copyBytesPerSec[bytes] = measureCopy(bytes);
+        benchmark::RegisterBenchmark(("BM_Copy/" + std::to_string(bytes >> 10) + "KiB").c_str(),
+                                     BM_Copy, bytes)
+            ->UseManualTime()
+            ->Unit(benchmark::kMillisecond);
+      }
+      benchmark::RegisterBenchmark(
+          (std::string("BM_Sat/") + c.name + "/" + std::to_string(c.n)).c_str(), BM_Sat, c.type,
+          c.n)
+          ->UseManualTime()
+          ->Unit(benchmark::kMillisecond);
+    }
+    benchmark::RunSpecifiedBenchmarks();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_scan: %s\n", e.what());
+    return 1;
+  }
+  benchmark::Shutdown();
+  return 0;
+}

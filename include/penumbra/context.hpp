@@ -1,0 +1,106 @@
+// OpenCL context: device choice, one in-order profiling queue, the program cache and named kernel
+// launches whose profiling events become per-stage timings.
+//
+// Call order: construct a Context (it picks the device), then obtain kernels with kernel(file,
+// name, options) and launch them with launch(stage, ...). Timings accumulate per stage name until
+// resetTimings(); stageTimesMs() waits for the queue, so its numbers are complete when it returns.
+#pragma once
+// penumbra targets OpenCL 1.2 through the Khronos C++ bindings with exceptions (DESIGN.md: target
+// 300 with minimum 120 does not compile against Debian's opencl.hpp).
+#ifndef CL_HPP_TARGET_OPENCL_VERSION
+#define CL_HPP_TARGET_OPENCL_VERSION 120
+#endif
+#ifndef CL_HPP_MINIMUM_OPENCL_VERSION
+#define CL_HPP_MINIMUM_OPENCL_VERSION 120
+#endif
+#ifndef CL_HPP_ENABLE_EXCEPTIONS
+#define CL_HPP_ENABLE_EXCEPTIONS
+#endif
+#include <CL/opencl.hpp>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+
+struct DeviceInfo {
+  int index = 0;             // position in the list `penumbra devices` prints
+  std::string platform;
+  std::string name;
+  std::string version;       // OpenCL C version the device compiles
+  std::uint64_t globalMemBytes = 0;
+  std::size_t maxWorkGroupSize = 0;
+  bool fp64 = false;
+  bool int64Atomics = false;
+};
+
+// All OpenCL devices on all platforms, in a stable order. Throws Error(NoPlatform) with the
+// package that provides one if there is none.
+std::vector<DeviceInfo> listDevices();
+
+class Context {
+ public:
+  // selector: "" uses $PENUMBRA_DEVICE if set, else device 0. Otherwise an index into
+  // listDevices() or a case-insensitive substring of the device or platform name.
+  explicit Context(const std::string& selector = "");
+
+  const DeviceInfo& info() const { return info_; }
+  cl::Context& context() { return context_; }
+  cl::Device& device() { return device_; }
+  cl::CommandQueue& queue() { return queue_; }
+
+  // Builds (once per file and option string) the embedded kernels/<file> and returns a new kernel
+  // object for `name`. Build failures throw Error(KernelBuild) with the log and the file name.
+  cl::Kernel kernel(const std::string& file, const std::string& name,
+                    const std::string& options = "");
+  // The work-group size to use for a kernel: the largest power of two <= min(preferred, limits).
+  std::size_t workGroupSize(const cl::Kernel& k, std::size_t preferred = 256) const;
+
+  // Enqueues k under a stage name; the event's profiled duration is added to that stage.
+  void launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
+              const cl::NDRange& local = cl::NullRange);
+  // Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
+  cl::Buffer buffer(std::size_t bytes, const std::string& what,
+                    cl_mem_flags flags = CL_MEM_READ_WRITE);
+  template <class T>
+  cl::Buffer upload(const std::vector<T>& data, const std::string& what) {
+    cl::Buffer b = buffer(std::max<std::size_t>(1, data.size()) * sizeof(T), what);
+    if (!data.empty()) write(b, data.data(), data.size() * sizeof(T), what);
+    return b;
+  }
+  void write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what);
+  void read(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what);
+  template <class T>
+  std::vector<T> download(const cl::Buffer& b, std::size_t count, const std::string& what) {
+    std::vector<T> out(count);
+    if (count) read(b, out.data(), count * sizeof(T), what);
+    return out;
+  }
+  void fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes, std::size_t bytes,
+            const std::string& what);
+  void finish();
+
+  // Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
+  std::vector<std::pair<std::string, double>> stageTimesMs();
+  void resetTimings();
+
+ private:
+  DeviceInfo info_;
+  cl::Context context_;
+  cl::Device device_;
+  cl::CommandQueue queue_;
+  std::map<std::pair<std::string, std::string>, cl::Program> programs_;
+  std::vector<std::pair<std::string, cl::Event>> events_;
+};
+
+// Converts a cl::Error into a penumbra::Error with `what` in the message.
+[[noreturn]] void rethrowCl(const cl::Error& e, const std::string& what);
+const char* clErrorName(cl_int code);
+
+}  // namespace penumbra

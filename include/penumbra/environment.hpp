@@ -1,0 +1,43 @@
+// HDR environment maps: loading (EXR, Radiance HDR, PFM through OpenImageIO), sanitizing, the
+// built-in sky, and the energy-conserving resampling to a cube map on the device.
+//
+// Direction convention: y up; see pb_equirect_dir / pb_dir_equirect in shared.h.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "penumbra/image.hpp"
+
+namespace penumbra {
+
+class Context;
+
+struct Environment {
+  std::string source;        // file path or "builtin"
+  Image equirect;            // RGB, linear radiance, width = 2*height is typical but not required
+  std::int64_t sanitizedPixels = 0;  // pixels whose NaN/Inf/negative values were replaced
+  std::int64_t nonFiniteValues = 0;  // channel values that were NaN or Inf (set to 0)
+  std::int64_t negativeValues = 0;   // channel values below 0 (clamped to 0)
+
+  // Radiance along a direction (nearest texel), used by the reference and for backgrounds.
+  void lookup(float x, float y, float z, float rgb[3]) const;
+  // Solid angle of equirect texel row t (exact: (2 pi / W) (cos theta0 - cos theta1)).
+  double texelSolidAngle(int row) const;
+  // Integral of radiance over the sphere, per channel (sum of L * texel solid angle).
+  void power(double rgb[3]) const;
+  // Irradiance on a surface with unit normal n: sum of L max(0, n.w) dw over the texels.
+  void irradiance(const float n[3], double rgb[3]) const;
+};
+
+// Loads and sanitizes a map. Throws Error(BadInput) naming the file for unreadable, truncated,
+// non-image, or zero-sized input. One-pixel maps are legal (a constant environment).
+Environment loadEnvironment(const std::string& path);
+
+// A procedural sky that needs no file: a sun of about 0.5 degrees, a blue sky gradient, a bright
+// area near the horizon and a darker ground. Deterministic; `width` x width/2 texels.
+Environment builtinEnvironment(int width = 512);
+
+// "builtin" -> builtinEnvironment(), anything else -> loadEnvironment(path).
+Environment environmentFrom(const std::string& pathOrBuiltin);
+
+}  // namespace penumbra

@@ -1,0 +1,36 @@
+// Host images: linear float pixels, interleaved channels, row 0 at the top.
+#pragma once
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<float> pixels;  // width*height*channels
+
+  Image() = default;
+  Image(int w, int h, int c, float value = 0.0f)
+      : width(w), height(h), channels(c), pixels(std::size_t(w) * h * c, value) {}
+  float& at(int x, int y, int c) { return pixels[(std::size_t(y) * width + x) * channels + c]; }
+  float at(int x, int y, int c) const {
+    return pixels[(std::size_t(y) * width + x) * channels + c];
+  }
+  bool empty() const { return pixels.empty(); }
+};
+
+// Reads any image OpenImageIO understands as float. Throws Error(BadInput) naming the file and the
+// problem (missing, unreadable, truncated, zero-sized).
+Image readImage(const std::string& path);
+
+// Writes .exr (linear half/float, all channels) or .png (RGB, tone-mapped, sRGB-encoded; alpha
+// dropped) atomically: the image goes to a temporary file beside the target and is renamed into
+// place, so a failure never leaves a half-written file. Throws Error(BadInput) on an unknown
+// extension or an unwritable path.
+void writeImage(const std::string& path, const Image& image, float exposure = 1.0f);
+
+// Tone mapping used for PNG: exposure, then x/(1+x) on luminance-preserving RGB, then sRGB.
+float toneMapChannel(float linear);
+
+}  // namespace penumbra

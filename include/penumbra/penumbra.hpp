@@ -1,0 +1,13 @@
+// Umbrella header: everything a user of penumbra needs.
+#pragma once
+#include "penumbra/context.hpp"
+#include "penumbra/environment.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/lights.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scan.hpp"
+#include "penumbra/scene.hpp"
+#include "penumbra/version.hpp"
+#include "penumbra/shared.h"

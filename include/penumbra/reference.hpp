@@ -1,0 +1,61 @@
+// Ground truth on the CPU with Embree 3: per pixel Monte Carlo direct lighting of the same diffuse
+// scene, shadow rays traced exactly. Two modes: the full environment map (importance sampled), or
+// the extracted light set (each cap sampled uniformly), which isolates a shadow technique's error
+// from the extraction's.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "penumbra/image.hpp"
+#include "penumbra/lights.hpp"
+#include "penumbra/scene.hpp"
+
+namespace penumbra {
+
+struct Environment;
+
+struct ReferenceOptions {
+  int width = 640, height = 360;
+  int spp = 256;                 // shadow-ray samples per pixel
+  std::uint64_t seed = 1;        // same seed, same image (independent of thread count)
+  int threads = 0;               // 0: all hardware threads
+  bool environmentBackground = true;
+  // Called now and then with the fraction done (0..1); may be empty.
+  std::function<void(double)> progress;
+};
+
+// Lit by the environment map: multiple importance sampling of the map (luminance x texel solid
+// angle) and of the cosine lobe, balance heuristic. Output RGBA like Renderer (alpha = geometry).
+Image referenceEnvironment(const Scene& scene, const Camera& camera, const Environment& env,
+                           const ReferenceOptions& opt);
+
+// Lit by the light set: a light picked in proportion to its unshadowed irradiance at the point,
+// then a uniform direction in its cap. `env` only supplies the background (it may be empty when
+// opt.environmentBackground is false).
+//
+// Both throw Error(BadInput) naming the parameter for width/height outside 1..16384, spp < 1,
+// threads < 0, a scene without triangles (or with bad indices / non-finite vertices), an empty map.
+// Pixels: one primary ray through each pixel centre (cameraRayDirection), so geometry coverage
+// matches the device rasterizer; no anti-aliasing.
+Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& lights,
+                      const Environment& env, const ReferenceOptions& opt);
+
+struct ImageMetrics {
+  double rmse = 0, relativeRmse = 0, psnr = 0, maxAbsError = 0;
+  std::size_t pixels = 0;  // pixels compared (reference alpha > 0.5)
+};
+
+// A vs reference B over the pixels where B's alpha is > 0.5 (or all pixels if B has no alpha):
+// RMSE over pixels and RGB channels, relative RMSE = RMSE / mean(B), PSNR = 20 log10(max(B)/RMSE),
+// max abs error. Throws Error(BadInput) on mismatched sizes.
+// Also throws Error(BadInput) when no pixel is compared ("no geometry pixels to compare"), when an
+// image has fewer than 3 channels, or when a compared RGB value of A or B is NaN/Inf ("image A
+// contains non-finite values"). Identical images give psnr = +inf; mean(B) = 0 gives relative
+// RMSE 0 (if RMSE = 0) or +inf.
+ImageMetrics compareImages(const Image& a, const Image& b);
+// {"rmse": ..., "relative_rmse": ..., "psnr": ..., "max_abs_error": ..., "pixels": N}; numbers in
+// shortest round-trip form, non-finite values (e.g. the infinite PSNR of identical images) as null.
+std::string toJson(const ImageMetrics& m);
+
+}  // namespace penumbra

@@ -1,0 +1,74 @@
+// Scenes: triangle meshes with a diffuse albedo, the built-in default scene, mesh loading through
+// Assimp (OBJ, PLY, glTF/GLB and anything else Assimp reads), and camera framing.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+using Vec3 = std::array<float, 3>;
+
+struct Mesh {
+  std::string name;
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;               // per vertex, unit; empty means flat shading
+  std::vector<std::array<int, 3>> triangles;
+  Vec3 albedo{0.8f, 0.8f, 0.8f};           // diffuse reflectance in [0,1]
+};
+
+struct Bounds {
+  Vec3 lo{0, 0, 0}, hi{0, 0, 0};
+  Vec3 center() const;
+  float radius() const;  // half the diagonal
+};
+
+struct Camera {
+  Vec3 eye{0, 2, 5};
+  Vec3 target{0, 0, 0};
+  Vec3 up{0, 1, 0};
+  float fovyDeg = 40.0f;  // vertical field of view
+};
+
+struct Scene {
+  std::vector<Mesh> meshes;
+  Bounds bounds() const;
+  std::size_t triangleCount() const;
+};
+
+struct LoadOptions {
+  bool addGround = true;   // add a ground plane under the mesh (its lowest point touches it)
+};
+
+// The default scene: a ground plane, a box and a sphere resting on it (contact shadows), a slab
+// floating high above it (wide penumbra), a torus and a lattice panel with square holes (holes and
+// thin parts). Units: metres, y up.
+Scene builtinScene();
+
+// Loads a mesh file through Assimp. Throws Error(BadInput) naming the file and the problem:
+// unreadable or unsupported, no triangles (points or lines only), non-finite vertex coordinates,
+// indices out of range.
+Scene loadScene(const std::string& path, const LoadOptions& opt = {});
+
+// "builtin" -> builtinScene(), else loadScene(path, opt).
+Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt = {});
+
+// A camera looking at the scene's bounds from above and to the side, far enough that the bounds'
+// sphere fits the view for the given aspect ratio (width/height).
+Camera frameCamera(const Scene& scene, float aspect);
+
+// The camera's orthonormal basis for a width x height image. Pixel (px, py) (continuous, row 0 at
+// the top, pixel centres at +0.5) looks along normalize(forward + sx*tanHalfX*right +
+// sy*tanHalfY*up) with sx = 2*px/width - 1 and sy = 1 - 2*py/height. The device rasterizer and the
+// Embree reference both use this, so they see the same pixels.
+struct CameraBasis {
+  Vec3 eye, forward, right, up;
+  float tanHalfX = 0, tanHalfY = 0;
+};
+CameraBasis cameraBasis(const Camera& c, int width, int height);
+Vec3 cameraRayDirection(const CameraBasis& b, int width, int height, float px, float py);
+
+// Parses "ex,ey,ez,tx,ty,tz[,fovy]". Throws Error(BadInput) naming --camera on malformed text.
+Camera parseCamera(const std::string& text);
+
+}  // namespace penumbra

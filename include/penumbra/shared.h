@@ -1,0 +1,136 @@
+/* Constants and small functions shared by the host (C++) and the kernels (OpenCL C 1.2).
+ * Written in the common subset of both languages: the kernels get it spliced in at build time
+ * (cmake/embed_kernels.cmake), the host includes it directly, so nothing is kept in sync by hand. */
+#ifndef PENUMBRA_SHARED_H
+#define PENUMBRA_SHARED_H
+
+#ifdef __OPENCL_VERSION__
+#define PB_INLINE static inline
+#else
+#include <math.h>
+#define PB_INLINE static inline
+#endif
+
+/* Rec. 709 / sRGB luminance weights (the Y row of the linear RGB -> XYZ matrix). */
+#define PB_LUM_R 0.2126f
+#define PB_LUM_G 0.7152f
+#define PB_LUM_B 0.0722f
+/* The same weights in 1/10000 units, for exact fixed-point luminance. */
+#define PB_LUM_R_I 2126
+#define PB_LUM_G_I 7152
+#define PB_LUM_B_I 722
+
+#define PB_CUBE_FACES 6
+#define PB_MAX_LIGHTS 1024
+
+/* Moments are stored in fixed point: round(z^k * 2^32) in 64-bit integers. A 4096^2 SAT of values
+ * <= 2^32 stays below 2^56, far from overflow, and sums are exact (see kernels/scan.cl). */
+#define PB_MOMENT_SCALE 4294967296.0
+
+/* Depth written for texels/pixels that no triangle covers: bit pattern of +infinity. */
+#define PB_DEPTH_EMPTY 0x7f800000u
+#define PB_ID_EMPTY 0xffffffffu
+
+/* Cube-map face orientation (the OpenGL convention): face f, face coordinates u,v in [-1,1]
+ * (u grows with the texel column, v with the texel row) -> unnormalized direction. */
+PB_INLINE void pb_cube_dir(int face, float u, float v, float* x, float* y, float* z) {
+  switch (face) {
+    case 0: *x = 1.0f;  *y = -v;    *z = -u;    break; /* +X */
+    case 1: *x = -1.0f; *y = -v;    *z = u;     break; /* -X */
+    case 2: *x = u;     *y = 1.0f;  *z = v;     break; /* +Y */
+    case 3: *x = u;     *y = -1.0f; *z = -v;    break; /* -Y */
+    case 4: *x = u;     *y = -v;    *z = 1.0f;  break; /* +Z */
+    default: *x = -u;   *y = -v;    *z = -1.0f; break; /* -Z */
+  }
+}
+
+/* Inverse of pb_cube_dir: direction (any length, not zero) -> face and u,v in [-1,1]. */
+PB_INLINE int pb_cube_face(float x, float y, float z, float* u, float* v) {
+  float ax = fabs(x), ay = fabs(y), az = fabs(z);
+  if (ax >= ay && ax >= az) {
+    if (x > 0.0f) { *u = -z / ax; *v = -y / ax; return 0; }
+    *u = z / ax; *v = -y / ax; return 1;
+  }
+  if (ay >= az) {
+    if (y > 0.0f) { *u = x / ay; *v = z / ay; return 2; }
+    *u = x / ay; *v = -z / ay; return 3;
+  }
+  if (z > 0.0f) { *u = x / az; *v = -y / az; return 4; }
+  *u = -x / az; *v = -y / az; return 5;
+}
+
+/* Equirectangular convention (y up): theta = acos(y) from +Y, phi = atan2(x, -z) in (-pi, pi];
+ * image column s = (phi/(2 pi) + 0.5) * width, row t = theta/pi * height. The map's centre column
+ * looks along -Z. */
+PB_INLINE void pb_equirect_dir(float s, float t, float width, float height,
+                               float* x, float* y, float* z) {
+  float phi = (s / width - 0.5f) * 6.28318530717958647692f;
+  float theta = t / height * 3.14159265358979323846f;
+  float st = sin(theta);
+  *x = st * sin(phi);
+  *y = cos(theta);
+  *z = -st * cos(phi);
+}
+
+PB_INLINE void pb_dir_equirect(float x, float y, float z, float width, float height,
+                               float* s, float* t) {
+  float len = sqrt(x * x + y * y + z * z);
+  float cy = y / len;
+  cy = cy > 1.0f ? 1.0f : (cy < -1.0f ? -1.0f : cy);
+  *s = (atan2(x, -z) / 6.28318530717958647692f + 0.5f) * width;
+  *t = acos(cy) / 3.14159265358979323846f * height;
+}
+
+/* Cube-map texel solid angle (DESIGN.md; seed 003 eq. 8 with the exponent's sign restored):
+ * d_omega = 4/m^2 * (1 + u^2 + v^2)^(-3/2) at the texel centre (u,v). */
+PB_INLINE float pb_cube_texel_solid_angle(float u, float v, int m) {
+  float q = 1.0f + u * u + v * v;
+  return 4.0f / ((float)m * (float)m) / (q * sqrt(q));
+}
+
+/* Irradiance at a surface from a uniform spherical cap of unit radiance, half-angle alpha
+ * (0 < alpha < pi/2), whose axis makes angle beta with the normal. Fully above the horizon this is
+ * seed 003 eq. 15, pi sin^2(alpha) cos(beta). Partly below the horizon, the cap clipped by the
+ * tangent plane has the closed form of Snyder (1996), "Area light sources for real-time graphics";
+ * checked against numerical integration in tests/test_lights.cpp. */
+PB_INLINE float pb_cap_irradiance(float cos_alpha, float cos_beta) {
+  float sin2a = 1.0f - cos_alpha * cos_alpha;
+  float sin_a = sqrt(sin2a > 0.0f ? sin2a : 0.0f);
+  /* beta <= pi/2 - alpha  <=>  cos(beta) >= sin(alpha) */
+  if (cos_beta >= sin_a) return 3.14159265358979323846f * sin2a * cos_beta;
+  /* beta >= pi/2 + alpha  <=>  cos(beta) <= -sin(alpha) */
+  if (cos_beta <= -sin_a) return 0.0f;
+  float sin_b = sqrt(fmax(0.0f, 1.0f - cos_beta * cos_beta));
+  float x = cos_alpha / sin_a;                /* cot(alpha) */
+  float y = -x * cos_beta / sin_b;            /* -cot(alpha) cot(beta), in [-1, 1] here */
+  y = y > 1.0f ? 1.0f : (y < -1.0f ? -1.0f : y);
+  float sy = sqrt(1.0f - y * y);
+  float e = (cos_beta * acos(y) - x * sin_b * sy) * sin2a + atan(sin_b * sy / x);
+  return e > 0.0f ? e : 0.0f;
+}
+
+/* One light as the kernels see it (16-byte aligned floats only, identical layout on both sides). */
+typedef struct {
+  float dir[4];      /* unit direction towards the light (world), w: cos(alpha) */
+  float radiance[4]; /* uniform RGB radiance of the cap, w: half-angle alpha in radians */
+  float ex[4];       /* shadow-map frame: x axis (world), w: half-extent of the map along x */
+  float ey[4];       /* y axis, w: half-extent along y */
+  float origin[4];   /* centre of the map's near plane (world), w: depth range (world units) */
+} pb_light;
+
+/* A median-cut region: texels [x0,x1) x [y0,y1) of one cube face; regions with the same group
+ * form one light (only when fewer than six lights are asked for, whole faces are grouped). */
+typedef struct {
+  int face, x0, y0, x1, y1, group, pad0, pad1;
+} pb_region;
+
+/* Camera or light projection for the ray-casting rasterizer. */
+typedef struct {
+  float origin[4];  /* eye (perspective) or near-plane centre (orthographic) */
+  float forward[4]; /* unit view direction */
+  float right[4];   /* unit; w: tan(fovx/2) (perspective) or half-width (orthographic) */
+  float up[4];      /* unit; w: tan(fovy/2) or half-height */
+  int width, height, ortho, pad;
+} pb_view;
+
+#endif

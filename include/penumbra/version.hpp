@@ -1,0 +1,2 @@
+#pragma once
+#define PENUMBRA_VERSION "0.1.0"

@@ -1,0 +1,110 @@
+// Environment map -> cube map of per-texel radiant energy (radiance x solid angle), in 64-bit fixed
+// point so that resampling conserves energy exactly and the median-cut SATs are exact.
+//
+// Two resampling directions, chosen by the host by relative resolution:
+//  - env_splat: the equirect is finer than the cube. Every equirect texel is cut into SS x SS
+//    sub-texels, each carrying L x (its exact solid angle) to the cube texel its centre falls in.
+//    Every joule lands somewhere: the cube's total equals the map's integral up to rounding.
+//  - env_gather: the cube is finer. Each cube texel averages SS x SS nearest-texel lookups, times
+//    its own solid angle (seed 003 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
+#include "shared.h"
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+
+// Solid angle of sub-row [t0, t1) (in texel rows) of a height-H equirect, per unit of column:
+// (2 pi / W) (cos th0 - cos th1), written as 2 sin(mid) sin(half) to avoid cancellation near the
+// poles, where th0 and th1 are tiny.
+static float row_solid_angle(float t0, float t1, float W, float H) {
+  float th0 = t0 / H * M_PI_F, th1 = t1 / H * M_PI_F;
+  return 2.0f * M_PI_F / W * 2.0f * sin(0.5f * (th0 + th1)) * sin(0.5f * (th1 - th0));
+}
+
+static int cube_texel(float x, float y, float z, int m) {
+  float u, v;
+  int face = pb_cube_face(x, y, z, &u, &v);
+  int cx = clamp((int)floor((u + 1.0f) * 0.5f * m), 0, m - 1);
+  int cy = clamp((int)floor((v + 1.0f) * 0.5f * m), 0, m - 1);
+  return (face * m + cy) * m + cx;
+}
+
+// energy: 3 planes (R, G, B) of 6*m*m longs, cleared by the host. One work-item per equirect texel.
+kernel void env_splat(global const float* equirect, int W, int H, int SS, int m, float scale,
+                      volatile global long* energy) {
+  int s = get_global_id(0), t = get_global_id(1);
+  if (s >= W || t >= H) return;
+  size_t plane = (size_t)6 * m * m;
+  global const float* L = equirect + 3 * ((size_t)t * W + s);
+  // Sub-texels that land in the same cube texel are summed before one atomic add per channel.
+  int open_texel = -1;
+  float acc0 = 0.0f, acc1 = 0.0f, acc2 = 0.0f;
+  for (int j = 0; j < SS; ++j) {
+    float t0 = t + (float)j / SS, t1 = t + (float)(j + 1) / SS;
+    float dw = row_solid_angle(t0, t1, (float)W, (float)H) / SS * scale;
+    for (int i = 0; i < SS; ++i) {
+      float x, y, z;
+      pb_equirect_dir(s + (i + 0.5f) / SS, 0.5f * (t0 + t1), (float)W, (float)H, &x, &y, &z);
+      int texel = cube_texel(x, y, z, m);
+      if (texel != open_texel) {
+        if (open_texel >= 0) {
+          atom_add(&energy[open_texel], (long)rint(acc0));
+          atom_add(&energy[plane + open_texel], (long)rint(acc1));
+          atom_add(&energy[2 * plane + open_texel], (long)rint(acc2));
+        }
+        open_texel = texel;
+        acc0 = acc1 = acc2 = 0.0f;
+      }
+      acc0 += L[0] * dw;
+      acc1 += L[1] * dw;
+      acc2 += L[2] * dw;
+    }
+  }
+  atom_add(&energy[open_texel], (long)rint(acc0));
+  atom_add(&energy[plane + open_texel], (long)rint(acc1));
+  atom_add(&energy[2 * plane + open_texel], (long)rint(acc2));
+}
+
+// One work-item per cube texel (x, y, face).
+kernel void env_gather(global const float* equirect, int W, int H, int SS, int m, float scale,
+                       global long* energy) {
+  int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
+  if (x >= m || y >= m) return;
+  size_t plane = (size_t)6 * m * m;
+  float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+  for (int j = 0; j < SS; ++j)
+    for (int i = 0; i < SS; ++i) {
+      float u = 2.0f * (x + (i + 0.5f) / SS) / m - 1.0f;
+      float v = 2.0f * (y + (j + 0.5f) / SS) / m - 1.0f;
+      float dx, dy, dz, s, t;
+      pb_cube_dir(face, u, v, &dx, &dy, &dz);
+      pb_dir_equirect(dx, dy, dz, (float)W, (float)H, &s, &t);
+      int si = clamp((int)floor(s), 0, W - 1), ti = clamp((int)floor(t), 0, H - 1);
+      float dw = pb_cube_texel_solid_angle(u, v, m * SS) * scale;
+      global const float* L = equirect + 3 * ((size_t)ti * W + si);
+      a0 += L[0] * dw;
+      a1 += L[1] * dw;
+      a2 += L[2] * dw;
+    }
+  size_t i = ((size_t)face * m + y) * m + x;
+  energy[i] = (long)rint(a0);
+  energy[plane + i] = (long)rint(a1);
+  energy[2 * plane + i] = (long)rint(a2);
+}
+
+// SAT inputs per cube texel: lum = (Y, Y*wx, Y*wy, Y*wz) with w the texel's unit direction (for the
+// luminance-weighted mean direction, seed 003 eqs. 9-10 taken on the sphere), rgb = (R, G, B, 0).
+// Y is computed exactly in fixed point with the Rec. 709 weights.
+kernel void env_sat_inputs(global const long* energy, int m, global long4* lum, global long4* rgb) {
+  int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
+  if (x >= m || y >= m) return;
+  size_t plane = (size_t)6 * m * m;
+  size_t i = ((size_t)face * m + y) * m + x;
+  long r = energy[i], g = energy[plane + i], b = energy[2 * plane + i];
+  long Y = (PB_LUM_R_I * r + PB_LUM_G_I * g + PB_LUM_B_I * b) / 10000;
+  float u = 2.0f * (x + 0.5f) / m - 1.0f, v = 2.0f * (y + 0.5f) / m - 1.0f;
+  float dx, dy, dz;
+  pb_cube_dir(face, u, v, &dx, &dy, &dz);
+  float inv = rsqrt(dx * dx + dy * dy + dz * dz);
+  float fy = (float)Y;
+  lum[i] = (long4)(Y, (long)rint(fy * dx * inv), (long)rint(fy * dy * inv),
+                   (long)rint(fy * dz * inv));
+  rgb[i] = (long4)(r, g, b, 0);
+}

@@ -1,0 +1,171 @@
+// Summed-area tables: in-place 2D inclusive scans of a batch of images stored back to back (image b
+// starts at element b*width*height, rows contiguous). A row pass, then a three-step column pass.
+//
+// Precision strategy. A box filter over a SAT is a difference of four corner values, and the
+// corners grow with the image: in a 1024^2 float SAT of values in [0,1] they reach ~5e5, where one
+// float ulp is ~0.03, so a small box (whose true sum may be < 1) comes back with an error of the
+// same order as its value, and the error depends on the summation order, i.e. on the work-group
+// size and the device. penumbra therefore stores the SATs it filters (shadow-map moments,
+// environment energies) as 64-bit fixed point, long/long4 holding round(v * 2^32)
+// (PB_MOMENT_SCALE): integer addition is exact and associative, so a box query is the exact sum
+// of the quantized values whatever the box size or position, and the tables are bit-identical
+// for every work-group size and device. (Values <= 2^32 in a 4096^2 table stay below 2^56.) The
+// float/float4 variants are for general use; the tests hold them to a double-precision reference
+// with a tolerance derived from the sums' magnitude, and show the box-query gap on moment data.
+//
+// Build options (tuning knobs; the host picks them per device, see src/scan.cpp):
+//   SCAN_T  element type: float, float4, long or long4
+//   WG      row-pass work-group size (power of two)
+//   VPT     elements each work-item scans serially per tile (a tile is WG*VPT elements)
+//   SEG     rows per column segment
+
+#ifndef SCAN_T
+#define SCAN_T float
+#endif
+#ifndef WG
+#define WG 256
+#endif
+#ifndef VPT
+#define VPT 4
+#endif
+#ifndef SEG
+#define SEG 64
+#endif
+
+typedef SCAN_T T;
+#define ZERO ((T)(0))
+#define TILE (WG * VPT)
+
+// Local-memory bank-conflict avoidance (Harris, Sengupta & Owens, "Parallel Prefix Sum (Scan)
+// with CUDA", GPU Gems 3 ch. 39.2.3): one element of padding per 128-byte row of 32 four-byte
+// banks. With VPT = 4 this makes both the serial per-item reads (stride VPT) and the tree steps
+// of the per-item totals scan conflict-free for all four element sizes (4, 8, 16, 32 bytes).
+#define BANK_ROW (128 / (int)sizeof(T))
+#define PAD(i) ((i) + (i) / BANK_ROW)
+
+// Row pass: one work-group per (row, image), global size WG * height * batch. Images are stored
+// back to back, so group g is global row g (image g / height); a 1D range of groups also avoids
+// the small grid limits some GPUs put on the second and third dimensions. The group walks its
+// row in tiles of WG*VPT elements, carrying the running total from tile to tile, so any width works
+// with a fixed amount of local memory. Per tile (Blelloch, "Prefix sums and their applications",
+// 1990; work-efficient: O(tile) additions, 2 log2(WG) barrier steps):
+//   1. coalesced loads: element i*WG + lid for i < VPT (adjacent work-items, adjacent addresses);
+//   2. each work-item scans its VPT consecutive elements serially (registers), keeping its total;
+//   3. exclusive up-sweep/down-sweep scan of the WG per-item totals in local memory;
+//   4. each work-item adds carry + its exclusive prefix to its elements; coalesced stores.
+// Elements past the row's end load as zero and are never stored.
+kernel __attribute__((reqd_work_group_size(WG, 1, 1)))
+void scan_rows(global T* data, int width) {
+  local T tile[PAD(TILE - 1) + 1];
+  local T sums[PAD(WG - 1) + 1];
+  const int lid = get_local_id(0);
+  global T* row = data + get_group_id(0) * (size_t)width;
+
+  T carry = ZERO;
+  for (int base = 0; base < width; base += TILE) {  // uniform across the group: barriers are safe
+    for (int i = 0; i < VPT; ++i) {
+      int j = i * WG + lid;
+      tile[PAD(j)] = base + j < width ? row[base + j] : ZERO;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+
+    T v[VPT];
+    T acc = ZERO;
+    for (int k = 0; k < VPT; ++k) {
+      acc += tile[PAD(lid * VPT + k)];
+      v[k] = acc;
+    }
+    sums[PAD(lid)] = acc;
+
+    // Up-sweep: after it, sums[WG-1] holds the tile total.
+    int offset = 1;
+    for (int n = WG >> 1; n > 0; n >>= 1) {
+      barrier(CLK_LOCAL_MEM_FENCE);
+      if (lid < n) {
+        int a = offset * (2 * lid + 1) - 1, b = offset * (2 * lid + 2) - 1;
+        sums[PAD(b)] += sums[PAD(a)];
+      }
+      offset <<= 1;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    const T total = sums[PAD(WG - 1)];
+    barrier(CLK_LOCAL_MEM_FENCE);  // everyone has read the total before it is cleared
+    if (lid == 0) sums[PAD(WG - 1)] = ZERO;
+    // Down-sweep: turns the partial sums into the exclusive prefix of each work-item's total.
+    for (int n = 1; n < WG; n <<= 1) {
+      offset >>= 1;
+      barrier(CLK_LOCAL_MEM_FENCE);
+      if (lid < n) {
+        int a = offset * (2 * lid + 1) - 1, b = offset * (2 * lid + 2) - 1;
+        T t = sums[PAD(a)];
+        sums[PAD(a)] = sums[PAD(b)];
+        sums[PAD(b)] += t;
+      }
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+
+    const T prefix = carry + sums[PAD(lid)];
+    for (int k = 0; k < VPT; ++k) tile[PAD(lid * VPT + k)] = prefix + v[k];
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int i = 0; i < VPT; ++i) {
+      int j = i * WG + lid;
+      if (base + j < width) row[base + j] = tile[PAD(j)];
+    }
+    carry += total;
+    // The next tile's loads overwrite tile[] and its step 2 overwrites sums[]: wait until every
+    // work-item has finished reading both.
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+}
+
+// Column pass, after the row pass. Work-items map to (column, segment of SEG rows, image) with the
+// column fastest, so each row step of a work-group reads/writes adjacent addresses (coalesced)
+// and no local memory or barriers are needed. Global size (width rounded up to the work-group
+// size, nseg, batch); seg_sums holds row (b*nseg + s) for segment s of image b. Work-items past
+// the last column return at once. Segment and image come from separate dimensions rather than a
+// division of one flat index: that is cheaper, oclgrind 21.10 cannot interpret the `freeze` LLVM
+// emits for a div/rem pair, and nseg and batch stay far below the 65535 some GPUs allow there.
+
+// Step 1: the sum of each (column, segment).
+kernel void scan_col_segments(global const T* data, global T* seg_sums, int width, int height) {
+  const int x = get_global_id(0), s = get_global_id(1);
+  if (x >= width) return;
+  const int nseg = get_global_size(1);
+  const size_t b = get_global_id(2), sb = b * nseg + s;
+  const int y0 = s * SEG, y1 = min(height, y0 + SEG);
+  global const T* p = data + (b * height + y0) * (size_t)width + x;
+  T acc = ZERO;
+  for (int y = y0; y < y1; ++y, p += width) acc += *p;
+  seg_sums[sb * width + x] = acc;
+}
+
+// Step 2: per (column, image), an exclusive scan over the segment sums, in place. Serial in the
+// segment count (height/SEG, small); columns and images run in parallel. Global size (width
+// rounded up, batch).
+kernel void scan_col_offsets(global T* seg_sums, int width, int nseg) {
+  const int x = get_global_id(0), b = get_global_id(1);
+  if (x >= width) return;
+  global T* p = seg_sums + (size_t)b * nseg * (size_t)width + x;
+  T acc = ZERO;
+  for (int s = 0; s < nseg; ++s, p += width) {
+    T v = *p;
+    *p = acc;
+    acc += v;
+  }
+}
+
+// Step 3: each (column, segment) rescans its rows starting from its segment's offset. With a single
+// segment (height <= SEG) steps 1 and 2 are skipped and seg_sums is not read.
+kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, int height) {
+  const int x = get_global_id(0), s = get_global_id(1);
+  if (x >= width) return;
+  const int nseg = get_global_size(1);
+  const size_t b = get_global_id(2), sb = b * nseg + s;
+  const int y0 = s * SEG, y1 = min(height, y0 + SEG);
+  global T* p = data + (b * height + y0) * (size_t)width + x;
+  T acc = nseg > 1 ? seg_sums[sb * width + x] : ZERO;
+  for (int y = y0; y < y1; ++y, p += width) {
+    acc += *p;
+    *p = acc;
+  }
+}

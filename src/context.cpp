@@ -1,0 +1,286 @@
+// OpenCL context, device selection, program cache and named, profiled launches.
+#include "penumbra/context.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <sstream>
+
+namespace penumbra {
+namespace detail {
+const std::map<std::string, std::string>& embeddedKernels();
+}
+
+const char* toString(ErrorKind kind) {
+  switch (kind) {
+    case ErrorKind::BadInput: return "bad input";
+    case ErrorKind::NoPlatform: return "no OpenCL device";
+    case ErrorKind::KernelBuild: return "kernel build failure";
+    case ErrorKind::OutOfMemory: return "out of device memory";
+    case ErrorKind::Device: return "OpenCL error";
+    case ErrorKind::Internal: return "internal error";
+  }
+  return "error";
+}
+
+const char* clErrorName(cl_int code) {
+  switch (code) {
+    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
+    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
+    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
+    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
+    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
+    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
+    case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
+    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
+    case CL_INVALID_WORK_ITEM_SIZE: return "CL_INVALID_WORK_ITEM_SIZE";
+    case CL_INVALID_GLOBAL_WORK_SIZE: return "CL_INVALID_GLOBAL_WORK_SIZE";
+    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
+    case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
+    case CL_INVALID_ARG_VALUE: return "CL_INVALID_ARG_VALUE";
+    case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
+    case CL_PLATFORM_NOT_FOUND_KHR: return "CL_PLATFORM_NOT_FOUND_KHR";
+    default: return "CL error";
+  }
+}
+
+[[noreturn]] void rethrowCl(const cl::Error& e, const std::string& what) {
+  std::ostringstream msg;
+  msg << what << ": " << e.what() << " failed with " << clErrorName(e.err()) << " (" << e.err()
+      << ")";
+  if (e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE || e.err() == CL_OUT_OF_RESOURCES ||
+      e.err() == CL_OUT_OF_HOST_MEMORY || e.err() == CL_INVALID_BUFFER_SIZE)
+    throw Error(ErrorKind::OutOfMemory, msg.str() + " (out of device memory)");
+  throw Error(ErrorKind::Device, msg.str());
+}
+
+namespace {
+
+const char* kNoPlatformHelp =
+    "no OpenCL platform found. Install an OpenCL driver: on Debian 12 `apt-get install "
+    "pocl-opencl-icd ocl-icd-libopencl1` runs penumbra on the CPU; GPU vendors ship their own ICD";
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+struct Found {
+  DeviceInfo info;
+  cl::Device device;
+};
+
+std::vector<Found> enumerate() {
+  std::vector<cl::Platform> platforms;
+  try {
+    cl::Platform::get(&platforms);
+  } catch (const cl::Error&) {
+    platforms.clear();
+  }
+  std::vector<Found> out;
+  for (auto& p : platforms) {
+    std::vector<cl::Device> devs;
+    try {
+      p.getDevices(CL_DEVICE_TYPE_ALL, &devs);
+    } catch (const cl::Error&) {
+      continue;
+    }
+    for (auto& d : devs) {
+      Found f;
+      f.device = d;
+      f.info.index = int(out.size());
+      f.info.platform = p.getInfo<CL_PLATFORM_NAME>();
+      f.info.name = d.getInfo<CL_DEVICE_NAME>();
+      f.info.version = d.getInfo<CL_DEVICE_OPENCL_C_VERSION>();
+      f.info.globalMemBytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+      f.info.maxWorkGroupSize = d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
+      std::string ext = d.getInfo<CL_DEVICE_EXTENSIONS>();
+      f.info.fp64 = ext.find("cl_khr_fp64") != std::string::npos;
+      f.info.int64Atomics = ext.find("cl_khr_int64_base_atomics") != std::string::npos;
+      while (!f.info.name.empty() && f.info.name.back() == '\0') f.info.name.pop_back();
+      while (!f.info.platform.empty() && f.info.platform.back() == '\0') f.info.platform.pop_back();
+      out.push_back(f);
+    }
+  }
+  if (out.empty()) throw Error(ErrorKind::NoPlatform, kNoPlatformHelp);
+  return out;
+}
+
+}  // namespace
+
+std::vector<DeviceInfo> listDevices() {
+  std::vector<DeviceInfo> out;
+  for (auto& f : enumerate()) out.push_back(f.info);
+  return out;
+}
+
+Context::Context(const std::string& selectorIn) {
+  std::string selector = selectorIn;
+  if (selector.empty()) {
+    const char* env = std::getenv("PENUMBRA_DEVICE");
+    if (env) selector = env;
+  }
+  auto all = enumerate();
+  const Found* pick = nullptr;
+  if (selector.empty()) {
+    pick = &all[0];
+  } else if (std::all_of(selector.begin(), selector.end(), ::isdigit)) {
+    std::size_t i = std::stoul(selector);
+    if (i >= all.size())
+      throw Error(ErrorKind::NoPlatform, "device index " + selector + " is out of range: " +
+                                             std::to_string(all.size()) +
+                                             " OpenCL device(s) found (see `penumbra devices`)");
+    pick = &all[i];
+  } else {
+    for (auto& f : all)
+      if (lower(f.info.name).find(lower(selector)) != std::string::npos ||
+          lower(f.info.platform).find(lower(selector)) != std::string::npos) {
+        pick = &f;
+        break;
+      }
+    if (!pick)
+      throw Error(ErrorKind::NoPlatform, "no OpenCL device matches '" + selector +
+                                             "' (see `penumbra devices` for the list)");
+  }
+  info_ = pick->info;
+  device_ = pick->device;
+  try {
+    context_ = cl::Context(device_);
+    queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "creating an OpenCL context on " + info_.name);
+  }
+}
+
+cl::Kernel Context::kernel(const std::string& file, const std::string& name,
+                           const std::string& options) {
+  auto key = std::make_pair(file, options);
+  auto it = programs_.find(key);
+  if (it == programs_.end()) {
+    const auto& sources = detail::embeddedKernels();
+    auto src = sources.find(file);
+    if (src == sources.end())
+      throw Error(ErrorKind::Internal, "kernel file " + file + " is not embedded in the library");
+    cl::Program program;
+    try {
+      program = cl::Program(context_, src->second);
+    } catch (const cl::Error& e) {
+      rethrowCl(e, "creating program kernels/" + file);
+    }
+    std::string opts = "-cl-std=CL1.2 " + options;
+    if (info_.fp64) opts += " -DPB_HAS_FP64=1";
+    try {
+      program.build({device_}, opts.c_str());
+    } catch (const cl::Error& e) {
+      std::string log;
+      try {
+        log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+      } catch (...) {
+      }
+      throw Error(ErrorKind::KernelBuild, "kernels/" + file + " failed to build on " +
+                                              info_.name + " with options '" + opts + "':\n" +
+                                              log);
+    }
+    it = programs_.emplace(key, program).first;
+  }
+  try {
+    return cl::Kernel(it->second, name.c_str());
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "creating kernel " + name + " from kernels/" + file);
+  }
+}
+
+std::size_t Context::workGroupSize(const cl::Kernel& k, std::size_t preferred) const {
+  std::size_t limit = preferred;
+  try {
+    limit = std::min(limit, k.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device_));
+  } catch (const cl::Error&) {
+  }
+  limit = std::min(limit, info_.maxWorkGroupSize);
+  std::size_t p = 1;
+  while (p * 2 <= limit) p *= 2;
+  return p;
+}
+
+void Context::launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
+                     const cl::NDRange& local) {
+  cl::Event ev;
+  try {
+    queue_.enqueueNDRangeKernel(k, cl::NullRange, global, local, nullptr, &ev);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "launching " + stage);
+  }
+  events_.emplace_back(stage, ev);
+}
+
+cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_flags flags) {
+  if (bytes > info_.globalMemBytes)
+    throw Error(ErrorKind::OutOfMemory,
+                what + ": needs " + std::to_string(bytes >> 20) + " MiB but device " + info_.name +
+                    " has " + std::to_string(info_.globalMemBytes >> 20) +
+                    " MiB (out of device memory; reduce the size or light count)");
+  try {
+    return cl::Buffer(context_, flags, bytes);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "allocating " + std::to_string(bytes) + " bytes for " + what);
+  }
+}
+
+void Context::write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what) {
+  try {
+    queue_.enqueueWriteBuffer(b, CL_TRUE, 0, bytes, src);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "uploading " + what);
+  }
+}
+
+void Context::read(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what) {
+  try {
+    queue_.enqueueReadBuffer(b, CL_TRUE, 0, bytes, dst);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "reading back " + what);
+  }
+}
+
+void Context::fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes,
+                   std::size_t bytes, const std::string& what) {
+  try {
+    cl_int err = clEnqueueFillBuffer(queue_(), b(), pattern, patternBytes, 0, bytes, 0, nullptr,
+                                     nullptr);
+    if (err != CL_SUCCESS) throw cl::Error(err, "clEnqueueFillBuffer");
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "clearing " + what);
+  }
+}
+
+void Context::finish() {
+  try {
+    queue_.finish();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "waiting for the device");
+  }
+}
+
+std::vector<std::pair<std::string, double>> Context::stageTimesMs() {
+  finish();
+  std::vector<std::pair<std::string, double>> out;
+  for (auto& [stage, ev] : events_) {
+    double ms = 0;
+    try {
+      auto t0 = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+      auto t1 = ev.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+      ms = double(t1 - t0) * 1e-6;
+    } catch (const cl::Error&) {
+    }
+    auto it = std::find_if(out.begin(), out.end(), [&](auto& p) { return p.first == stage; });
+    if (it == out.end())
+      out.emplace_back(stage, ms);
+    else
+      it->second += ms;
+  }
+  return out;
+}
+
+void Context::resetTimings() { events_.clear(); }
+
+}  // namespace penumbra

@@ -1,0 +1,103 @@
+// Image reading and atomic writing through OpenImageIO.
+#include "penumbra/image.hpp"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <unistd.h>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+
+namespace fs = std::filesystem;
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+Image readImage(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) badInput(path + ": no such file");
+  if (fs::is_directory(path, ec)) badInput(path + ": is a directory, not an image");
+  auto in = ImageInput::open(path);
+  if (!in) {
+    std::string err = OIIO::geterror();
+    if (err.empty()) err = "not a readable image";
+    std::replace(err.begin(), err.end(), '\n', ' ');
+    badInput(path + ": cannot read image (" + err + ")");
+  }
+  const ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    badInput(path + ": image has no pixels (" + std::to_string(spec.width) + "x" +
+             std::to_string(spec.height) + ")");
+  if (std::int64_t(spec.width) * spec.height > (std::int64_t(1) << 28))
+    badInput(path + ": image is too large (" + std::to_string(spec.width) + "x" +
+             std::to_string(spec.height) + ")");
+  Image img(spec.width, spec.height, spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.pixels.data())) {
+    std::string err = in->geterror();
+    std::replace(err.begin(), err.end(), '\n', ' ');
+    badInput(path + ": image data is corrupt or truncated (" + err + ")");
+  }
+  in->close();
+  return img;
+}
+
+float toneMapChannel(float v) {
+  if (!(v > 0.0f)) return 0.0f;
+  float t = v / (1.0f + v);  // Reinhard
+  // sRGB transfer
+  return t <= 0.0031308f ? 12.92f * t : 1.055f * std::pow(t, 1.0f / 2.4f) - 0.055f;
+}
+
+void writeImage(const std::string& path, const Image& image, float exposure) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  bool exr = ext == ".exr", png = ext == ".png";
+  if (!exr && !png) badInput(path + ": unsupported output format '" + ext + "' (use .png or .exr)");
+  if (image.empty()) badInput(path + ": nothing to write (empty image)");
+  fs::path target(path);
+  fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
+  // Write beside the target, then rename: a crash or error never leaves a half-written file.
+  fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ext);
+  auto out = ImageOutput::create(tmp.string());
+  if (!out) badInput(path + ": cannot create writer (" + OIIO::geterror() + ")");
+  bool ok;
+  if (exr) {
+    ImageSpec spec(image.width, image.height, image.channels, TypeDesc::FLOAT);
+    if (image.channels == 4) spec.alpha_channel = 3;
+    spec.attribute("compression", "zip");
+    ok = out->open(tmp.string(), spec) &&
+         out->write_image(TypeDesc::FLOAT, image.pixels.data()) && out->close();
+  } else {
+    ImageSpec spec(image.width, image.height, 3, TypeDesc::UINT8);
+    std::vector<unsigned char> px(std::size_t(image.width) * image.height * 3);
+    for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
+      for (int c = 0; c < 3; ++c) {
+        float v = image.pixels[i * image.channels + std::min(c, image.channels - 1)] * exposure;
+        px[i * 3 + c] = (unsigned char)std::lround(std::clamp(toneMapChannel(v), 0.0f, 1.0f) * 255.0f);
+      }
+    ok = out->open(tmp.string(), spec) && out->write_image(TypeDesc::UINT8, px.data()) &&
+         out->close();
+  }
+  if (!ok) {
+    std::string err = out->geterror();
+    out.reset();
+    fs::remove(tmp, ec);
+    badInput(path + ": writing failed (" + err + ")");
+  }
+  out.reset();
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    badInput(path + ": cannot move the finished image into place (" + ec.message() + ")");
+  }
+}
+
+}  // namespace penumbra

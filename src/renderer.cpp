@@ -1,0 +1,335 @@
+// The frame, stage by stage: scene upload, shadow-map rasterization for every light at once,
+// moments and their SATs, camera G-buffer, per-light visibility, shading.
+#include "penumbra/renderer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <cstring>
+#include <cstdlib>
+
+#include "penumbra/context.hpp"
+#include "penumbra/environment.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/scan.hpp"
+#include "penumbra/shared.h"
+
+namespace penumbra {
+
+ShadowTechnique parseShadowTechnique(const std::string& name) {
+  if (name == "none") return ShadowTechnique::None;
+  if (name == "mssm4") return ShadowTechnique::MSSM4;
+  badInput("--shadows: unknown technique '" + name + "' (available: mssm4, none)");
+}
+
+const char* toString(ShadowTechnique t) {
+  return t == ShadowTechnique::None ? "none" : "mssm4";
+}
+
+namespace {
+
+// Must match kernels/moments.cl's mssm_params.
+struct MssmParams {
+  cl_float momentBias, depthBias, slopeBias, lightSizeScale;
+  cl_float maxFilter, minFilter, blockerEps, pad;
+};
+
+using V3 = std::array<float, 3>;
+V3 sub(V3 a, V3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+V3 cross(V3 a, V3 b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+V3 normalize(V3 a) {
+  float l = std::sqrt(dot(a, a));
+  return {a[0] / l, a[1] / l, a[2] / l};
+}
+
+// Orthographic shadow-map frame of a directional light, fitted to the scene's bounding box: the
+// box's corners projected onto the light's axes give the map's extent and depth range (plus a
+// small margin so nothing sits exactly on the near plane or the border).
+pb_light lightFrame(const AreaLight& l, const Bounds& b) {
+  pb_light L{};
+  V3 w = normalize({l.direction[0], l.direction[1], l.direction[2]});
+  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
+  V3 ex = normalize(cross(ref, w));
+  V3 ey = cross(w, ex);
+  V3 fwd = {-w[0], -w[1], -w[2]};
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (int i = 0; i < 8; ++i) {
+    V3 c = {i & 1 ? b.hi[0] : b.lo[0], i & 2 ? b.hi[1] : b.lo[1], i & 4 ? b.hi[2] : b.lo[2]};
+    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], p[k]);
+      hi[k] = std::max(hi[k], p[k]);
+    }
+  }
+  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
+  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]), z0 = lo[2] - margin;
+  for (int k = 0; k < 3; ++k) {
+    L.dir[k] = w[k];
+    L.radiance[k] = l.radiance[k];
+    L.ex[k] = ex[k];
+    L.ey[k] = ey[k];
+    L.origin[k] = cx * ex[k] + cy * ey[k] + z0 * fwd[k];
+  }
+  L.dir[3] = l.cosAlpha;
+  L.radiance[3] = l.halfAngle();
+  L.ex[3] = 0.5f * (hi[0] - lo[0]) + margin;
+  L.ey[3] = 0.5f * (hi[1] - lo[1]) + margin;
+  L.origin[3] = hi[2] + margin - z0;
+  return L;
+}
+
+pb_view orthoView(const pb_light& L, int size) {
+  pb_view v{};
+  for (int k = 0; k < 3; ++k) {
+    v.origin[k] = L.origin[k];
+    v.forward[k] = -L.dir[k];
+    v.right[k] = L.ex[k];
+    v.up[k] = L.ey[k];
+  }
+  v.right[3] = L.ex[3];
+  v.up[3] = L.ey[3];
+  v.width = v.height = size;
+  v.ortho = 1;
+  return v;
+}
+
+pb_view cameraView(const Camera& c, int w, int h) {
+  CameraBasis b = cameraBasis(c, w, h);
+  pb_view v{};
+  for (int k = 0; k < 3; ++k) {
+    v.origin[k] = b.eye[k];
+    v.forward[k] = b.forward[k];
+    v.right[k] = b.right[k];
+    v.up[k] = b.up[k];
+  }
+  v.right[3] = b.tanHalfX;
+  v.up[3] = b.tanHalfY;
+  v.width = w;
+  v.height = h;
+  v.ortho = 0;
+  return v;
+}
+
+// Rows of the bounding box each triangle's work is split into: large triangles (the ground) are
+// shared by this many work-items.
+constexpr int kStripes = 8;
+
+}  // namespace
+
+struct Renderer::Impl {
+  Context& ctx;
+  int lastPixels = 0, lastLights = 0;
+  cl::Buffer vis;
+  explicit Impl(Context& c) : ctx(c) {}
+};
+
+Renderer::Renderer(Context& ctx) : impl_(std::make_unique<Impl>(ctx)) {}
+Renderer::~Renderer() = default;
+
+Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet& lightSet,
+                       const Environment& env, const RenderOptions& opt) {
+  auto t0 = std::chrono::steady_clock::now();
+  Context& ctx = impl_->ctx;
+  if (opt.width < 1 || opt.height < 1 || opt.width > 16384 || opt.height > 16384)
+    badInput("--size must be between 1x1 and 16384x16384, got " + std::to_string(opt.width) +
+             "x" + std::to_string(opt.height));
+  if (opt.shadowMapSize < 1 || opt.shadowMapSize > 4096)
+    badInput("--shadow-map-size must be in [1, 4096], got " + std::to_string(opt.shadowMapSize));
+  const MSSMOptions& mo = opt.mssm;
+  if (!(mo.momentBias >= 0 && mo.momentBias < 1)) badInput("moment bias must be in [0, 1)");
+  if (!(mo.lightSizeScale >= 0) || !std::isfinite(mo.lightSizeScale))
+    badInput("light-size scale must be >= 0");
+  if (!(mo.minFilterTexels > 0) || !(mo.maxFilterTexels >= mo.minFilterTexels))
+    badInput("filter sizes must satisfy 0 < min <= max");
+  if (scene.triangleCount() == 0) badInput("scene has no triangles");
+  if (env.equirect.empty()) badInput("environment map is empty");
+
+  // --- scene upload
+  std::vector<cl_float4> pos, nrm, alb;
+  std::vector<cl_int4> tris;
+  for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const Mesh& m = scene.meshes[mi];
+    int base = int(pos.size());
+    bool hasN = m.normals.size() == m.positions.size();
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+      auto& p = m.positions[i];
+      pos.push_back({{p[0], p[1], p[2], 1.0f}});
+      if (hasN)
+        nrm.push_back({{m.normals[i][0], m.normals[i][1], m.normals[i][2], 1.0f}});
+      else
+        nrm.push_back({{0, 0, 0, 0}});
+    }
+    for (auto& t : m.triangles) tris.push_back({{base + t[0], base + t[1], base + t[2], int(mi)}});
+    alb.push_back({{m.albedo[0], m.albedo[1], m.albedo[2], 1.0f}});
+  }
+  const int ntris = int(tris.size());
+  cl::Buffer posB = ctx.upload(pos, "vertex positions");
+  cl::Buffer nrmB = ctx.upload(nrm, "vertex normals");
+  cl::Buffer triB = ctx.upload(tris, "triangles");
+  cl::Buffer albB = ctx.upload(alb, "albedo");
+
+  const int W = opt.width, H = opt.height, npx = W * H;
+  const int nl = int(lightSet.lights.size());
+  const int S = opt.shadowMapSize;
+  Bounds bounds = scene.bounds();
+  std::vector<pb_light> lights;
+  std::vector<pb_view> lviews;
+  for (auto& l : lightSet.lights) {
+    lights.push_back(lightFrame(l, bounds));
+    lviews.push_back(orthoView(lights.back(), S));
+  }
+  std::vector<pb_view> cview{cameraView(camera, W, H)};
+  cl::Buffer camB = ctx.upload(cview, "camera");
+  cl::Buffer lightB = ctx.upload(lights, "lights");
+
+  cl::Kernel raster = ctx.kernel("raster.cl", "raster_triangles");
+  auto rasterize = [&](cl::Buffer& views, int nviews, int pass, cl::Buffer& depth, cl::Buffer& ids,
+                       const std::string& stage) {
+    raster.setArg(0, posB);
+    raster.setArg(1, triB);
+    raster.setArg(2, cl_int(ntris));
+    raster.setArg(3, views);
+    raster.setArg(4, cl_int(kStripes));
+    raster.setArg(5, cl_int(pass));
+    raster.setArg(6, depth);
+    raster.setArg(7, ids);
+    ctx.launch(stage, raster, cl::NDRange(ntris, kStripes, nviews));
+  };
+
+  // --- camera G-buffer
+  cl::Buffer cdepth = ctx.buffer(std::size_t(npx) * 4, "camera depth");
+  cl::Buffer cids = ctx.buffer(std::size_t(npx) * 4, "camera triangle ids");
+  cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
+  ctx.fill(cdepth, &emptyDepth, 4, std::size_t(npx) * 4, "camera depth");
+  ctx.fill(cids, &emptyId, 4, std::size_t(npx) * 4, "camera triangle ids");
+  rasterize(camB, 1, 0, cdepth, cids, "gbuffer/depth");
+  rasterize(camB, 1, 1, cdepth, cids, "gbuffer/ids");
+  cl::Buffer gpos = ctx.buffer(std::size_t(npx) * 16, "G-buffer positions");
+  cl::Buffer gnrm = ctx.buffer(std::size_t(npx) * 16, "G-buffer normals");
+  cl::Buffer ggeo = ctx.buffer(std::size_t(npx) * 16, "G-buffer geometric normals");
+  cl::Buffer galb = ctx.buffer(std::size_t(npx) * 16, "G-buffer albedo");
+  {
+    cl::Kernel k = ctx.kernel("raster.cl", "gbuffer_resolve");
+    k.setArg(0, posB);
+    k.setArg(1, nrmB);
+    k.setArg(2, triB);
+    k.setArg(3, albB);
+    k.setArg(4, camB);
+    k.setArg(5, cids);
+    k.setArg(6, gpos);
+    k.setArg(7, gnrm);
+    k.setArg(8, ggeo);
+    k.setArg(9, galb);
+    ctx.launch("gbuffer/resolve", k, cl::NDRange(W, H));
+  }
+
+  // --- visibility per light
+  const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
+  if (impl_->lastPixels != npx || impl_->lastLights != nl) {
+    impl_->vis = ctx.buffer(visBytes, "visibility buffer");
+    impl_->lastPixels = npx;
+    impl_->lastLights = nl;
+  }
+  Frame frame;
+  if (nl > 0 && opt.shadows == ShadowTechnique::MSSM4) {
+    const std::size_t texels = std::size_t(S) * S * nl;
+    cl::Buffer lviewB = ctx.upload(lviews, "light views");
+    cl::Buffer ldepth = ctx.buffer(texels * 4, "shadow maps");
+    ctx.fill(ldepth, &emptyDepth, 4, texels * 4, "shadow maps");
+    rasterize(lviewB, nl, 0, ldepth, ldepth, "shadow-maps/raster");
+    cl::Buffer moments = ctx.buffer(texels * sizeof(cl_long4), "moment shadow maps");
+    frame.shadowMapBytes = texels * sizeof(cl_long4);
+    {
+      cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments");
+      k.setArg(0, ldepth);
+      k.setArg(1, lightB);
+      k.setArg(2, cl_int(S));
+      k.setArg(3, moments);
+      ctx.launch("mssm4/moments", k, cl::NDRange(S, S, nl));
+    }
+    summedAreaTable(ctx, moments, ScanType::Long4, S, S, nl, "mssm4/sat");
+    MssmParams P{mo.momentBias,     mo.depthBias,      mo.slopeBias,      mo.lightSizeScale,
+                 mo.maxFilterTexels, mo.minFilterTexels, mo.blockerEpsilon, 0.0f};
+    cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility");
+    std::size_t wg = ctx.workGroupSize(k, 64);
+    k.setArg(0, gpos);
+    k.setArg(1, ggeo);
+    k.setArg(2, lightB);
+    k.setArg(3, moments);
+    k.setArg(4, cl_int(S));
+    k.setArg(5, cl_int(npx));
+    k.setArg(6, sizeof(P), &P);
+    k.setArg(7, impl_->vis);
+    ctx.launch("mssm4/visibility", k, cl::NDRange((npx + wg - 1) / wg * wg, nl),
+               cl::NDRange(wg, 1));
+  } else if (nl > 0) {
+    cl_float one = 1.0f;
+    ctx.fill(impl_->vis, &one, 4, std::size_t(npx) * nl * 4, "visibility buffer");
+  }
+
+  // --- shading
+  cl::Buffer envB = ctx.upload(env.equirect.pixels, "environment map");
+  cl::Buffer outB = ctx.buffer(std::size_t(npx) * 16, "frame");
+  {
+    cl::Kernel k = ctx.kernel("shade.cl", "shade");
+    std::size_t wg = ctx.workGroupSize(k, 64);
+    k.setArg(0, gpos);
+    k.setArg(1, gnrm);
+    k.setArg(2, galb);
+    k.setArg(3, lightB);
+    k.setArg(4, cl_int(nl));
+    k.setArg(5, impl_->vis);
+    k.setArg(6, cl_int(npx));
+    k.setArg(7, camB);
+    k.setArg(8, envB);
+    k.setArg(9, cl_int(env.equirect.width));
+    k.setArg(10, cl_int(env.equirect.height));
+    k.setArg(11, cl_int(opt.environmentBackground ? 1 : 0));
+    k.setArg(12, outB);
+    ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
+  }
+  frame.image = Image(W, H, 4);
+  ctx.read(outB, frame.image.pixels.data(), std::size_t(npx) * 16, "frame");
+  frame.timingsMs = ctx.stageTimesMs();
+  double total =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  frame.timingsMs.emplace_back("total", total);
+  return frame;
+}
+
+std::vector<float> Renderer::lastVisibility() {
+  return impl_->ctx.download<float>(impl_->vis, std::size_t(impl_->lastPixels) * impl_->lastLights,
+                                    "visibility");
+}
+
+std::string renderReportJson(const std::string& device, const LightSet& lights,
+                             const Environment& env, const RenderOptions& opt, const Frame& f) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "{\n  \"device\": \"" << device << "\",\n  \"environment\": \"" << env.source
+    << "\",\n  \"lights\": " << lights.lights.size() << ",\n  \"extract\": \"" << lights.method
+    << "\",\n  \"sanitized_pixels\": " << env.sanitizedPixels
+    << ",\n  \"non_finite_values\": " << env.nonFiniteValues
+    << ",\n  \"negative_values\": " << env.negativeValues << ",\n  \"shadows\": \""
+    << toString(opt.shadows) << "\",\n  \"width\": " << opt.width << ",\n  \"height\": "
+    << opt.height << ",\n  \"shadow_map_size\": " << opt.shadowMapSize
+    << ",\n  \"shadow_map_bytes\": " << f.shadowMapBytes
+    << ",\n  \"shadow_map_bytes_per_texel\": "
+    << (opt.shadows == ShadowTechnique::MSSM4 ? 32 : 0) << ",\n  \"mssm\": {\"moment_bias\": "
+    << opt.mssm.momentBias << ", \"depth_bias\": " << opt.mssm.depthBias
+    << ", \"slope_bias\": " << opt.mssm.slopeBias
+    << ", \"light_size_scale\": " << opt.mssm.lightSizeScale
+    << ", \"max_filter_texels\": " << opt.mssm.maxFilterTexels
+    << ", \"min_filter_texels\": " << opt.mssm.minFilterTexels
+    << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon << "},\n  \"timings_ms\": {";
+  for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
+    o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
+  o << "}\n}\n";
+  return o.str();
+}
+
+}  // namespace penumbra

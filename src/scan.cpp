@@ -1,0 +1,234 @@
+// Summed-area tables on the device: argument checks, the choice of kernels/scan.cl's tuning knobs
+// for the device and image, and the four launches (row pass, then the three column steps).
+#include "penumbra/scan.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <string>
+
+#include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+
+namespace {
+
+const char* kFile = "scan.cl";
+// Width and height are ints on the device, and the kernels form y0 + SEG and base + tile without
+// widening; a bound far above any real image keeps those sums away from INT_MAX.
+constexpr int kMaxSide = 1 << 30;
+constexpr int kDefaultVpt = 4;
+constexpr int kDefaultSeg = 64;
+// Row-pass work-group size range for the automatic choice: below a warp/wavefront a GPU wastes
+// lanes; above 256 the tile's local memory (up to 42 KiB for long4) would crowd out occupancy.
+constexpr int kMinAutoWg = 32;
+constexpr int kMaxAutoWg = 256;
+// Column-pass work-group size: enough adjacent columns for full coalesced transactions.
+constexpr std::size_t kColumnWg = 128;
+
+const char* typeName(ScanType t) {
+  switch (t) {
+    case ScanType::Float: return "float";
+    case ScanType::Float4: return "float4";
+    case ScanType::Long: return "long";
+    case ScanType::Long4: return "long4";
+  }
+  badInput("summedAreaTable: unknown ScanType " + std::to_string(int(t)));
+}
+
+bool isPow2(long long v) { return v > 0 && (v & (v - 1)) == 0; }
+
+std::size_t nextPow2(std::size_t v) {
+  std::size_t p = 1;
+  while (p < v) p *= 2;
+  return p;
+}
+
+std::size_t roundUp(std::size_t v, std::size_t m) { return (v + m - 1) / m * m; }
+
+// Local memory scan_rows declares for these knobs: the padded tile plus the padded per-item totals
+// (PAD in scan.cl adds one element per 128 bytes).
+std::size_t rowLocalBytes(std::size_t elemBytes, std::size_t wg, std::size_t vpt) {
+  std::size_t bankRow = 128 / elemBytes;
+  auto padded = [&](std::size_t n) { return (n - 1) + (n - 1) / bankRow + 1; };
+  return (padded(wg * vpt) + padded(wg)) * elemBytes;
+}
+
+// a * b, or badInput naming `what` if it does not fit in size_t.
+std::size_t checkedMul(std::size_t a, std::size_t b, const std::string& what) {
+  if (a != 0 && b > SIZE_MAX / a) badInput("summedAreaTable: " + what + " overflows size_t");
+  return a * b;
+}
+
+std::string options(ScanType type, int wg, int vpt, int seg) {
+  return std::string("-DSCAN_T=") + typeName(type) + " -DWG=" + std::to_string(wg) +
+         " -DVPT=" + std::to_string(vpt) + " -DSEG=" + std::to_string(seg);
+}
+
+// One typed argument setter per kernel (STYLE.md): the signatures mirror kernels/scan.cl.
+void setRowArgs(cl::Kernel& k, cl::Buffer& data, cl_int width) {
+  k.setArg(0, data);
+  k.setArg(1, width);
+}
+void setSegmentArgs(cl::Kernel& k, cl::Buffer& data, cl::Buffer& segSums, cl_int width,
+                    cl_int height) {
+  k.setArg(0, data);
+  k.setArg(1, segSums);
+  k.setArg(2, width);
+  k.setArg(3, height);
+}
+void setOffsetArgs(cl::Kernel& k, cl::Buffer& segSums, cl_int width, cl_int nseg) {
+  k.setArg(0, segSums);
+  k.setArg(1, width);
+  k.setArg(2, nseg);
+}
+void setApplyArgs(cl::Kernel& k, cl::Buffer& data, cl::Buffer& segSums, cl_int width,
+                  cl_int height) {
+  k.setArg(0, data);
+  k.setArg(1, segSums);
+  k.setArg(2, width);
+  k.setArg(3, height);
+}
+
+}  // namespace
+
+std::size_t scanElementBytes(ScanType t) {
+  switch (t) {
+    case ScanType::Float: return sizeof(cl_float);
+    case ScanType::Float4: return sizeof(cl_float4);
+    case ScanType::Long: return sizeof(cl_long);
+    case ScanType::Long4: return sizeof(cl_long4);
+  }
+  badInput("summedAreaTable: unknown ScanType " + std::to_string(int(t)));
+}
+
+void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
+                     int batch, const std::string& stage) {
+  summedAreaTable(ctx, data, type, width, height, batch, stage, ScanTuning{});
+}
+
+void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
+                     int batch, const std::string& stage, const ScanTuning& tuning) {
+  // --- arguments -------------------------------------------------------------------------------
+  const std::size_t elemBytes = scanElementBytes(type);
+  if (width < 1) badInput("summedAreaTable: width must be >= 1, got " + std::to_string(width));
+  if (height < 1) badInput("summedAreaTable: height must be >= 1, got " + std::to_string(height));
+  if (batch < 1) badInput("summedAreaTable: batch must be >= 1, got " + std::to_string(batch));
+  if (width > kMaxSide)
+    badInput("summedAreaTable: width " + std::to_string(width) + " exceeds the limit 2^30");
+  if (height > kMaxSide)
+    badInput("summedAreaTable: height " + std::to_string(height) + " exceeds the limit 2^30");
+  const std::string dims = std::to_string(width) + "x" + std::to_string(height) + "x" +
+                           std::to_string(batch) + " " + typeName(type);
+  const std::size_t rows = checkedMul(std::size_t(height), std::size_t(batch),
+                                      "height*batch (" + dims + ")");
+  const std::size_t elements = checkedMul(rows, std::size_t(width), "element count (" + dims + ")");
+  const std::size_t bytes = checkedMul(elements, elemBytes, "byte size (" + dims + ")");
+  if (!data()) badInput("summedAreaTable: data buffer is null");
+  std::size_t have = 0;
+  try {
+    have = data.getInfo<CL_MEM_SIZE>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: querying the data buffer's size");
+  }
+  if (have < bytes)
+    badInput("summedAreaTable: data buffer holds " + std::to_string(have) + " bytes but " + dims +
+             " needs " + std::to_string(bytes) + " (" + std::to_string(elemBytes) +
+             " bytes per element: wrong ScanType or size?)");
+  if (tuning.workGroup < 0 || tuning.valuesPerItem < 0 || tuning.segmentRows < 0)
+    badInput("summedAreaTable: tuning values must be >= 0 (workGroup " +
+             std::to_string(tuning.workGroup) + ", valuesPerItem " +
+             std::to_string(tuning.valuesPerItem) + ", segmentRows " +
+             std::to_string(tuning.segmentRows) + ")");
+  if (tuning.workGroup > 0 && !isPow2(tuning.workGroup))
+    badInput("summedAreaTable: tuning.workGroup must be a power of two, got " +
+             std::to_string(tuning.workGroup));
+  if (tuning.valuesPerItem > 64 || tuning.segmentRows > kMaxSide)
+    badInput("summedAreaTable: tuning.valuesPerItem " + std::to_string(tuning.valuesPerItem) +
+             " (max 64) or segmentRows " + std::to_string(tuning.segmentRows) + " too large");
+
+  // --- knobs -----------------------------------------------------------------------------------
+  const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : kDefaultVpt;
+  const int seg = tuning.segmentRows ? tuning.segmentRows : kDefaultSeg;
+  std::size_t localMem = 0;
+  try {
+    localMem = ctx.device().getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: querying local memory size");
+  }
+  // Automatic row-pass work-group: just enough work-items to cover a row in one tile (narrow
+  // images waste no lanes), within the device's work-group and local-memory limits.
+  std::size_t wg = tuning.workGroup;
+  if (!wg) {
+    wg = nextPow2((std::size_t(width) + vpt - 1) / vpt);
+    wg = std::clamp<std::size_t>(wg, kMinAutoWg, kMaxAutoWg);
+    wg = std::min(wg, nextPow2(ctx.info().maxWorkGroupSize + 1) / 2);
+    while (wg > 1 && rowLocalBytes(elemBytes, wg, vpt) > localMem) wg /= 2;
+  }
+  if (rowLocalBytes(elemBytes, wg, vpt) > localMem)
+    badInput("summedAreaTable: row pass with work-group " + std::to_string(wg) + " x " +
+             std::to_string(vpt) + " values of " + typeName(type) + " needs " +
+             std::to_string(rowLocalBytes(elemBytes, wg, vpt)) + " bytes of local memory; " +
+             ctx.info().name + " has " + std::to_string(localMem));
+  // The kernel may still accept fewer work-items than the device maximum (registers); the
+  // automatic choice steps down, an explicit one is the caller's error.
+  cl::Kernel rowsK;
+  for (;;) {
+    rowsK = ctx.kernel(kFile, "scan_rows", options(type, int(wg), vpt, seg));
+    std::size_t limit = 0;
+    try {
+      limit = rowsK.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(ctx.device());
+    } catch (const cl::Error& e) {
+      rethrowCl(e, "summedAreaTable: querying scan_rows' work-group limit");
+    }
+    if (wg <= limit) break;
+    if (tuning.workGroup || wg == 1)
+      badInput("summedAreaTable: tuning.workGroup " + std::to_string(wg) + " exceeds the limit " +
+               std::to_string(limit) + " of scan_rows on " + ctx.info().name);
+    wg /= 2;
+  }
+  const std::string opts = options(type, int(wg), vpt, seg);
+  const std::size_t nseg = (std::size_t(height) + seg - 1) / seg;
+  const std::size_t segRows = checkedMul(nseg, std::size_t(batch), "segment count");
+  const std::size_t rowGlobal = checkedMul(rows, wg, "row-pass global size");
+
+  // --- row pass --------------------------------------------------------------------------------
+  try {
+    setRowArgs(rowsK, data, width);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: setting scan_rows arguments");
+  }
+  ctx.launch(stage + "/rows", rowsK, cl::NDRange(rowGlobal), cl::NDRange(wg));
+
+  // --- column pass -----------------------------------------------------------------------------
+  cl::Kernel applyK = ctx.kernel(kFile, "scan_col_apply", opts);
+  // Narrow images take a narrower group so that padding columns stay few.
+  const std::size_t cwg = std::min(ctx.workGroupSize(applyK, kColumnWg), nextPow2(width));
+  const std::size_t colGlobal = roundUp(std::size_t(width), cwg);
+  // seg_sums is only read with more than one segment; one element keeps the argument valid.
+  const std::size_t sumsElems =
+      nseg > 1 ? checkedMul(segRows, std::size_t(width), "segment-sum count") : 1;
+  cl::Buffer segSums =
+      ctx.buffer(checkedMul(sumsElems, elemBytes, "segment-sum bytes"), stage + " segment sums");
+  try {
+    if (nseg > 1) {
+      cl::Kernel segK = ctx.kernel(kFile, "scan_col_segments", opts);
+      cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets", opts);
+      const std::size_t swg = std::min(cwg, ctx.workGroupSize(segK, kColumnWg));
+      const std::size_t owg = std::min(cwg, ctx.workGroupSize(offK, kColumnWg));
+      setSegmentArgs(segK, data, segSums, width, height);
+      ctx.launch(stage + "/cols/segments", segK, cl::NDRange(roundUp(width, swg), nseg, batch),
+                 cl::NDRange(swg, 1, 1));
+      setOffsetArgs(offK, segSums, width, cl_int(nseg));
+      ctx.launch(stage + "/cols/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
+                 cl::NDRange(owg, 1));
+    }
+    setApplyArgs(applyK, data, segSums, width, height);
+    ctx.launch(stage + "/cols", applyK, cl::NDRange(colGlobal, nseg, batch),
+               cl::NDRange(cwg, 1, 1));
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: setting column-pass arguments");
+  }
+}
+
+}  // namespace penumbra

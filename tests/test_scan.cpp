@@ -1,0 +1,375 @@
+// Summed-area tables (kernels/scan.cl via penumbra::summedAreaTable) against a plain C++ reference:
+// exact int64 for long/long4, double with a derived rounding bound for float/float4; awkward sizes,
+// batches, tunings, bad input, and the box-filter test that motivates the fixed-point tables.
+// OclgrindScan.* use small sizes so that CTest can also run them under the oclgrind simulator.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/scan.hpp"
+
+namespace {
+
+using penumbra::Context;
+using penumbra::ErrorKind;
+using penumbra::ScanTuning;
+using penumbra::ScanType;
+
+Context& ctx() {
+  static Context c;  // one device and program cache for the whole suite
+  return c;
+}
+
+int lanes(ScanType t) { return t == ScanType::Float4 || t == ScanType::Long4 ? 4 : 1; }
+
+const char* name(ScanType t) {
+  switch (t) {
+    case ScanType::Float: return "float";
+    case ScanType::Float4: return "float4";
+    case ScanType::Long: return "long";
+    case ScanType::Long4: return "long4";
+  }
+  return "?";
+}
+
+struct Size {
+  int w, h, batch;
+};
+
+std::string label(ScanType t, Size s) {
+  std::ostringstream o;
+  o << name(t) << " " << s.w << "x" << s.h << " batch " << s.batch;
+  return o.str();
+}
+
+// Uploads `in` (scalars, lanes(t) per element), scans on the device, downloads.
+template <class S>
+std::vector<S> deviceSat(ScanType t, const std::vector<S>& in, Size s, const ScanTuning& tune = {}) {
+  cl::Buffer buf = ctx().upload(in, "scan test data");
+  penumbra::summedAreaTable(ctx(), buf, t, s.w, s.h, s.batch, "test", tune);
+  return ctx().download<S>(buf, in.size(), "scan test data");
+}
+
+// Reference SAT: rows first, then columns, accumulated in Acc (double or int64), per lane.
+template <class Acc, class S, class F>
+std::vector<Acc> referenceSat(const std::vector<S>& in, Size s, int L, F value) {
+  std::vector<Acc> out(in.size());
+  const std::size_t img = std::size_t(s.w) * s.h * L;
+  for (int b = 0; b < s.batch; ++b)
+    for (int y = 0; y < s.h; ++y)
+      for (int x = 0; x < s.w; ++x)
+        for (int l = 0; l < L; ++l) {
+          std::size_t i = b * img + (std::size_t(y) * s.w + x) * L + l;
+          Acc v = value(in[i]);
+          if (x > 0) v += out[i - L];
+          out[i] = v;
+        }
+  for (int b = 0; b < s.batch; ++b)
+    for (int y = 1; y < s.h; ++y)
+      for (std::size_t k = 0; k < std::size_t(s.w) * L; ++k) {
+        std::size_t i = b * img + std::size_t(y) * s.w * L + k;
+        out[i] += out[i - std::size_t(s.w) * L];
+      }
+  return out;
+}
+
+// Upper bound on the number of additions any input passes through on its way into one output of
+// the default decomposition: serial VPT (4) + Blelloch up/down (2 log2 256) + tile carries (tiles of
+// >= 32*4 elements) + column segment (64) + segment offsets (height/64) + the few joins between.
+double additionDepth(Size s) { return 4 + 16 + (s.w + 127) / 128 + 64 + (s.h + 63) / 64 + 8; }
+
+std::vector<float> randomFloats(std::size_t n, unsigned seed, float lo = -1.0f, float hi = 1.0f) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> d(lo, hi);
+  std::vector<float> v(n);
+  for (auto& x : v) x = d(rng);
+  return v;
+}
+
+std::vector<std::int64_t> randomLongs(std::size_t n, unsigned seed) {
+  // |v| < 2^38: a 2048^2 table (2^22 terms) stays below 2^60, no overflow in the reference.
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<std::int64_t> d(-(std::int64_t(1) << 38), std::int64_t(1) << 38);
+  std::vector<std::int64_t> v(n);
+  for (auto& x : v) x = d(rng);
+  return v;
+}
+
+// Float SAT vs the double reference. First-order rounding bound for any summation tree: each
+// output's error is at most depth * u * (sum of |inputs|), u = 2^-24; depth from additionDepth.
+void checkFloat(ScanType t, Size s, unsigned seed, const ScanTuning& tune = {}) {
+  const int L = lanes(t);
+  auto in = randomFloats(std::size_t(s.w) * s.h * s.batch * L, seed);
+  auto got = deviceSat(t, in, s, tune);
+  auto ref = referenceSat<double>(in, s, L, [](float v) { return double(v); });
+  auto mag = referenceSat<double>(in, s, L, [](float v) { return std::fabs(double(v)); });
+  const double k = 1.01 * additionDepth(s) * std::ldexp(1.0, -24);
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    double err = std::fabs(double(got[i]) - ref[i]);
+    if (!(err <= k * mag[i]) && bad++ < 5)
+      ADD_FAILURE() << label(t, s) << ": scalar " << i << " got " << got[i] << " want " << ref[i]
+                    << " (tolerance " << k * mag[i] << ")";
+  }
+  EXPECT_EQ(bad, 0u) << label(t, s);
+}
+
+void checkLong(ScanType t, Size s, unsigned seed, const ScanTuning& tune = {}) {
+  const int L = lanes(t);
+  auto in = randomLongs(std::size_t(s.w) * s.h * s.batch * L, seed);
+  auto got = deviceSat(t, in, s, tune);
+  auto ref = referenceSat<std::int64_t>(in, s, L, [](std::int64_t v) { return v; });
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < got.size(); ++i)
+    if (got[i] != ref[i] && bad++ < 5)
+      ADD_FAILURE() << label(t, s) << ": scalar " << i << " got " << got[i] << " want " << ref[i];
+  EXPECT_EQ(bad, 0u) << label(t, s);
+}
+
+void check(ScanType t, Size s, unsigned seed, const ScanTuning& tune = {}) {
+  if (t == ScanType::Float || t == ScanType::Float4)
+    checkFloat(t, s, seed, tune);
+  else
+    checkLong(t, s, seed, tune);
+}
+
+// 1x1, a column, a row, small odd, larger than a work-group in both directions, a row of several
+// tiles (3001 > 1024 = the largest default tile), an odd batch.
+const Size kAwkward[] = {{1, 1, 1},    {1, 1000, 1}, {1000, 1, 1}, {7, 5, 1},
+                         {1023, 517, 1}, {3001, 3, 1}, {37, 29, 3}};
+
+}  // namespace
+
+TEST(Scan, ElementBytes) {
+  EXPECT_EQ(penumbra::scanElementBytes(ScanType::Float), 4u);
+  EXPECT_EQ(penumbra::scanElementBytes(ScanType::Float4), 16u);
+  EXPECT_EQ(penumbra::scanElementBytes(ScanType::Long), 8u);
+  EXPECT_EQ(penumbra::scanElementBytes(ScanType::Long4), 32u);
+}
+
+TEST(Scan, FloatAwkwardSizes) {
+  for (Size s : kAwkward) check(ScanType::Float, s, 11);
+}
+TEST(Scan, Float4AwkwardSizes) {
+  for (Size s : kAwkward) check(ScanType::Float4, s, 12);
+}
+TEST(Scan, LongAwkwardSizes) {
+  for (Size s : kAwkward) check(ScanType::Long, s, 13);
+}
+TEST(Scan, Long4AwkwardSizes) {
+  for (Size s : kAwkward) check(ScanType::Long4, s, 14);
+}
+
+TEST(Scan, Float4At2048) { check(ScanType::Float4, {2048, 2048, 1}, 21); }
+TEST(Scan, Long4At2048IsExact) { check(ScanType::Long4, {2048, 2048, 1}, 22); }
+
+// Small integers are exact in float while the sums stay below 2^24, so the float kernels must then
+// match exactly: catches indexing slips that a rounding tolerance could hide.
+TEST(Scan, FloatIntegerValuesAreExact) {
+  for (ScanType t : {ScanType::Float, ScanType::Float4}) {
+    Size s{1023, 517, 1};
+    const int L = lanes(t);
+    std::mt19937 rng(31);
+    std::vector<float> in(std::size_t(s.w) * s.h * L);
+    for (auto& v : in) v = float(rng() % 8);  // SAT < 8 * 1023 * 517 < 2^23
+    auto got = deviceSat(t, in, s);
+    auto ref = referenceSat<double>(in, s, L, [](float v) { return double(v); });
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < got.size(); ++i)
+      if (double(got[i]) != ref[i] && bad++ < 5)
+        ADD_FAILURE() << label(t, s) << ": scalar " << i << " got " << got[i] << " want " << ref[i];
+    EXPECT_EQ(bad, 0u);
+  }
+}
+
+// Images of a batch are scanned independently: each equals its own single-image scan, and nothing
+// past the batch is written (a sentinel tail in the same buffer).
+TEST(Scan, BatchImagesDoNotLeak) {
+  const Size s{37, 29, 3};
+  const std::size_t img = std::size_t(s.w) * s.h * 4;
+  auto in = randomLongs(img * s.batch, 41);
+  const std::int64_t sentinel = 0x5a5a5a5a5a5a5a5aLL;
+  std::vector<std::int64_t> padded = in;
+  padded.resize(in.size() + 4 * 64, sentinel);
+  cl::Buffer buf = ctx().upload(padded, "batch");
+  penumbra::summedAreaTable(ctx(), buf, ScanType::Long4, s.w, s.h, s.batch, "test");
+  auto got = ctx().download<std::int64_t>(buf, padded.size(), "batch");
+  for (int b = 0; b < s.batch; ++b) {
+    std::vector<std::int64_t> one(in.begin() + b * img, in.begin() + (b + 1) * img);
+    auto ref = referenceSat<std::int64_t>(one, {s.w, s.h, 1}, 4, [](std::int64_t v) { return v; });
+    EXPECT_TRUE(std::equal(ref.begin(), ref.end(), got.begin() + b * img)) << "image " << b;
+  }
+  EXPECT_TRUE(std::all_of(got.begin() + in.size(), got.end(),
+                          [&](std::int64_t v) { return v == sentinel; }))
+      << "the scan wrote past the batch";
+}
+
+// The decomposition changes only the summation order: integer tables must not change at all,
+// including degenerate groups (1 work-item, 1 value per item, 1-row segments) and rows of many
+// tiles.
+TEST(Scan, TuningKeepsLongTablesIdentical) {
+  const Size s{203, 131, 2};
+  const ScanTuning tunings[] = {{1, 1, 1}, {2, 3, 5}, {4, 2, 7}, {64, 1, 64}, {256, 8, 200}};
+  for (const auto& tune : tunings) {
+    SCOPED_TRACE("workGroup " + std::to_string(tune.workGroup) + " valuesPerItem " +
+                 std::to_string(tune.valuesPerItem) + " segmentRows " +
+                 std::to_string(tune.segmentRows));
+    check(ScanType::Long, s, 51, tune);
+    check(ScanType::Long4, s, 52, tune);
+  }
+}
+
+// Why the moment and energy SATs are 64-bit fixed point (kernels/scan.cl): 1024^2 moment-like
+// values z, z^2, z^3, z^4 (z uniform in [0,1]). A box query is a difference of four corners; with
+// round(v * 2^32) in long4 it reproduces the direct sum of the quantized values exactly for every
+// box, while the same query on a float4 SAT of the same values is off by orders of magnitude more
+// than the fixed-point table's quantization error.
+TEST(Scan, BoxFilterFixedPointIsExactFloatIsNot) {
+  const int W = 1024, H = 1024;
+  const double scale = 4294967296.0;  // 2^32, PB_MOMENT_SCALE
+  std::mt19937_64 rng(61);
+  std::uniform_real_distribution<double> uz(0.0, 1.0);
+  std::vector<double> m(std::size_t(W) * H * 4);
+  std::vector<std::int64_t> fixed(m.size());
+  std::vector<float> flt(m.size());
+  for (std::size_t p = 0; p < std::size_t(W) * H; ++p) {
+    double z = uz(rng), zk = 1.0;
+    for (int k = 0; k < 4; ++k) {
+      zk *= z;
+      m[4 * p + k] = zk;
+      fixed[4 * p + k] = std::llround(zk * scale);
+      flt[4 * p + k] = float(zk);
+    }
+  }
+  auto satFixed = deviceSat(ScanType::Long4, fixed, {W, H, 1});
+  auto satFloat = deviceSat(ScanType::Float4, flt, {W, H, 1});
+
+  // box(x0..x1, y0..y1) = S(x1,y1) - S(x0-1,y1) - S(x1,y0-1) + S(x0-1,y0-1), absent corners 0.
+  auto box = [&](const auto& sat, int x0, int y0, int x1, int y1, int k) {
+    using V = std::decay_t<decltype(sat[0])>;
+    auto at = [&](int x, int y) -> V {
+      return x < 0 || y < 0 ? V(0) : sat[(std::size_t(y) * W + x) * 4 + k];
+    };
+    return at(x1, y1) - at(x0 - 1, y1) - at(x1, y0 - 1) + at(x0 - 1, y0 - 1);
+  };
+  std::uniform_int_distribution<int> pos(0, W - 1);
+  double fixedErr = 0, floatErr = 0;
+  int queries = 0;
+  for (int n : {1, 3, 27}) {
+    for (int q = 0; q < 300; ++q) {
+      int x0 = std::min(pos(rng), W - n), y0 = std::min(pos(rng), H - n);
+      if (q == 0) x0 = y0 = 0;           // touches the top-left border
+      if (q == 1) x0 = W - n, y0 = H - n;  // the far corner, where the table is largest
+      const int x1 = x0 + n - 1, y1 = y0 + n - 1;
+      for (int k = 0; k < 4; ++k) {
+        std::int64_t directFixed = 0;
+        double directFloat = 0, directTrue = 0;
+        for (int y = y0; y <= y1; ++y)
+          for (int x = x0; x <= x1; ++x) {
+            std::size_t i = (std::size_t(y) * W + x) * 4 + k;
+            directFixed += fixed[i];
+            directFloat += flt[i];
+            directTrue += m[i];
+          }
+        const std::int64_t bf = box(satFixed, x0, y0, x1, y1, k);
+        ASSERT_EQ(bf, directFixed) << "fixed-point box " << n << " at " << x0 << "," << y0;
+        fixedErr = std::max(fixedErr, std::fabs(double(bf) / scale - directTrue));
+        const double bq = double(box(satFloat, x0, y0, x1, y1, k));
+        floatErr = std::max(floatErr, std::fabs(bq - directFloat));
+        ++queries;
+      }
+    }
+  }
+  std::cout << "[ box filter ] " << queries << " queries on " << W << "x" << H
+            << ": max error fixed-point " << fixedErr << ", float " << floatErr << "\n";
+  // Quantization alone: at most n^2 * 2^-33 for the largest box.
+  EXPECT_LE(fixedErr, 27.0 * 27.0 * std::ldexp(1.0, -33) * 1.001);
+  EXPECT_GT(floatErr, 1e3 * fixedErr);
+  EXPECT_GT(floatErr, 1e-3);  // comparable to a 1x1 box's own value range
+}
+
+TEST(Scan, BadInputThrows) {
+  cl::Buffer buf = ctx().buffer(1024, "bad input test");
+  auto expectBad = [&](auto&& call, const std::string& mention) {
+    try {
+      call();
+      ADD_FAILURE() << "no exception; expected one mentioning " << mention;
+    } catch (const penumbra::Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput) << e.what();
+      EXPECT_NE(std::string(e.what()).find(mention), std::string::npos) << e.what();
+    }
+  };
+  auto sat = [&](ScanType t, int w, int h, int b, ScanTuning tune = {}) {
+    return [&, t, w, h, b, tune] { penumbra::summedAreaTable(ctx(), buf, t, w, h, b, "t", tune); };
+  };
+  expectBad(sat(ScanType::Float, 0, 4, 1), "width");
+  expectBad(sat(ScanType::Float, 4, 0, 1), "height");
+  expectBad(sat(ScanType::Float, 4, -3, 1), "-3");
+  expectBad(sat(ScanType::Float, 4, 4, 0), "batch");
+  expectBad(sat(ScanType::Float, 1 << 30, 1 << 30, 1 << 30), "overflow");
+  expectBad(sat(ScanType::Float, (1 << 30) + 1, 1, 1), "width");
+  // 1024 bytes hold 256 floats but only 32 long4s: the type/size mismatch is named.
+  expectBad(sat(ScanType::Float, 17, 16, 1), "1024 bytes");
+  expectBad(sat(ScanType::Long4, 16, 16, 1), "needs 8192");
+  expectBad(sat(static_cast<ScanType>(7), 4, 4, 1), "ScanType");
+  expectBad(sat(ScanType::Float, 4, 4, 1, {3, 0, 0}), "power of two");
+  expectBad(sat(ScanType::Float, 4, 4, 1, {0, -1, 0}), "tuning");
+  cl::Buffer null;
+  EXPECT_THROW(penumbra::summedAreaTable(ctx(), null, ScanType::Float, 1, 1), penumbra::Error);
+  // The valid call on the same buffer still works.
+  EXPECT_NO_THROW(penumbra::summedAreaTable(ctx(), buf, ScanType::Float, 16, 16, 1));
+}
+
+TEST(Scan, StageNames) {
+  ctx().resetTimings();
+  cl::Buffer buf = ctx().buffer(std::size_t(8) * 200 * 4, "stage test");
+  float zero = 0;
+  ctx().fill(buf, &zero, sizeof zero, std::size_t(8) * 200 * 4, "stage test");
+  penumbra::summedAreaTable(ctx(), buf, ScanType::Float, 8, 200, 1, "env/sat");
+  std::vector<std::string> names;
+  for (auto& [stage, ms] : ctx().stageTimesMs()) names.push_back(stage);
+  EXPECT_EQ(names, (std::vector<std::string>{"env/sat/rows", "env/sat/cols/segments",
+                                             "env/sat/cols/offsets", "env/sat/cols"}));
+  ctx().resetTimings();
+}
+
+// Small cases for the simulator (also part of the normal run): every type, a batch, a width that
+// is not a multiple of anything, and an explicit tuning with tiles of 8 and segments of 4 rows so
+// that the tile carry and the segment offsets are exercised under race/bounds checking.
+TEST(OclgrindScan, Float) {
+  check(ScanType::Float, {5, 3, 2}, 71);
+  check(ScanType::Float, {33, 17, 1}, 72);
+}
+TEST(OclgrindScan, Float4) {
+  check(ScanType::Float4, {5, 3, 2}, 73);
+  check(ScanType::Float4, {33, 17, 1}, 74);
+}
+TEST(OclgrindScan, Long) {
+  check(ScanType::Long, {5, 3, 2}, 75);
+  check(ScanType::Long, {33, 17, 1}, 76);
+}
+TEST(OclgrindScan, Long4) {
+  check(ScanType::Long4, {5, 3, 2}, 77);
+  check(ScanType::Long4, {33, 17, 1}, 78);
+}
+TEST(OclgrindScan, ManyTilesAndSegments) {
+  const ScanTuning tune{4, 2, 4};
+  check(ScanType::Float, {33, 17, 2}, 79, tune);
+  check(ScanType::Long4, {33, 17, 2}, 80, tune);
+}
+TEST(OclgrindScanDebug, Env) {
+  int t = atoi(getenv("T")), w = atoi(getenv("W")), h = atoi(getenv("H")), b = atoi(getenv("B"));
+  ScanTuning tune{atoi(getenv("WG")), atoi(getenv("VPT")), atoi(getenv("SEG"))};
+  if (getenv("PRE")) check(ScanType(atoi(getenv("PRE"))), {w, h, b}, 4, tune);
+  check(ScanType(t), {w, h, b}, 5, tune);
+}

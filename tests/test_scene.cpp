@@ -1,0 +1,576 @@
+// Tests for scenes: the built-in scene's geometry, mesh loading (good and broken files), framing,
+// the camera basis and --camera parsing.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <string>
+#include <unistd.h>
+
+#include "penumbra/error.hpp"
+#include "penumbra/scene.hpp"
+
+namespace fs = std::filesystem;
+using namespace penumbra;
+
+namespace {
+
+const std::string kData = PENUMBRA_TEST_DATA;
+constexpr double kPi = 3.14159265358979323846;
+
+Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec3& a, const Vec3& b) {
+  return double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
+}
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double len(const Vec3& a) { return std::sqrt(dot(a, a)); }
+
+const Mesh* find(const Scene& s, const std::string& name) {
+  for (const Mesh& m : s.meshes)
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+Bounds meshBounds(const Mesh& m) {
+  Scene s;
+  s.meshes.push_back(m);
+  return s.bounds();
+}
+
+// Bounds of every mesh but the ground plane.
+Bounds objectBounds(const Scene& scene) {
+  Scene s;
+  for (const Mesh& m : scene.meshes)
+    if (m.name != "ground") s.meshes.push_back(m);
+  return s.bounds();
+}
+
+// Closed and consistently oriented: after welding vertices at equal positions (boxes have split
+// vertices for flat normals), every directed edge occurs exactly once and so does its reverse, i.e.
+// every edge is shared by exactly two triangles that traverse it in opposite directions.
+::testing::AssertionResult closedAndOriented(const Mesh& m) {
+  std::map<std::array<long long, 3>, int> weld;
+  std::vector<int> id(m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    std::array<long long, 3> key{};
+    for (int k = 0; k < 3; ++k) key[k] = std::llround(double(m.positions[i][k]) * 1e5);
+    id[i] = weld.emplace(key, static_cast<int>(weld.size())).first->second;
+  }
+  std::map<std::pair<int, int>, int> directed;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) ++directed[{id[t[k]], id[t[(k + 1) % 3]]}];
+  for (const auto& [edge, count] : directed) {
+    if (count != 1)
+      return ::testing::AssertionFailure() << m.name << ": directed edge used " << count << " times";
+    const auto rev = directed.find({edge.second, edge.first});
+    if (rev == directed.end())
+      return ::testing::AssertionFailure() << m.name << ": open edge " << edge.first << "-" << edge.second;
+  }
+  return ::testing::AssertionSuccess();
+}
+
+double signedVolume(const Mesh& m) {
+  double v = 0;
+  for (const auto& t : m.triangles)
+    v += dot(m.positions[t[0]], cross(m.positions[t[1]], m.positions[t[2]])) / 6.0;
+  return v;
+}
+
+void expectWellFormed(const Mesh& m) {
+  ASSERT_FALSE(m.triangles.empty()) << m.name;
+  const int n = static_cast<int>(m.positions.size());
+  for (const auto& t : m.triangles)
+    for (int i : t) ASSERT_TRUE(i >= 0 && i < n) << m.name << ": index " << i << " of " << n;
+  for (const Vec3& p : m.positions)
+    ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) << m.name;
+  if (!m.normals.empty()) {
+    ASSERT_EQ(m.normals.size(), m.positions.size()) << m.name;
+    for (const Vec3& nrm : m.normals) ASSERT_NEAR(len(nrm), 1.0, 1e-4) << m.name;
+  }
+  for (float a : m.albedo) {
+    EXPECT_GE(a, 0.0f) << m.name;
+    EXPECT_LE(a, 1.0f) << m.name;
+  }
+}
+
+// Runs f, which must throw Error(BadInput) whose message contains every one of `needles`.
+template <class F>
+void expectBadInput(F f, const std::vector<std::string>& needles) {
+  try {
+    f();
+    ADD_FAILURE() << "no exception; expected one mentioning " << needles.front();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput) << e.what();
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << "message spans lines: " << msg;
+    for (const std::string& n : needles)
+      EXPECT_NE(msg.find(n), std::string::npos) << "'" << n << "' missing from: " << msg;
+  }
+}
+
+// A scratch directory, removed at the end of the test.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path = fs::temp_directory_path() /
+           ("penumbra_scene_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path / name) << text;
+    return (path / name).string();
+  }
+};
+
+// Projects p through the camera into [-1,1]^2 screen coordinates (sx right, sy up).
+std::array<double, 2> project(const CameraBasis& b, const Vec3& p) {
+  const Vec3 d = sub(p, b.eye);
+  const double z = dot(d, b.forward);
+  return {dot(d, b.right) / (z * b.tanHalfX), dot(d, b.up) / (z * b.tanHalfY)};
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------------
+// Built-in scene.
+// ------------------------------------------------------------------------------------------------
+
+TEST(SceneBuiltin, HasGroundAndObjects) {
+  const Scene s = builtinScene();
+  for (const char* name : {"ground", "box", "sphere", "slab", "torus", "lattice"})
+    EXPECT_NE(find(s, name), nullptr) << name;
+  // Distinct albedos, so the objects can be told apart in a render.
+  std::set<std::array<float, 3>> albedos;
+  for (const Mesh& m : s.meshes) albedos.insert(m.albedo);
+  EXPECT_EQ(albedos.size(), s.meshes.size());
+  const Mesh* ground = find(s, "ground");
+  ASSERT_NE(ground, nullptr);
+  EXPECT_NEAR(ground->albedo[0], 0.7f, 0.05f);
+  EXPECT_EQ(ground->albedo[0], ground->albedo[1]);
+  EXPECT_EQ(ground->albedo[1], ground->albedo[2]);
+}
+
+TEST(SceneBuiltin, TriangleCountAndGroundSubdivision) {
+  const Scene s = builtinScene();
+  EXPECT_GT(s.triangleCount(), 1000u);
+  EXPECT_LT(s.triangleCount(), 20000u);
+  std::size_t sum = 0;
+  for (const Mesh& m : s.meshes) sum += m.triangles.size();
+  EXPECT_EQ(sum, s.triangleCount());
+
+  const Mesh& ground = *find(s, "ground");
+  EXPECT_GE(ground.triangles.size(), 2u * 8 * 8);
+  const Bounds gb = meshBounds(ground);
+  EXPECT_NEAR(gb.hi[0] - gb.lo[0], 12.0f, 1.0f);
+  EXPECT_NEAR(gb.hi[2] - gb.lo[2], 12.0f, 1.0f);
+  EXPECT_FLOAT_EQ(gb.lo[1], 0.0f);
+  EXPECT_FLOAT_EQ(gb.hi[1], 0.0f);
+  // No huge triangle: every edge of the ground at most 12/8 m.
+  for (const auto& t : ground.triangles)
+    for (int k = 0; k < 3; ++k)
+      ASSERT_LE(len(sub(ground.positions[t[k]], ground.positions[t[(k + 1) % 3]])), 1.5 * std::sqrt(2.0) + 1e-4);
+  // The sphere is a real UV sphere (~32 x 16), not a coarse blob.
+  EXPECT_GE(find(s, "sphere")->triangles.size(), 800u);
+}
+
+TEST(SceneBuiltin, IndicesValidNormalsUnit) {
+  const Scene s = builtinScene();
+  for (const Mesh& m : s.meshes) {
+    SCOPED_TRACE(m.name);
+    expectWellFormed(m);
+    EXPECT_FALSE(m.normals.empty());
+  }
+}
+
+TEST(SceneBuiltin, ObjectsRestOnGroundSlabFloats) {
+  const Scene s = builtinScene();
+  for (const char* name : {"box", "sphere", "torus", "lattice"}) {
+    const Bounds b = meshBounds(*find(s, name));
+    EXPECT_NEAR(b.lo[1], 0.0f, 1e-4f) << name << " should touch the ground";
+  }
+  const Bounds slab = meshBounds(*find(s, "slab"));
+  EXPECT_GE(slab.lo[1], 1.5f);
+  EXPECT_LE(slab.lo[1], 2.5f);
+  EXPECT_LT(slab.hi[1] - slab.lo[1], 0.3f) << "slab should be thin";
+  EXPECT_GT(slab.hi[0] - slab.lo[0], 1.0f) << "slab should be wide";
+  // The torus stands upright: taller than it is thick in one horizontal direction.
+  const Bounds torus = meshBounds(*find(s, "torus"));
+  EXPECT_GT(torus.hi[1] - torus.lo[1], 1.2f);
+  // The sphere's radius is ~0.6.
+  const Bounds sphere = meshBounds(*find(s, "sphere"));
+  EXPECT_NEAR(sphere.hi[1] - sphere.lo[1], 1.2f, 0.05f);
+}
+
+TEST(SceneBuiltin, ObjectsInsideGroundFootprint) {
+  const Scene s = builtinScene();
+  const Bounds objects = objectBounds(s);
+  const Bounds ground = meshBounds(*find(s, "ground"));
+  for (int k : {0, 2}) {
+    EXPECT_GE(objects.lo[k], -4.0f);
+    EXPECT_LE(objects.hi[k], 4.0f);
+    EXPECT_LT(ground.lo[k], objects.lo[k] - 1.0f);
+    EXPECT_GT(ground.hi[k], objects.hi[k] + 1.0f);
+  }
+  EXPECT_GE(objects.lo[1], -1e-4f) << "nothing below the ground";
+}
+
+TEST(SceneBuiltin, ClosedMeshesOutwardWinding) {
+  const Scene s = builtinScene();
+  for (const char* name : {"box", "sphere", "torus", "slab", "lattice"}) {
+    const Mesh& m = *find(s, name);
+    EXPECT_TRUE(closedAndOriented(m));
+    EXPECT_GT(signedVolume(m), 0.0) << name << " is wound inside out";
+  }
+  EXPECT_NEAR(signedVolume(*find(s, "box")), 1.0, 0.05);
+  const double r = 0.6, sphereVolume = 4.0 / 3.0 * kPi * r * r * r;
+  EXPECT_NEAR(signedVolume(*find(s, "sphere")), sphereVolume, 0.05 * sphereVolume);
+}
+
+TEST(SceneBuiltin, FacesAgreeWithVertexNormals) {
+  // Counter-clockwise seen from the side the normals point to, for every triangle (the ground is
+  // open, so signed volume says nothing about it).
+  const Scene s = builtinScene();
+  for (const Mesh& m : s.meshes) {
+    for (const auto& t : m.triangles) {
+      const Vec3 g = cross(sub(m.positions[t[1]], m.positions[t[0]]), sub(m.positions[t[2]], m.positions[t[0]]));
+      Vec3 n{0, 0, 0};
+      for (int i : t)
+        for (int k = 0; k < 3; ++k) n[k] += m.normals[i][k];
+      ASSERT_GT(dot(g, n), 0.0) << m.name;
+    }
+  }
+  const Mesh& ground = *find(s, "ground");
+  for (const Vec3& n : ground.normals) EXPECT_EQ(n, (Vec3{0, 1, 0}));
+}
+
+TEST(SceneBuiltin, Deterministic) {
+  const Scene a = builtinScene(), b = builtinScene();
+  ASSERT_EQ(a.meshes.size(), b.meshes.size());
+  for (std::size_t i = 0; i < a.meshes.size(); ++i) {
+    EXPECT_EQ(a.meshes[i].positions, b.meshes[i].positions);
+    EXPECT_EQ(a.meshes[i].triangles, b.meshes[i].triangles);
+    EXPECT_EQ(a.meshes[i].normals, b.meshes[i].normals);
+  }
+}
+
+TEST(SceneFrom, BuiltinKeyword) {
+  const Scene s = sceneFrom("builtin");
+  EXPECT_EQ(s.triangleCount(), builtinScene().triangleCount());
+  expectBadInput([] { sceneFrom(kData + "/meshes/does_not_exist.obj"); }, {"does_not_exist.obj"});
+}
+
+// ------------------------------------------------------------------------------------------------
+// Bounds.
+// ------------------------------------------------------------------------------------------------
+
+TEST(SceneBounds, CenterRadiusAndSceneBounds) {
+  Bounds b;
+  b.lo = {-1, 0, 2};
+  b.hi = {3, 4, 6};
+  EXPECT_EQ(b.center(), (Vec3{1, 2, 4}));
+  EXPECT_FLOAT_EQ(b.radius(), 0.5f * std::sqrt(48.0f));
+
+  Scene s;
+  EXPECT_EQ(s.triangleCount(), 0u);
+  Mesh m;
+  m.positions = {{1, 2, 3}, {-1, 5, 0}, {0, 0, 7}};
+  m.triangles = {{0, 1, 2}};
+  s.meshes.push_back(m);
+  m.positions = {{10, -2, 3}, {0, 0, 0}, {0, 1, 0}};
+  s.meshes.push_back(m);
+  EXPECT_EQ(s.triangleCount(), 2u);
+  const Bounds sb = s.bounds();
+  EXPECT_EQ(sb.lo, (Vec3{-1, -2, 0}));
+  EXPECT_EQ(sb.hi, (Vec3{10, 5, 7}));
+}
+
+// ------------------------------------------------------------------------------------------------
+// Loading.
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+void expectGroundUnder(const Scene& s) {
+  const Mesh* ground = find(s, "ground");
+  ASSERT_NE(ground, nullptr);
+  EXPECT_EQ(ground->triangles.size(), 2u * 8 * 8);
+  const Bounds obj = objectBounds(s);
+  const Bounds g = meshBounds(*ground);
+  EXPECT_FLOAT_EQ(g.lo[1], obj.lo[1]) << "ground top should touch the lowest point";
+  EXPECT_FLOAT_EQ(g.hi[1], obj.lo[1]);
+  const float side = 4 * std::max(obj.hi[0] - obj.lo[0], obj.hi[2] - obj.lo[2]);
+  EXPECT_NEAR(g.hi[0] - g.lo[0], side, 1e-3f * side);
+  EXPECT_NEAR(g.hi[2] - g.lo[2], side, 1e-3f * side);
+  EXPECT_NEAR(g.center()[0], obj.center()[0], 1e-3f * side);
+  EXPECT_NEAR(g.center()[2], obj.center()[2], 1e-3f * side);
+  EXPECT_NEAR(ground->albedo[0], 0.7f, 1e-6f);
+  for (const Vec3& n : ground->normals) EXPECT_EQ(n, (Vec3{0, 1, 0}));
+}
+}  // namespace
+
+TEST(SceneLoad, SpiderWithGround) {
+  const Scene s = loadScene(kData + "/meshes/good/spider.obj");
+  for (const Mesh& m : s.meshes) {
+    SCOPED_TRACE(m.name);
+    expectWellFormed(m);
+  }
+  const std::size_t objectTriangles = s.triangleCount() - find(s, "ground")->triangles.size();
+  EXPECT_GE(objectTriangles, 1300u);  // 1,368 faces in the source
+  EXPECT_LE(objectTriangles, 1368u);
+  expectGroundUnder(s);
+  // Albedo from the .mtl: "Skin" has Kd 0.827 0.792 0.773.
+  bool skin = false;
+  for (const Mesh& m : s.meshes)
+    skin = skin || (std::fabs(m.albedo[0] - 0.827451f) < 1e-4f && std::fabs(m.albedo[2] - 0.772549f) < 1e-4f);
+  EXPECT_TRUE(skin);
+}
+
+TEST(SceneLoad, WusonWithGround) {
+  const Scene s = loadScene(kData + "/meshes/good/WusonOBJ.obj");
+  for (const Mesh& m : s.meshes) {
+    SCOPED_TRACE(m.name);
+    expectWellFormed(m);
+  }
+  const std::size_t objectTriangles = s.triangleCount() - find(s, "ground")->triangles.size();
+  EXPECT_GE(objectTriangles, 3600u);  // 3,732 faces in the source
+  EXPECT_LE(objectTriangles, 3732u);
+  expectGroundUnder(s);
+  // No material in the file: the default grey, not Assimp's invented 0.6.
+  for (const Mesh& m : s.meshes)
+    if (m.name != "ground") EXPECT_EQ(m.albedo, (Vec3{0.8f, 0.8f, 0.8f}));
+}
+
+TEST(SceneLoad, NoGroundOption) {
+  LoadOptions opt;
+  opt.addGround = false;
+  for (const char* f : {"spider.obj", "WusonOBJ.obj"}) {
+    const Scene s = loadScene(kData + "/meshes/good/" + f, opt);
+    EXPECT_EQ(find(s, "ground"), nullptr) << f;
+    EXPECT_GT(s.triangleCount(), 1000u) << f;
+    const Scene withGround = sceneFrom(kData + "/meshes/good/" + f);
+    EXPECT_EQ(withGround.triangleCount(), s.triangleCount() + 2 * 8 * 8) << f;
+  }
+}
+
+TEST(SceneLoad, BadMeshesNameFileAndProblem) {
+  const std::string bad = kData + "/meshes/bad/";
+  expectBadInput([&] { loadScene(bad + "BoxWithInfinites.glb"); }, {"BoxWithInfinites.glb", "non-finite", "vertex"});
+  expectBadInput([&] { loadScene(bad + "IndexOutOfRange.gltf"); }, {"IndexOutOfRange.gltf", "out of range"});
+  expectBadInput([&] { loadScene(bad + "point_cloud.obj"); }, {"point_cloud.obj", "no triangles", "points or lines"});
+  expectBadInput([&] { loadScene(bad + "no_such_file.ply"); }, {"no_such_file.ply", "Assimp"});
+}
+
+TEST(SceneLoad, TextFilesWithMeshExtensions) {
+  TempDir dir;
+  const std::string text = "this is not a mesh\njust some words\n";
+  // OBJ readers skip unknown lines, so this parses as an empty mesh.
+  expectBadInput([&] { loadScene(dir.write("notes.obj", text)); }, {"notes.obj", "no triangles"});
+  expectBadInput([&] { loadScene(dir.write("notes.glb", text)); }, {"notes.glb", "Assimp"});
+  expectBadInput([&] { loadScene(dir.write("notes.ply", text)); }, {"notes.ply", "Assimp"});
+  expectBadInput([&] { loadScene(dir.write("unknown.zzz", text)); }, {"unknown.zzz"});
+}
+
+TEST(SceneLoad, LinesOnlyHaveNoTriangles) {
+  TempDir dir;
+  const std::string f = dir.write("wire.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3\n");
+  expectBadInput([&] { loadScene(f); }, {"wire.obj", "no triangles"});
+}
+
+TEST(SceneLoad, ObjIndexOutOfRange) {
+  TempDir dir;
+  const std::string f = dir.write("holey.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n");
+  expectBadInput([&] { loadScene(f); }, {"holey.obj", "out of range"});
+}
+
+TEST(SceneLoad, DegenerateBoundsRefused) {
+  TempDir dir;
+  // Three vertices at one point; distinct normals keep Assimp from merging them.
+  const std::string f = dir.write("dot.obj",
+                                  "v 1 1 1\nv 1 1 1\nv 1 1 1\nvn 1 0 0\nvn 0 1 0\nvn 0 0 1\n"
+                                  "f 1//1 2//2 3//3\n");
+  expectBadInput([&] { loadScene(f); }, {"dot.obj", "degenerate"});
+}
+
+TEST(SceneLoad, MaterialClampAndNormalRepair) {
+  TempDir dir;
+  dir.write("hot.mtl", "newmtl hot\nKd 2.0 0.5 -1.0\n");
+  // The zero normals must be replaced by the face normal (+z for this counter-clockwise triangle).
+  const std::string f = dir.write("tri.obj",
+                                  "mtllib hot.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\n"
+                                  "usemtl hot\nf 1//1 2//1 3//1\n");
+  LoadOptions opt;
+  opt.addGround = false;
+  const Scene s = loadScene(f, opt);
+  ASSERT_EQ(s.meshes.size(), 1u);
+  const Mesh& m = s.meshes[0];
+  EXPECT_EQ(m.triangles.size(), 1u);
+  EXPECT_FLOAT_EQ(m.albedo[0], 0.95f);
+  EXPECT_FLOAT_EQ(m.albedo[1], 0.5f);
+  EXPECT_FLOAT_EQ(m.albedo[2], 0.0f);
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  for (const Vec3& n : m.normals) {
+    EXPECT_NEAR(n[0], 0.0f, 1e-6f);
+    EXPECT_NEAR(n[1], 0.0f, 1e-6f);
+    EXPECT_NEAR(n[2], 1.0f, 1e-6f);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Camera basis, rays and framing.
+// ------------------------------------------------------------------------------------------------
+
+TEST(SceneCamera, BasisIsOrthonormal) {
+  Camera c;
+  c.eye = {3, 4, 5};
+  c.target = {-1, 0.5f, 2};
+  c.up = {0, 2, 0};  // need not be unit
+  const CameraBasis b = cameraBasis(c, 640, 360);
+  EXPECT_NEAR(len(b.forward), 1, 1e-6);
+  EXPECT_NEAR(len(b.right), 1, 1e-6);
+  EXPECT_NEAR(len(b.up), 1, 1e-6);
+  EXPECT_NEAR(dot(b.forward, b.right), 0, 1e-6);
+  EXPECT_NEAR(dot(b.forward, b.up), 0, 1e-6);
+  EXPECT_NEAR(dot(b.right, b.up), 0, 1e-6);
+  EXPECT_GT(b.up[1], 0.0f) << "camera up should lean towards the given up";
+  const Vec3 f = sub(c.target, c.eye);
+  EXPECT_NEAR(dot(b.forward, f), len(f), 1e-5);
+  // right = forward x up: right-handed, so right x forward = up.
+  const Vec3 u = cross(b.right, b.forward);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(u[k], b.up[k], 1e-6);
+  EXPECT_NEAR(b.tanHalfY, std::tan(20.0 * kPi / 180), 1e-6);
+  EXPECT_NEAR(b.tanHalfX, b.tanHalfY * 640.0 / 360.0, 1e-6);
+}
+
+TEST(SceneCamera, RayThroughCentreIsForward) {
+  Camera c;
+  c.eye = {1, 2, 3};
+  c.target = {0, 0.5f, -1};
+  const CameraBasis b = cameraBasis(c, 101, 57);
+  const Vec3 d = cameraRayDirection(b, 101, 57, 50.5f, 28.5f);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(d[k], b.forward[k], 1e-6);
+}
+
+TEST(SceneCamera, CornersAndEdgesMatchFov) {
+  Camera c;
+  c.eye = {0, 1, 5};
+  c.target = {0, 1, 0};
+  c.fovyDeg = 50;
+  const int w = 800, h = 400;
+  const CameraBasis b = cameraBasis(c, w, h);
+  const double tY = std::tan(25.0 * kPi / 180), tX = tY * 2;
+  // Top edge centre: exactly fovy/2 above the forward axis, and upwards.
+  const Vec3 top = cameraRayDirection(b, w, h, w / 2.0f, 0);
+  EXPECT_NEAR(std::acos(dot(top, b.forward)), 25.0 * kPi / 180, 1e-5);
+  EXPECT_GT(top[1], 0.0f);
+  // Right edge centre: atan(aspect * tanHalfY) to the right (+x for a camera looking down -z).
+  const Vec3 right = cameraRayDirection(b, w, h, float(w), h / 2.0f);
+  EXPECT_NEAR(std::acos(dot(right, b.forward)), std::atan(tX), 1e-5);
+  EXPECT_GT(right[0], 0.0f);
+  // Corners: tangent ratios along right and up equal +-tanHalfX, +-tanHalfY.
+  struct Corner { float px, py; double sx, sy; };
+  for (const Corner& k : {Corner{0, 0, -1, 1}, Corner{float(w), 0, 1, 1}, Corner{0, float(h), -1, -1},
+                          Corner{float(w), float(h), 1, -1}}) {
+    const Vec3 d = cameraRayDirection(b, w, h, k.px, k.py);
+    EXPECT_NEAR(len(d), 1, 1e-6);
+    EXPECT_NEAR(dot(d, b.right) / dot(d, b.forward), k.sx * tX, 1e-5);
+    EXPECT_NEAR(dot(d, b.up) / dot(d, b.forward), k.sy * tY, 1e-5);
+  }
+}
+
+TEST(SceneCamera, BasisRejectsDegenerateCameras) {
+  Camera c;
+  c.eye = c.target = {1, 1, 1};
+  expectBadInput([&] { cameraBasis(c, 64, 64); }, {"eye"});
+  c.target = {1, 5, 1};  // looking straight up with up = +y
+  expectBadInput([&] { cameraBasis(c, 64, 64); }, {"parallel"});
+  c.target = {1, 1, 0};
+  c.up = {0, 0, 3};  // up along the view direction
+  expectBadInput([&] { cameraBasis(c, 64, 64); }, {"parallel"});
+  c.up = {0, 1, 0};
+  EXPECT_NO_THROW(cameraBasis(c, 64, 64));
+  expectBadInput([&] { cameraBasis(c, 0, 64); }, {"size"});
+}
+
+TEST(SceneCamera, FrameCameraFitsObjectsAndIgnoresGround) {
+  const Scene s = builtinScene();
+  const Bounds obj = objectBounds(s);
+  for (float aspect : {16.0f / 9.0f, 1.0f, 0.5f}) {
+    SCOPED_TRACE(aspect);
+    const Camera c = frameCamera(s, aspect);
+    EXPECT_FLOAT_EQ(c.fovyDeg, 40.0f);
+    EXPECT_EQ(c.up, (Vec3{0, 1, 0}));
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.target[k], obj.center()[k], 1e-5);
+    // Elevated about 30 degrees, azimuth about 35 degrees from +z towards +x.
+    const Vec3 d = sub(c.eye, c.target);
+    EXPECT_NEAR(std::asin(d[1] / len(d)) * 180 / kPi, 30.0, 3.0);
+    EXPECT_NEAR(std::atan2(d[0], d[2]) * 180 / kPi, 35.0, 3.0);
+    // Every corner of the framed bounds is inside the image, and the framing is not loose.
+    const int h = 400, w = static_cast<int>(std::lround(400 * aspect));
+    const CameraBasis b = cameraBasis(c, w, h);
+    double extent = 0;
+    for (int i = 0; i < 8; ++i) {
+      const Vec3 p{(i & 1) ? obj.hi[0] : obj.lo[0], (i & 2) ? obj.hi[1] : obj.lo[1], (i & 4) ? obj.hi[2] : obj.lo[2]};
+      const auto q = project(b, p);
+      EXPECT_LE(std::fabs(q[0]), 1.0);
+      EXPECT_LE(std::fabs(q[1]), 1.0);
+      extent = std::max({extent, std::fabs(q[0]), std::fabs(q[1])});
+    }
+    EXPECT_GT(extent, 0.4) << "objects too small in the frame";
+    // The sphere of the bounds fits both fields of view.
+    const double dist = len(d), r = obj.radius();
+    EXPECT_LE(std::asin(r / dist), std::atan(b.tanHalfY) + 1e-6);
+    EXPECT_LE(std::asin(r / dist), std::atan(b.tanHalfX) + 1e-6);
+  }
+  // Only a ground plane: frame it rather than nothing.
+  Scene groundOnly;
+  groundOnly.meshes.push_back(*find(s, "ground"));
+  const Camera g = frameCamera(groundOnly, 1.0f);
+  EXPECT_NEAR(len(sub(g.eye, g.target)), 6 * std::sqrt(2.0) / std::sin(20 * kPi / 180), 2.0);
+}
+
+TEST(SceneCamera, ParseGood) {
+  Camera c = parseCamera("1,2,3,4,5,6");
+  EXPECT_EQ(c.eye, (Vec3{1, 2, 3}));
+  EXPECT_EQ(c.target, (Vec3{4, 5, 6}));
+  EXPECT_EQ(c.up, (Vec3{0, 1, 0}));
+  EXPECT_FLOAT_EQ(c.fovyDeg, 40.0f);
+  c = parseCamera("-1.5e1, 2.25 ,0.5,0,-0.5,+1,55.5");
+  EXPECT_EQ(c.eye, (Vec3{-15, 2.25f, 0.5f}));
+  EXPECT_EQ(c.target, (Vec3{0, -0.5f, 1}));
+  EXPECT_FLOAT_EQ(c.fovyDeg, 55.5f);
+  EXPECT_FLOAT_EQ(parseCamera("0,0,5,0,0,0,179.9").fovyDeg, 179.9f);
+}
+
+TEST(SceneCamera, ParseBad) {
+  const std::vector<std::string> bad = {
+      "",                       // nothing
+      "1,2,3",                  // too few
+      "1,2,3,4,5,6,7,8",        // too many
+      "1,2,3,4,5,x",            // not a number
+      "1,2,3,4,5,6abc",         // trailing garbage
+      "1,2,3,4,5,6,",           // empty seventh value
+      "1,,3,4,5,6",             // empty value
+      "1,2,3,4,5,nan",          // not finite
+      "1,2,3,4,5,inf",          // not finite
+      "1e999,2,3,4,5,6",        // overflows
+      "1,2,3,4,5,0x10",         // hex
+      "1,2,3,0,0,0,0",          // fovy out of range
+      "1,2,3,0,0,0,180",        // fovy out of range
+      "1,2,3,0,0,0,-30",        // fovy out of range
+      "1,2,3,1,2,3",            // eye == target
+      "0,5,0,0,0,0",            // looking straight down: parallel to up
+  };
+  for (const std::string& text : bad) {
+    SCOPED_TRACE(text);
+    expectBadInput([&] { parseCamera(text); }, {"--camera", "'" + text + "'"});
+  }
+}
