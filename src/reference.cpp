@@ -169,8 +169,11 @@ FlatScene flatten(const Scene& scene) {
 
 class EmbreeScene {
  public:
-  explicit EmbreeScene(const FlatScene& f) {
-    device_ = rtcNewDevice("verbose=0");
+  // threads: Embree's own build threads (0: its default, all hardware threads).
+  EmbreeScene(const FlatScene& f, int threads) {
+    const std::string config =
+        threads > 0 ? "verbose=0,threads=" + std::to_string(threads) : std::string("verbose=0");
+    device_ = rtcNewDevice(config.c_str());
     if (!device_) throw Error(ErrorKind::Internal, "Embree: rtcNewDevice failed");
     scene_ = rtcNewScene(device_);
     // Robust mode: no cracks between triangles sharing an edge, which a ground truth cannot have.
@@ -445,10 +448,8 @@ void validateEnvironment(const Environment& env) {
 
 // shade(hit, rng, rgb) writes the lit colour of a geometry pixel.
 template <class Shade>
-Image renderPixels(const Scene& scene, const Camera& camera, const Environment* background,
-                   const ReferenceOptions& opt, Shade&& shade, const EmbreeScene& es,
-                   const FlatScene& flat) {
-  (void)scene;
+Image renderPixels(const Camera& camera, const Environment* background, const ReferenceOptions& opt,
+                   Shade&& shade, const EmbreeScene& es, const FlatScene& flat) {
   const int W = opt.width, H = opt.height;
   Image out(W, H, 4, 0.0f);
   const CameraBasis basis = cameraBasis(camera, W, H);
@@ -564,7 +565,7 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
   validateOptions(opt);
   validateEnvironment(env);
   const FlatScene flat = flatten(scene);
-  const EmbreeScene es(flat);
+  const EmbreeScene es(flat, opt.threads);
   const EnvSampler envs(env);
 
   // Sample counts per technique. With n_e map samples and n_c cosine samples, the multi-sample
@@ -610,8 +611,7 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
     for (int k = 0; k < 3; ++k) out[k] = float(a[k] * invPi * sum[k]);
   };
 
-  return renderPixels(scene, camera, opt.environmentBackground ? &env : nullptr, opt, shade, es,
-                      flat);
+  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, shade, es, flat);
 }
 
 Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& lights,
@@ -647,7 +647,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
   }
 
   const FlatScene flat = flatten(scene);
-  const EmbreeScene es(flat);
+  const EmbreeScene es(flat, opt.threads);
   const double invPi = 1.0 / kPi;
 
   auto shade = [&](const Hit& h, Pcg32& rng, float out[3]) {
@@ -690,8 +690,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     for (int k = 0; k < 3; ++k) out[k] = float(a[k] * invPi * sum[k] / opt.spp);
   };
 
-  return renderPixels(scene, camera, opt.environmentBackground ? &env : nullptr, opt, shade, es,
-                      flat);
+  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, shade, es, flat);
 }
 
 // ---------------------------------------------------------------------------------------------

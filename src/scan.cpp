@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <climits>
 #include <string>
+#include <vector>
 
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
@@ -208,8 +209,17 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   // seg_sums is only read with more than one segment; one element keeps the argument valid.
   const std::size_t sumsElems =
       nseg > 1 ? checkedMul(segRows, std::size_t(width), "segment-sum count") : 1;
-  cl::Buffer segSums =
-      ctx.buffer(checkedMul(sumsElems, elemBytes, "segment-sum bytes"), stage + " segment sums");
+  const std::size_t sumsBytes = checkedMul(sumsElems, elemBytes, "segment-sum bytes");
+  cl::Buffer segSums = ctx.buffer(sumsBytes, stage + " segment sums");
+  // Step 1 writes every segment sum before steps 2 and 3 read it, so real devices need no
+  // initialization. The oclgrind 21.10 simulator does: its --uninitialized plugin keeps the shadow
+  // state of released buffers, and a new buffer that reuses a slot inherits the old, possibly
+  // smaller shadow, so kernel writes past the old size go unrecorded and later reads are reported
+  // as uninitialized. Only a full-size host write replaces that shadow (a fill does not).
+  if (ctx.info().platform.find("Oclgrind") != std::string::npos) {
+    std::vector<unsigned char> zeros(sumsBytes);
+    ctx.write(segSums, zeros.data(), sumsBytes, stage + " segment sums");
+  }
   try {
     if (nseg > 1) {
       cl::Kernel segK = ctx.kernel(kFile, "scan_col_segments", opts);

@@ -1,13 +1,13 @@
 // Scenes: the built-in default scene, mesh loading through Assimp, camera framing and parsing.
 #include "penumbra/scene.hpp"
 
-#include <assimp/DefaultLogger.hpp>
-#include <assimp/Importer.hpp>
-#include <assimp/LogStream.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <assimp/DefaultLogger.hpp>
+#include <assimp/Importer.hpp>
+#include <assimp/LogStream.hpp>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -126,7 +126,8 @@ Mesh makeSphere(const Vec3& centre, float radius, int segments, int rings, const
     const float theta = kPi * r / rings;  // polar angle from +y
     for (int s = 0; s < segments; ++s) {
       const float phi = 2 * kPi * s / segments;
-      const Vec3 n{std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)};
+      const Vec3 n{std::sin(theta) * std::cos(phi), std::cos(theta),
+                   std::sin(theta) * std::sin(phi)};
       addVertex(m, add(centre, mul(n, radius)), n);
     }
   }
@@ -154,8 +155,8 @@ Mesh makeSphere(const Vec3& centre, float radius, int segments, int rings, const
 // Torus standing upright: its ring lies in the vertical plane through `centre` spanned by +y and
 // the horizontal direction `yaw` turns +x into. The sample at major angle 3*pi/2 with tube angle 0
 // is the lowest point, at exactly centre.y - major - minor (segment counts are multiples of 4).
-Mesh makeTorus(const Vec3& centre, float major, float minor, float yaw, int majorSegs, int minorSegs,
-               const Vec3& albedo) {
+Mesh makeTorus(const Vec3& centre, float major, float minor, float yaw, int majorSegs,
+               int minorSegs, const Vec3& albedo) {
   Mesh m;
   m.name = "torus";
   m.albedo = albedo;
@@ -446,7 +447,7 @@ Scene builtinScene() {
   Mesh slab;
   slab.name = "slab";
   slab.albedo = {0.62f, 0.62f, 0.66f};
-  addBox(slab, {1.0f, 2.05f, -1.2f}, {0.9f, 0.05f, 0.6f}, -0.25f);
+  addBox(slab, {1.1f, 2.05f, -1.2f}, {0.9f, 0.05f, 0.6f}, -0.25f);
   s.meshes.push_back(std::move(slab));
 
   // Upright torus: light through its hole. Its ring faces roughly towards the framing camera
@@ -455,8 +456,8 @@ Scene builtinScene() {
                                {0.82f, 0.68f, 0.24f}));
 
   // Lattice of 4 cm bars with ~0.35 m square holes, 2 m x 2 m.
-  s.meshes.push_back(makeLattice({-1.1f, 0, -2.1f}, 2.0f, 2.0f, 5, 0.04f, 0.15f,
-                                 {0.32f, 0.62f, 0.34f}));
+  s.meshes.push_back(
+      makeLattice({-1.1f, 0, -2.1f}, 2.0f, 2.0f, 5, 0.04f, 0.15f, {0.32f, 0.62f, 0.34f}));
   return s;
 }
 
@@ -489,7 +490,8 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
   }
   for (const std::string& w : warnings.messages()) {
     const std::string l = lower(w);
-    if ((l.find("out-of-range") != std::string::npos || l.find("out of range") != std::string::npos) &&
+    if ((l.find("out-of-range") != std::string::npos ||
+         l.find("out of range") != std::string::npos) &&
         l.find("ind") != std::string::npos)
       badInput(path + ": indices out of range (Assimp: " + logText(w) + ")");
   }
@@ -512,14 +514,15 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
   const Vec3 ext = sub(b.hi, b.lo);
   const float maxExt = std::max({ext[0], ext[1], ext[2]});
   if (!std::isfinite(maxExt)) badInput(path + ": the mesh bounds overflow single precision");
-  if (maxExt <= 0) badInput(path + ": degenerate bounds (all vertices at one point " + vecText(b.lo) + ")");
+  if (maxExt <= 0)
+    badInput(path + ": degenerate bounds (all vertices at one point " + vecText(b.lo) + ")");
 
   if (opt.addGround) {
     float horizontal = std::max(ext[0], ext[2]);
     if (horizontal <= 0) horizontal = ext[1];  // a mesh standing in a vertical line still gets one
     const Vec3 c = b.center();
-    scene.meshes.push_back(makeGround("ground", c[0], b.lo[1], c[2], 4 * horizontal, 8,
-                                      {0.7f, 0.7f, 0.7f}));
+    scene.meshes.push_back(
+        makeGround("ground", c[0], b.lo[1], c[2], 4 * horizontal, 8, {0.7f, 0.7f, 0.7f}));
   }
   return scene;
 }
@@ -610,8 +613,9 @@ Camera parseCamera(const std::string& text) {
   }
   parts.push_back(cur);
   if (parts.size() != 6 && parts.size() != 7)
-    badInput(cameraError(text, "expected 6 or 7 comma-separated numbers (ex,ey,ez,tx,ty,tz[,fovy]), got " +
-                                   std::to_string(parts.size())));
+    badInput(cameraError(
+        text, "expected 6 or 7 comma-separated numbers (ex,ey,ez,tx,ty,tz[,fovy]), got " +
+                  std::to_string(parts.size())));
   float v[7] = {0, 0, 0, 0, 0, 0, 40.0f};
   for (std::size_t i = 0; i < parts.size(); ++i) {
     std::string p = parts[i];
@@ -627,7 +631,8 @@ Camera parseCamera(const std::string& text) {
       badInput(cameraError(text, "value " + std::to_string(i + 1) + " ('" + oneLine(parts[i]) +
                                      "') is not a number"));
     if (!std::isfinite(x) || std::fabs(x) > std::numeric_limits<float>::max())
-      badInput(cameraError(text, "value " + std::to_string(i + 1) + " ('" + p + "') is not finite"));
+      badInput(
+          cameraError(text, "value " + std::to_string(i + 1) + " ('" + p + "') is not finite"));
     v[i] = static_cast<float>(x);
   }
   Camera c;

@@ -26,8 +26,8 @@ using penumbra::ScanTuning;
 using penumbra::ScanType;
 
 Context& ctx() {
-  static Context c;  // one device and program cache for the whole suite
-  return c;
+  static Context* c = new Context;  // one device and program cache for the whole suite
+  return *c;
 }
 
 int lanes(ScanType t) { return t == ScanType::Float4 || t == ScanType::Long4 ? 4 : 1; }
@@ -219,7 +219,8 @@ TEST(Scan, BatchImagesDoNotLeak) {
 // tiles.
 TEST(Scan, TuningKeepsLongTablesIdentical) {
   const Size s{203, 131, 2};
-  const ScanTuning tunings[] = {{1, 1, 1}, {2, 3, 5}, {4, 2, 7}, {64, 1, 64}, {256, 8, 200}};
+  // All within the 32 KiB of local memory OpenCL 1.2 guarantees (256 x 2 long4 needs 25 KiB).
+  const ScanTuning tunings[] = {{1, 1, 1}, {2, 3, 5}, {4, 2, 7}, {64, 8, 64}, {256, 2, 200}};
   for (const auto& tune : tunings) {
     SCOPED_TRACE("workGroup " + std::to_string(tune.workGroup) + " valuesPerItem " +
                  std::to_string(tune.valuesPerItem) + " segmentRows " +
@@ -332,9 +333,7 @@ TEST(Scan, BadInputThrows) {
 
 TEST(Scan, StageNames) {
   ctx().resetTimings();
-  cl::Buffer buf = ctx().buffer(std::size_t(8) * 200 * 4, "stage test");
-  float zero = 0;
-  ctx().fill(buf, &zero, sizeof zero, std::size_t(8) * 200 * 4, "stage test");
+  cl::Buffer buf = ctx().upload(std::vector<float>(8 * 200, 1.0f), "stage test");
   penumbra::summedAreaTable(ctx(), buf, ScanType::Float, 8, 200, 1, "env/sat");
   std::vector<std::string> names;
   for (auto& [stage, ms] : ctx().stageTimesMs()) names.push_back(stage);

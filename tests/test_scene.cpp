@@ -1,6 +1,7 @@
 // Tests for scenes: the built-in scene's geometry, mesh loading (good and broken files), framing,
 // the camera basis and --camera parsing.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -8,7 +9,6 @@
 #include <map>
 #include <set>
 #include <string>
-#include <unistd.h>
 
 #include "penumbra/error.hpp"
 #include "penumbra/scene.hpp"
@@ -66,10 +66,12 @@ Bounds objectBounds(const Scene& scene) {
     for (int k = 0; k < 3; ++k) ++directed[{id[t[k]], id[t[(k + 1) % 3]]}];
   for (const auto& [edge, count] : directed) {
     if (count != 1)
-      return ::testing::AssertionFailure() << m.name << ": directed edge used " << count << " times";
+      return ::testing::AssertionFailure()
+             << m.name << ": directed edge used " << count << " times";
     const auto rev = directed.find({edge.second, edge.first});
     if (rev == directed.end())
-      return ::testing::AssertionFailure() << m.name << ": open edge " << edge.first << "-" << edge.second;
+      return ::testing::AssertionFailure()
+             << m.name << ": open edge " << edge.first << "-" << edge.second;
   }
   return ::testing::AssertionSuccess();
 }
@@ -175,10 +177,11 @@ TEST(SceneBuiltin, TriangleCountAndGroundSubdivision) {
   EXPECT_NEAR(gb.hi[2] - gb.lo[2], 12.0f, 1.0f);
   EXPECT_FLOAT_EQ(gb.lo[1], 0.0f);
   EXPECT_FLOAT_EQ(gb.hi[1], 0.0f);
-  // No huge triangle: every edge of the ground at most 12/8 m.
+  // No huge triangle: no ground edge longer than the diagonal of a 12/8 m cell.
   for (const auto& t : ground.triangles)
     for (int k = 0; k < 3; ++k)
-      ASSERT_LE(len(sub(ground.positions[t[k]], ground.positions[t[(k + 1) % 3]])), 1.5 * std::sqrt(2.0) + 1e-4);
+      ASSERT_LE(len(sub(ground.positions[t[k]], ground.positions[t[(k + 1) % 3]])),
+                1.5 * std::sqrt(2.0) + 1e-4);
   // The sphere is a real UV sphere (~32 x 16), not a coarse blob.
   EXPECT_GE(find(s, "sphere")->triangles.size(), 800u);
 }
@@ -242,7 +245,8 @@ TEST(SceneBuiltin, FacesAgreeWithVertexNormals) {
   const Scene s = builtinScene();
   for (const Mesh& m : s.meshes) {
     for (const auto& t : m.triangles) {
-      const Vec3 g = cross(sub(m.positions[t[1]], m.positions[t[0]]), sub(m.positions[t[2]], m.positions[t[0]]));
+      const Vec3 g = cross(sub(m.positions[t[1]], m.positions[t[0]]),
+                           sub(m.positions[t[2]], m.positions[t[0]]));
       Vec3 n{0, 0, 0};
       for (int i : t)
         for (int k = 0; k < 3; ++k) n[k] += m.normals[i][k];
@@ -330,7 +334,8 @@ TEST(SceneLoad, SpiderWithGround) {
   // Albedo from the .mtl: "Skin" has Kd 0.827 0.792 0.773.
   bool skin = false;
   for (const Mesh& m : s.meshes)
-    skin = skin || (std::fabs(m.albedo[0] - 0.827451f) < 1e-4f && std::fabs(m.albedo[2] - 0.772549f) < 1e-4f);
+    skin = skin || (std::fabs(m.albedo[0] - 0.827451f) < 1e-4f &&
+                    std::fabs(m.albedo[2] - 0.772549f) < 1e-4f);
   EXPECT_TRUE(skin);
 }
 
@@ -363,9 +368,12 @@ TEST(SceneLoad, NoGroundOption) {
 
 TEST(SceneLoad, BadMeshesNameFileAndProblem) {
   const std::string bad = kData + "/meshes/bad/";
-  expectBadInput([&] { loadScene(bad + "BoxWithInfinites.glb"); }, {"BoxWithInfinites.glb", "non-finite", "vertex"});
-  expectBadInput([&] { loadScene(bad + "IndexOutOfRange.gltf"); }, {"IndexOutOfRange.gltf", "out of range"});
-  expectBadInput([&] { loadScene(bad + "point_cloud.obj"); }, {"point_cloud.obj", "no triangles", "points or lines"});
+  expectBadInput([&] { loadScene(bad + "BoxWithInfinites.glb"); },
+                 {"BoxWithInfinites.glb", "non-finite", "vertex"});
+  expectBadInput([&] { loadScene(bad + "IndexOutOfRange.gltf"); },
+                 {"IndexOutOfRange.gltf", "out of range"});
+  expectBadInput([&] { loadScene(bad + "point_cloud.obj"); },
+                 {"point_cloud.obj", "no triangles", "points or lines"});
   expectBadInput([&] { loadScene(bad + "no_such_file.ply"); }, {"no_such_file.ply", "Assimp"});
 }
 
@@ -476,9 +484,12 @@ TEST(SceneCamera, CornersAndEdgesMatchFov) {
   EXPECT_NEAR(std::acos(dot(right, b.forward)), std::atan(tX), 1e-5);
   EXPECT_GT(right[0], 0.0f);
   // Corners: tangent ratios along right and up equal +-tanHalfX, +-tanHalfY.
-  struct Corner { float px, py; double sx, sy; };
-  for (const Corner& k : {Corner{0, 0, -1, 1}, Corner{float(w), 0, 1, 1}, Corner{0, float(h), -1, -1},
-                          Corner{float(w), float(h), 1, -1}}) {
+  struct Corner {
+    float px, py;
+    double sx, sy;
+  };
+  for (const Corner& k : {Corner{0, 0, -1, 1}, Corner{float(w), 0, 1, 1},
+                          Corner{0, float(h), -1, -1}, Corner{float(w), float(h), 1, -1}}) {
     const Vec3 d = cameraRayDirection(b, w, h, k.px, k.py);
     EXPECT_NEAR(len(d), 1, 1e-6);
     EXPECT_NEAR(dot(d, b.right) / dot(d, b.forward), k.sx * tX, 1e-5);
@@ -518,7 +529,8 @@ TEST(SceneCamera, FrameCameraFitsObjectsAndIgnoresGround) {
     const CameraBasis b = cameraBasis(c, w, h);
     double extent = 0;
     for (int i = 0; i < 8; ++i) {
-      const Vec3 p{(i & 1) ? obj.hi[0] : obj.lo[0], (i & 2) ? obj.hi[1] : obj.lo[1], (i & 4) ? obj.hi[2] : obj.lo[2]};
+      const Vec3 p{(i & 1) ? obj.hi[0] : obj.lo[0], (i & 2) ? obj.hi[1] : obj.lo[1],
+                   (i & 4) ? obj.hi[2] : obj.lo[2]};
       const auto q = project(b, p);
       EXPECT_LE(std::fabs(q[0]), 1.0);
       EXPECT_LE(std::fabs(q[1]), 1.0);
@@ -552,22 +564,22 @@ TEST(SceneCamera, ParseGood) {
 
 TEST(SceneCamera, ParseBad) {
   const std::vector<std::string> bad = {
-      "",                       // nothing
-      "1,2,3",                  // too few
-      "1,2,3,4,5,6,7,8",        // too many
-      "1,2,3,4,5,x",            // not a number
-      "1,2,3,4,5,6abc",         // trailing garbage
-      "1,2,3,4,5,6,",           // empty seventh value
-      "1,,3,4,5,6",             // empty value
-      "1,2,3,4,5,nan",          // not finite
-      "1,2,3,4,5,inf",          // not finite
-      "1e999,2,3,4,5,6",        // overflows
-      "1,2,3,4,5,0x10",         // hex
-      "1,2,3,0,0,0,0",          // fovy out of range
-      "1,2,3,0,0,0,180",        // fovy out of range
-      "1,2,3,0,0,0,-30",        // fovy out of range
-      "1,2,3,1,2,3",            // eye == target
-      "0,5,0,0,0,0",            // looking straight down: parallel to up
+      "",                 // nothing
+      "1,2,3",            // too few
+      "1,2,3,4,5,6,7,8",  // too many
+      "1,2,3,4,5,x",      // not a number
+      "1,2,3,4,5,6abc",   // trailing garbage
+      "1,2,3,4,5,6,",     // empty seventh value
+      "1,,3,4,5,6",       // empty value
+      "1,2,3,4,5,nan",    // not finite
+      "1,2,3,4,5,inf",    // not finite
+      "1e999,2,3,4,5,6",  // overflows
+      "1,2,3,4,5,0x10",   // hex
+      "1,2,3,0,0,0,0",    // fovy out of range
+      "1,2,3,0,0,0,180",  // fovy out of range
+      "1,2,3,0,0,0,-30",  // fovy out of range
+      "1,2,3,1,2,3",      // eye == target
+      "0,5,0,0,0,0",      // looking straight down: parallel to up
   };
   for (const std::string& text : bad) {
     SCOPED_TRACE(text);
