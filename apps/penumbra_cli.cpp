@@ -126,6 +126,7 @@ void checkOutput(const std::string& path, const std::vector<std::string>& exts,
   fs::path dir = fs::path(path).parent_path();
   if (!dir.empty() && !fs::is_directory(dir))
     badInput("--" + option + " " + path + ": directory " + dir.string() + " does not exist");
+  if (fs::is_directory(path)) badInput("--" + option + " " + path + ": is a directory");
 }
 
 // Text files are written like images: to a temporary file, then renamed into place.
@@ -145,7 +146,11 @@ void writeTextAtomic(const std::string& path, const std::string& text) {
   }
   std::error_code ec;
   fs::rename(tmp, target, ec);
-  if (ec) badInput(path + ": cannot move into place (" + ec.message() + ")");
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    badInput(path + ": cannot move into place (" + ec.message() + ")");
+  }
 }
 
 const std::vector<OptionSpec> kSceneOptions = {
@@ -225,7 +230,7 @@ int cmdRender(int argc, char** argv) {
       {"slope-bias", true, "MSSM receiver-slope bias factor (default 1.5)"},
       {"light-size-scale", true, "scale of every light's size in the filters (default 1)"},
       {"max-filter", true, "largest filter width in texels (default 27)"},
-      {"exposure", true, "PNG exposure multiplier (default 1)"},
+      {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},
       {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
       {"report", true, "write a JSON report (device, lights, timings, ...)"},
   });
@@ -250,7 +255,7 @@ int cmdRender(int argc, char** argv) {
   if (has(a, "light-size-scale"))
     ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
   if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
-  float exposure = parseFloat("exposure", get(a, "exposure", "1"));
+  float exposure = has(a, "exposure") ? parseFloat("exposure", get(a, "exposure", "")) : 0.0f;
   MedianCutOptions mc = extractOptions(a);
   SceneSetup s = loadSetup(a);
 
@@ -259,7 +264,7 @@ int cmdRender(int argc, char** argv) {
   LightSet lights = extractMedianCut(ctx, s.env, mc);
   Renderer renderer(ctx);
   Frame f = renderer.render(s.scene, s.camera, lights, s.env, ro);
-  writeImage(out, f.image, exposure);
+  writeImage(out, f.image, exposure > 0 ? exposure : autoExposure(f.image));
   if (has(a, "report"))
     writeTextAtomic(get(a, "report", ""), renderReportJson(ctx.info().name, lights, s.env, ro, f));
   double total = f.timingsMs.back().second;
@@ -277,6 +282,7 @@ int cmdReference(int argc, char** argv) {
       {"face-size", true, "cube-map face size for extraction (default 256)"},
       {"seed", true, "random seed (default 1)"},
       {"threads", true, "CPU threads (default: all)"},
+      {"exposure", true, "PNG exposure multiplier (default: automatic)"},
       {"out", true, "output image .exr (default reference.exr) or .png"},
   });
   Args a = parse(argc, argv, 2, specs, "reference");
@@ -310,7 +316,8 @@ int cmdReference(int argc, char** argv) {
     img = referenceEnvironment(s.scene, s.camera, s.env, ro);
   }
   if (tty) std::fprintf(stderr, "\rreference: 100%%\n");
-  writeImage(out, img);
+  float exposure = has(a, "exposure") ? parseFloat("exposure", get(a, "exposure", "")) : 0.0f;
+  writeImage(out, img, exposure > 0 ? exposure : autoExposure(img));
   std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
             << ro.height << ", " << ro.spp << " spp, "
             << (lightMode ? "light-set" : "environment") << " reference)\n";
@@ -372,6 +379,14 @@ int cmdLights(int argc, char** argv) {
   return 0;
 }
 
+// Error output is one line whatever the message holds (a path with a line break, a build log).
+std::string oneLine(std::string s) {
+  for (auto& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
 void usage() {
   std::cout << "penumbra " PENUMBRA_VERSION
                " - soft shadows from area lights and HDR environment maps (OpenCL)\n\n"
@@ -406,14 +421,13 @@ int main(int argc, char** argv) {
     if (cmd == "reference") return cmdReference(argc, argv);
     if (cmd == "compare") return cmdCompare(argc, argv);
     if (cmd == "lights") return cmdLights(argc, argv);
-    std::cerr << "penumbra: unknown command '" << cmd << "' (see penumbra --help)\n";
+    std::cerr << "penumbra: unknown command '" << oneLine(cmd) << "' (see penumbra --help)\n";
     return 2;
   } catch (const Error& e) {
-    std::string msg = e.what();
-    std::cerr << "penumbra: " << toString(e.kind()) << ": " << msg << "\n";
+    std::cerr << "penumbra: " << toString(e.kind()) << ": " << oneLine(e.what()) << "\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << "penumbra: internal error: " << e.what() << "\n";
+    std::cerr << "penumbra: internal error: " << oneLine(e.what()) << "\n";
     return 2;
   }
 }

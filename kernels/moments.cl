@@ -74,7 +74,7 @@ static float4 box_mean(global const long4* sat, int size, float x0, float y0, fl
   return acc / (area * (float)PB_MOMENT_SCALE);
 }
 
-// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015), written as the three-atom
+// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the three-atom
 // distribution it implies. With biased moments b and receiver depth zf: solve the Hankel system
 // B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <= z3 of
 // c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
@@ -83,7 +83,13 @@ static float4 box_mean(global const long4* sat, int size, float x0, float y0, fl
 // returns that weight and `blocker_sum` the weighted depth sum for seed 003 eq. 7.
 static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
                         float* blocker_sum) {
-  float4 b = mix(b_raw, (float4)(0.5f), moment_bias);
+  // Moment bias (MSM §4) towards the moments of the uniform distribution on [0,1]. Peters & Klein
+  // blend towards (0.5, 0.5, 0.5, 0.5), the moments of atoms at 0 and 1; penumbra fits each map's
+  // depth range to the scene, so blockers at ~0 and receivers at ~1 are the common case, and the
+  // blend then stays a two-atom distribution with a singular Hankel matrix (d33 = 0: NaN, or a
+  // wrong bound). A blend with a continuous distribution keeps B positive definite for any input
+  // (d33 >= bias * 1/180), checked in float against double in tests/test_mssm.cpp.
+  float4 b = mix(b_raw, (float4)(0.5f, 1.0f / 3.0f, 0.25f, 0.2f), moment_bias);
   float b1 = b.x, b2 = b.y, b3 = b.z, b4 = b.w;
   float d22 = b2 - b1 * b1;
   float l32 = (b3 - b1 * b2) / d22;

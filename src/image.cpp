@@ -54,6 +54,25 @@ float toneMapChannel(float v) {
   return t <= 0.0031308f ? 12.92f * t : 1.055f * std::pow(t, 1.0f / 2.4f) - 0.055f;
 }
 
+float autoExposure(const Image& img) {
+  double logSum = 0;
+  std::size_t n = 0;
+  bool useAlpha = false;
+  if (img.channels == 4)
+    for (std::size_t i = 0; i < std::size_t(img.width) * img.height && !useAlpha; ++i)
+      useAlpha = img.pixels[i * 4 + 3] > 0.5f;
+  for (std::size_t i = 0; i < std::size_t(img.width) * img.height; ++i) {
+    const float* p = &img.pixels[i * img.channels];
+    if (useAlpha && p[3] <= 0.5f) continue;
+    float y = img.channels >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+    if (!std::isfinite(y)) continue;
+    logSum += std::log(1e-4 + std::max(0.0f, y));
+    ++n;
+  }
+  if (n == 0) return 1.0f;
+  return float(0.25 / std::exp(logSum / double(n)));
+}
+
 void writeImage(const std::string& path, const Image& image, float exposure) {
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);

@@ -18,14 +18,34 @@ const char* kFile = "scan.cl";
 // Width and height are ints on the device, and the kernels form y0 + SEG and base + tile without
 // widening; a bound far above any real image keeps those sums away from INT_MAX.
 constexpr int kMaxSide = 1 << 30;
-constexpr int kDefaultVpt = 4;
-constexpr int kDefaultSeg = 64;
-// Row-pass work-group size range for the automatic choice: below a warp/wavefront a GPU wastes
-// lanes; above 256 the tile's local memory (up to 42 KiB for long4) would crowd out occupancy.
-constexpr int kMinAutoWg = 32;
-constexpr int kMaxAutoWg = 256;
 // Column-pass work-group size: enough adjacent columns for full coalesced transactions.
 constexpr std::size_t kColumnWg = 128;
+
+// Default knobs per device class (the CLBlast habit: a table, passed to the kernels as -D).
+struct Knobs {
+  int minWg, maxWg;  // row-pass work-group range; the choice within it follows the width
+  int vpt, seg;
+  bool lockstep;     // COL_LOCKSTEP
+};
+// GPUs: one warp/wavefront at least, 256 at most (beyond that the long4 tile's local memory,
+// 42 KiB, crowds out occupancy); 4 values per item keep the padded local accesses conflict-free.
+constexpr Knobs kGpuKnobs{32, 256, 4, 64, false};
+// CPUs run a group's work-items one after another: few items with long serial runs (fewer tree
+// steps and barriers per element) and row-synchronized column steps. Measured on PoCL, 2048^2
+// float4: rows ~40 ms with 256 x 4, ~12 ms with 8 x 64; columns see kernels/scan.cl.
+constexpr Knobs kCpuKnobs{8, 8, 64, 64, true};
+
+const Knobs& defaultKnobs(Context& ctx) {
+  cl_device_type type = 0;
+  try {
+    type = ctx.device().getInfo<CL_DEVICE_TYPE>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: querying the device type");
+  }
+  // A device that also calls itself a GPU (oclgrind reports every type) gets the GPU table, so
+  // that the simulator checks the configuration GPUs run.
+  return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU) ? kCpuKnobs : kGpuKnobs;
+}
 
 const char* typeName(ScanType t) {
   switch (t) {
@@ -61,9 +81,10 @@ std::size_t checkedMul(std::size_t a, std::size_t b, const std::string& what) {
   return a * b;
 }
 
-std::string options(ScanType type, int wg, int vpt, int seg) {
+std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
   return std::string("-DSCAN_T=") + typeName(type) + " -DWG=" + std::to_string(wg) +
-         " -DVPT=" + std::to_string(vpt) + " -DSEG=" + std::to_string(seg);
+         " -DVPT=" + std::to_string(vpt) + " -DSEG=" + std::to_string(seg) +
+         " -DCOL_LOCKSTEP=" + (lockstep ? "1" : "0");
 }
 
 // One typed argument setter per kernel (STYLE.md): the signatures mirror kernels/scan.cl.
@@ -136,11 +157,13 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
     badInput("summedAreaTable: data buffer holds " + std::to_string(have) + " bytes but " + dims +
              " needs " + std::to_string(bytes) + " (" + std::to_string(elemBytes) +
              " bytes per element: wrong ScanType or size?)");
-  if (tuning.workGroup < 0 || tuning.valuesPerItem < 0 || tuning.segmentRows < 0)
-    badInput("summedAreaTable: tuning values must be >= 0 (workGroup " +
+  if (tuning.workGroup < 0 || tuning.valuesPerItem < 0 || tuning.segmentRows < 0 ||
+      tuning.columnLockstep < -1 || tuning.columnLockstep > 1)
+    badInput("summedAreaTable: tuning values out of range (workGroup " +
              std::to_string(tuning.workGroup) + ", valuesPerItem " +
              std::to_string(tuning.valuesPerItem) + ", segmentRows " +
-             std::to_string(tuning.segmentRows) + ")");
+             std::to_string(tuning.segmentRows) + ", columnLockstep " +
+             std::to_string(tuning.columnLockstep) + ")");
   if (tuning.workGroup > 0 && !isPow2(tuning.workGroup))
     badInput("summedAreaTable: tuning.workGroup must be a power of two, got " +
              std::to_string(tuning.workGroup));
@@ -149,8 +172,10 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
              " (max 64) or segmentRows " + std::to_string(tuning.segmentRows) + " too large");
 
   // --- knobs -----------------------------------------------------------------------------------
-  const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : kDefaultVpt;
-  const int seg = tuning.segmentRows ? tuning.segmentRows : kDefaultSeg;
+  const Knobs& knobs = defaultKnobs(ctx);
+  const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : knobs.vpt;
+  const int seg = tuning.segmentRows ? tuning.segmentRows : knobs.seg;
+  const bool lockstep = tuning.columnLockstep < 0 ? knobs.lockstep : tuning.columnLockstep != 0;
   std::size_t localMem = 0;
   try {
     localMem = ctx.device().getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
@@ -162,7 +187,7 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   std::size_t wg = tuning.workGroup;
   if (!wg) {
     wg = nextPow2((std::size_t(width) + vpt - 1) / vpt);
-    wg = std::clamp<std::size_t>(wg, kMinAutoWg, kMaxAutoWg);
+    wg = std::clamp<std::size_t>(wg, knobs.minWg, knobs.maxWg);
     wg = std::min(wg, nextPow2(ctx.info().maxWorkGroupSize + 1) / 2);
     while (wg > 1 && rowLocalBytes(elemBytes, wg, vpt) > localMem) wg /= 2;
   }
@@ -175,7 +200,7 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   // automatic choice steps down, an explicit one is the caller's error.
   cl::Kernel rowsK;
   for (;;) {
-    rowsK = ctx.kernel(kFile, "scan_rows", options(type, int(wg), vpt, seg));
+    rowsK = ctx.kernel(kFile, "scan_rows", options(type, int(wg), vpt, seg, lockstep));
     std::size_t limit = 0;
     try {
       limit = rowsK.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(ctx.device());
@@ -188,7 +213,7 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
                std::to_string(limit) + " of scan_rows on " + ctx.info().name);
     wg /= 2;
   }
-  const std::string opts = options(type, int(wg), vpt, seg);
+  const std::string opts = options(type, int(wg), vpt, seg, lockstep);
   const std::size_t nseg = (std::size_t(height) + seg - 1) / seg;
   const std::size_t segRows = checkedMul(nseg, std::size_t(batch), "segment count");
   const std::size_t rowGlobal = checkedMul(rows, wg, "row-pass global size");

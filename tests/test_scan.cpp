@@ -83,10 +83,19 @@ std::vector<Acc> referenceSat(const std::vector<S>& in, Size s, int L, F value) 
   return out;
 }
 
-// Upper bound on the number of additions any input passes through on its way into one output of
-// the default decomposition: serial VPT (4) + Blelloch up/down (2 log2 256) + tile carries (tiles of
-// >= 32*4 elements) + column segment (64) + segment offsets (height/64) + the few joins between.
-double additionDepth(Size s) { return 4 + 16 + (s.w + 127) / 128 + 64 + (s.h + 63) / 64 + 8; }
+// Upper bound on the number of additions any input passes through on its way into one output:
+// the serial run within a work-item (VPT), the up- and down-sweep over the group's totals
+// (2 log2 WG), one carry per earlier tile, the column segment (SEG), the segment offsets
+// (height/SEG) and a few joins. Unset knobs take the larger of the GPU and CPU defaults in
+// src/scan.cpp (VPT 4 or 64, WG 8..256, SEG 64) and the smallest default tile (8 x 4).
+double additionDepth(Size s, const ScanTuning& t) {
+  const int vpt = t.valuesPerItem ? t.valuesPerItem : 64;
+  const int wg = t.workGroup ? t.workGroup : 256;
+  const int tile = (t.workGroup ? t.workGroup : 8) * (t.valuesPerItem ? t.valuesPerItem : 4);
+  const int seg = t.segmentRows ? t.segmentRows : 64;
+  return vpt + 2 * std::log2(double(wg)) + (s.w + tile - 1) / tile + seg + (s.h + seg - 1) / seg +
+         8;
+}
 
 std::vector<float> randomFloats(std::size_t n, unsigned seed, float lo = -1.0f, float hi = 1.0f) {
   std::mt19937 rng(seed);
@@ -113,7 +122,7 @@ void checkFloat(ScanType t, Size s, unsigned seed, const ScanTuning& tune = {}) 
   auto got = deviceSat(t, in, s, tune);
   auto ref = referenceSat<double>(in, s, L, [](float v) { return double(v); });
   auto mag = referenceSat<double>(in, s, L, [](float v) { return std::fabs(double(v)); });
-  const double k = 1.01 * additionDepth(s) * std::ldexp(1.0, -24);
+  const double k = 1.01 * additionDepth(s, tune) * std::ldexp(1.0, -24);
   std::size_t bad = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
     double err = std::fabs(double(got[i]) - ref[i]);
@@ -219,12 +228,15 @@ TEST(Scan, BatchImagesDoNotLeak) {
 // tiles.
 TEST(Scan, TuningKeepsLongTablesIdentical) {
   const Size s{203, 131, 2};
-  // All within the 32 KiB of local memory OpenCL 1.2 guarantees (256 x 2 long4 needs 25 KiB).
-  const ScanTuning tunings[] = {{1, 1, 1}, {2, 3, 5}, {4, 2, 7}, {64, 8, 64}, {256, 2, 200}};
+  // All within the 32 KiB of local memory OpenCL 1.2 guarantees (256 x 2 long4 needs 25 KiB);
+  // both column modes, and the device's defaults with each column mode forced.
+  const ScanTuning tunings[] = {{1, 1, 1, 0},    {2, 3, 5, 1},  {4, 2, 7, 0}, {64, 8, 64, 1},
+                                {256, 2, 200, 0}, {8, 64, 64, 1}, {0, 0, 0, 0}, {0, 0, 0, 1}};
   for (const auto& tune : tunings) {
     SCOPED_TRACE("workGroup " + std::to_string(tune.workGroup) + " valuesPerItem " +
                  std::to_string(tune.valuesPerItem) + " segmentRows " +
-                 std::to_string(tune.segmentRows));
+                 std::to_string(tune.segmentRows) + " columnLockstep " +
+                 std::to_string(tune.columnLockstep));
     check(ScanType::Long, s, 51, tune);
     check(ScanType::Long4, s, 52, tune);
   }
@@ -325,6 +337,7 @@ TEST(Scan, BadInputThrows) {
   expectBad(sat(static_cast<ScanType>(7), 4, 4, 1), "ScanType");
   expectBad(sat(ScanType::Float, 4, 4, 1, {3, 0, 0}), "power of two");
   expectBad(sat(ScanType::Float, 4, 4, 1, {0, -1, 0}), "tuning");
+  expectBad(sat(ScanType::Float, 4, 4, 1, {0, 0, 0, 2}), "columnLockstep");
   cl::Buffer null;
   EXPECT_THROW(penumbra::summedAreaTable(ctx(), null, ScanType::Float, 1, 1), penumbra::Error);
   // The valid call on the same buffer still works.
@@ -343,8 +356,10 @@ TEST(Scan, StageNames) {
 }
 
 // Small cases for the simulator (also part of the normal run): every type, a batch, a width that
-// is not a multiple of anything, and an explicit tuning with tiles of 8 and segments of 4 rows so
-// that the tile carry and the segment offsets are exercised under race/bounds checking.
+// is not a multiple of anything, and explicit tunings with tiles of 8 and segments of 4 rows so
+// that the tile carry and the segment offsets are exercised under race/bounds checking, in both
+// column modes. (The simulator calls itself a GPU, so the defaults there are the GPU table's;
+// OclgrindScan.CpuKnobs checks the CPU table's.)
 TEST(OclgrindScan, Float) {
   check(ScanType::Float, {5, 3, 2}, 71);
   check(ScanType::Float, {33, 17, 1}, 72);
@@ -362,13 +377,14 @@ TEST(OclgrindScan, Long4) {
   check(ScanType::Long4, {33, 17, 1}, 78);
 }
 TEST(OclgrindScan, ManyTilesAndSegments) {
-  const ScanTuning tune{4, 2, 4};
-  check(ScanType::Float, {33, 17, 2}, 79, tune);
-  check(ScanType::Long4, {33, 17, 2}, 80, tune);
+  for (int lockstep : {0, 1}) {
+    const ScanTuning tune{4, 2, 4, lockstep};
+    check(ScanType::Float, {33, 17, 2}, 79, tune);
+    check(ScanType::Long4, {33, 17, 2}, 80, tune);
+  }
 }
-TEST(OclgrindScanDebug, Env) {
-  int t = atoi(getenv("T")), w = atoi(getenv("W")), h = atoi(getenv("H")), b = atoi(getenv("B"));
-  ScanTuning tune{atoi(getenv("WG")), atoi(getenv("VPT")), atoi(getenv("SEG"))};
-  if (getenv("PRE")) check(ScanType(atoi(getenv("PRE"))), {w, h, b}, 4, tune);
-  check(ScanType(t), {w, h, b}, 5, tune);
+TEST(OclgrindScan, CpuKnobs) {
+  const ScanTuning cpu{8, 64, 64, 1};
+  check(ScanType::Float4, {5, 3, 2}, 81, cpu);
+  check(ScanType::Long, {33, 70, 1}, 82, cpu);
 }

@@ -30,6 +30,10 @@ Image readImage(const std::string& path);
 // extension or an unwritable path.
 void writeImage(const std::string& path, const Image& image, float exposure = 1.0f);
 
+// Exposure that maps the log-average luminance of the image (of its alpha > 0.5 pixels when it has
+// alpha and any are set) to 0.25 before tone mapping (Reinhard et al. 2002's "key").
+float autoExposure(const Image& image);
+
 // Tone mapping used for PNG: exposure, then x/(1+x) on luminance-preserving RGB, then sRGB.
 float toneMapChannel(float linear);
 

@@ -26,8 +26,8 @@ const char* toString(ShadowTechnique t);
 // Moment soft shadow mapping with 4 moments (seed 003 §3.2.1). Distances are in shadow-map texels
 // or normalized light-space depth (0 at the map's near plane, 1 at its far plane).
 struct MSSMOptions {
-  float momentBias = 3e-5f;     // blend of the filtered moments towards (0.5,0.5,0.5,0.5); MSM
-                                // paper's value for 4 moments. Larger: more leaking, fewer artifacts
+  float momentBias = 3e-5f;     // blend of the filtered moments towards those of the uniform
+                                // distribution (kernels/moments.cl). Larger: more light leaking
   float depthBias = 0.002f;     // subtracted from the receiver depth (normalized depth units)
   float slopeBias = 1.5f;       // extra depth bias per texel of filter radius, times the receiver
                                 // plane's depth slope (keeps wide filters on tilted receivers lit)

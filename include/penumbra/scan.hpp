@@ -19,13 +19,16 @@ std::size_t scanElementBytes(ScanType t);
 void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
                      int batch = 1, const std::string& stage = "sat");
 
-// How summedAreaTable divides the work (the -D tuning knobs of kernels/scan.cl). 0 means "choose
-// for the device and image": the default overload always does that. The Long/Long4 results are
-// bit-identical for every choice; the Float/Float4 ones differ in rounding only.
+// How summedAreaTable divides the work (the -D tuning knobs of kernels/scan.cl). 0 (-1 for
+// columnLockstep) means "choose for the device and image": the default overload always does that,
+// from a GPU or a CPU table in src/scan.cpp. The Long/Long4 results are bit-identical for every
+// choice; the Float/Float4 ones differ in rounding only.
 struct ScanTuning {
-  int workGroup = 0;      // row-pass work-items per row, a power of two (default: 32..256, by width)
-  int valuesPerItem = 0;  // elements each work-item scans serially per tile (default 4)
-  int segmentRows = 0;    // rows per column segment in the column pass (default 64)
+  int workGroup = 0;        // row-pass work-items per row, a power of two (GPU: 32..256 by width;
+                            // CPU: 8)
+  int valuesPerItem = 0;    // elements each work-item scans serially per tile (GPU 4, CPU 64)
+  int segmentRows = 0;      // rows per column segment in the column pass (default 64)
+  int columnLockstep = -1;  // 1: column steps synchronize each row (CPU default), 0: not (GPU)
 };
 
 // As above with explicit tuning; throws Error(BadInput) for a work-group size the kernel or the

@@ -1,0 +1,606 @@
+// Tests for the `penumbra` command-line interface, run as a subprocess (fork/exec, stdout and
+// stderr captured through pipes, PENUMBRA_DEVICE removed from the environment so the default device
+// is used). Each test runs in its own fresh directory under testing::TempDir(), which is also the
+// child's working directory, so relative output paths land there.
+//
+// Contract under test: every penumbra::Error becomes exactly one line on stderr and exit code 2,
+// the line names the file or parameter at fault, and a failed run leaves no file behind (not even
+// a hidden temporary one).
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "penumbra/error.hpp"
+#include "penumbra/image.hpp"
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+using namespace penumbra;
+
+namespace {
+
+const std::string kData = PENUMBRA_TEST_DATA;
+const std::string kCli = PENUMBRA_CLI;
+
+struct Result {
+  int code = -1;  // exit status, or -signal if the child was killed
+  std::string out, err;
+};
+
+// Runs the CLI with `args` in `cwd`; kills it after `timeoutS` seconds (reported as a failure).
+Result runCli(const std::vector<std::string>& args, const fs::path& cwd, int timeoutS = 120) {
+  Result r;
+  // Everything the child needs is prepared before fork(): only async-signal-safe calls after it.
+  std::vector<std::string> argStore;
+  argStore.push_back(kCli);
+  argStore.insert(argStore.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argStore) argv.push_back(const_cast<char*>(s.c_str()));
+  argv.push_back(nullptr);
+  std::vector<char*> envp;
+  for (char** e = environ; *e; ++e)
+    if (std::strncmp(*e, "PENUMBRA_DEVICE=", 16) != 0) envp.push_back(*e);
+  envp.push_back(nullptr);
+  std::string dir = cwd.string();
+
+  int outPipe[2], errPipe[2];
+  if (pipe2(outPipe, O_CLOEXEC) != 0 || pipe2(errPipe, O_CLOEXEC) != 0) {
+    ADD_FAILURE() << "pipe2 failed: " << std::strerror(errno);
+    return r;
+  }
+  pid_t pid = fork();
+  if (pid < 0) {
+    ADD_FAILURE() << "fork failed: " << std::strerror(errno);
+    return r;
+  }
+  if (pid == 0) {
+    if (chdir(dir.c_str()) != 0) _exit(126);
+    dup2(outPipe[1], 1);
+    dup2(errPipe[1], 2);
+    int devnull = open("/dev/null", O_RDONLY);
+    if (devnull >= 0) dup2(devnull, 0);
+    execve(argv[0], argv.data(), envp.data());
+    _exit(127);
+  }
+  close(outPipe[1]);
+  close(errPipe[1]);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeoutS);
+  bool outOpen = true, errOpen = true, killed = false;
+  char buf[4096];
+  while (outOpen || errOpen) {
+    auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                    deadline - std::chrono::steady_clock::now())
+                    .count();
+    if (left <= 0) {
+      kill(pid, SIGKILL);
+      killed = true;
+      break;
+    }
+    pollfd fds[2];
+    int n = 0;
+    if (outOpen) fds[n++] = {outPipe[0], POLLIN, 0};
+    if (errOpen) fds[n++] = {errPipe[0], POLLIN, 0};
+    int rc = poll(fds, nfds_t(n), int(std::min<long long>(left, 1000)));
+    if (rc < 0 && errno != EINTR) break;
+    for (int i = 0; i < n; ++i) {
+      if (!(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      ssize_t got = read(fds[i].fd, buf, sizeof buf);
+      bool isOut = fds[i].fd == outPipe[0];
+      if (got > 0) {
+        (isOut ? r.out : r.err).append(buf, std::size_t(got));
+      } else if (got == 0 || errno != EINTR) {
+        (isOut ? outOpen : errOpen) = false;
+      }
+    }
+  }
+  close(outPipe[0]);
+  close(errPipe[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status))
+    r.code = WEXITSTATUS(status);
+  else if (WIFSIGNALED(status))
+    r.code = -WTERMSIG(status);
+  if (killed) ADD_FAILURE() << "penumbra timed out after " << timeoutS << " s";
+  return r;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+std::string describe(const Result& r) {
+  return "exit " + std::to_string(r.code) + "\n--- stdout ---\n" + r.out + "\n--- stderr ---\n" +
+         r.err;
+}
+
+std::string readText(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// The number after "key": in a JSON text (first occurrence), or NaN if absent.
+double jsonNumber(const std::string& json, const std::string& key) {
+  auto k = json.find("\"" + key + "\"");
+  if (k == std::string::npos) return std::nan("");
+  auto colon = json.find(':', k);
+  if (colon == std::string::npos) return std::nan("");
+  const char* start = json.c_str() + colon + 1;
+  char* end = nullptr;
+  double v = std::strtod(start, &end);
+  return end == start ? std::nan("") : v;
+}
+
+std::size_t count(const std::string& text, const std::string& needle) {
+  std::size_t n = 0;
+  for (auto p = text.find(needle); p != std::string::npos; p = text.find(needle, p + 1)) ++n;
+  return n;
+}
+
+// Fast settings for the frame (tiny shadow maps and cube faces, few lights).
+const std::vector<std::string> kFast = {"--lights", "8", "--shadow-map-size", "64",
+                                        "--face-size", "32"};
+
+std::vector<std::string> cat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+class CliFixture : public testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = std::string(info->test_suite_name()) + "_" + info->name();
+    for (char& c : name)
+      if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    dir_ = fs::path(testing::TempDir()) /
+           ("penumbra_cli_" + std::to_string(getpid()) + "_" + name);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    dir_ = fs::canonical(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!HasFailure()) fs::remove_all(dir_, ec);
+  }
+
+  Result run(const std::vector<std::string>& args) { return runCli(args, dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // Every entry in the test directory (hidden ones included).
+  std::vector<std::string> entries() const {
+    std::vector<std::string> out;
+    for (auto& e : fs::directory_iterator(dir_)) out.push_back(e.path().filename().string());
+    return out;
+  }
+
+  // The failure contract: exit 2, exactly one non-empty line on stderr containing every string of
+  // `mentions`, no "wrote" on stdout, and nothing written to the test directory.
+  void expectFailure(const std::vector<std::string>& args,
+                     const std::vector<std::string>& mentions) {
+    Result r = run(args);
+    std::string what = describe(r);
+    EXPECT_EQ(r.code, 2) << what;
+    auto errLines = lines(r.err);
+    EXPECT_EQ(errLines.size(), 1u) << what;
+    EXPECT_TRUE(!r.err.empty() && r.err.back() == '\n') << what;
+    if (!errLines.empty()) {
+      EXPECT_FALSE(errLines[0].empty()) << what;
+      for (auto& m : mentions) EXPECT_NE(errLines[0].find(m), std::string::npos) << m << "\n" << what;
+    }
+    EXPECT_EQ(r.out.find("wrote"), std::string::npos) << what;
+    auto left = entries();
+    EXPECT_TRUE(left.empty()) << "left behind: " << (left.empty() ? "" : left[0]) << "\n" << what;
+  }
+
+  // `render` of a bad input file with --out and --report into the test directory.
+  void expectRenderFailure(const std::string& option, const std::string& file) {
+    expectFailure({"render", option, file, "--size", "32x18", "--out", path("out.png"), "--report",
+                   path("r.json")},
+                  {file});
+  }
+
+  fs::path dir_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// 1. Broken input files: one line naming the file, exit 2, nothing written.
+
+class CliBadInput : public CliFixture {};
+
+TEST_F(CliBadInput, TruncatedEnvironment) {
+  expectRenderFailure("--env", kData + "/envmaps/bad/truncated.exr");
+}
+TEST_F(CliBadInput, NotAnImageEnvironment) {
+  expectRenderFailure("--env", kData + "/envmaps/bad/not_an_image.exr");
+}
+TEST_F(CliBadInput, MissingEnvironment) { expectRenderFailure("--env", path("missing.exr")); }
+TEST_F(CliBadInput, MeshWithInfinites) {
+  expectRenderFailure("--scene", kData + "/meshes/bad/BoxWithInfinites.glb");
+}
+TEST_F(CliBadInput, MeshIndexOutOfRange) {
+  expectRenderFailure("--scene", kData + "/meshes/bad/IndexOutOfRange.gltf");
+}
+TEST_F(CliBadInput, PointCloudMesh) {
+  expectRenderFailure("--scene", kData + "/meshes/bad/point_cloud.obj");
+}
+TEST_F(CliBadInput, MissingMesh) { expectRenderFailure("--scene", path("missing.obj")); }
+
+// Every file in the bad-data folders that the brief lists is covered above; a new file there
+// should get a test too.
+TEST_F(CliBadInput, BadDataFoldersAreCovered) {
+  std::vector<std::string> known = {"truncated.exr", "not_an_image.exr", "nan_inf_negative.exr",
+                                    "one_pixel.exr", "BoxWithInfinites.glb",
+                                    "IndexOutOfRange.gltf", "IndexOutOfRange.bin",
+                                    "point_cloud.obj"};
+  for (const char* sub : {"/envmaps/bad", "/meshes/bad"})
+    for (auto& e : fs::directory_iterator(kData + sub)) {
+      std::string f = e.path().filename().string();
+      EXPECT_NE(std::find(known.begin(), known.end(), f), known.end()) << "untested: " << f;
+    }
+}
+
+// A message that holds a line break (here a path with a newline) still becomes one line.
+TEST_F(CliBadInput, LineBreakInMessageStaysOneLine) {
+  Result r = run({"render", "--env", path("a\nb.exr"), "--out", path("out.png")});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+  EXPECT_NE(r.err.find("b.exr"), std::string::npos) << describe(r);
+  EXPECT_TRUE(entries().empty());
+}
+
+// The same contract for lights and reference.
+TEST_F(CliBadInput, LightsTruncatedEnvironment) {
+  std::string f = kData + "/envmaps/bad/truncated.exr";
+  expectFailure({"lights", "--env", f, "--out", path("l.json"), "--overlay", path("o.png")}, {f});
+}
+TEST_F(CliBadInput, ReferenceBadMesh) {
+  std::string f = kData + "/meshes/bad/point_cloud.obj";
+  expectFailure({"reference", "--scene", f, "--size", "16x9", "--spp", "1", "--out",
+                 path("ref.exr")},
+                {f});
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Maps that load: sanitized NaN/Inf/negative texels, a one-pixel map.
+
+class CliEnvironment : public CliFixture {};
+
+TEST_F(CliEnvironment, SanitizedMapRendersAndReports) {
+  Result r = run(cat({"render", "--env", kData + "/envmaps/bad/nan_inf_negative.exr", "--size",
+                      "64x36", "--out", "X.exr", "--report", "R.json"},
+                     kFast));
+  ASSERT_EQ(r.code, 0) << describe(r);
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "X.exr")) << describe(r);
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "R.json")) << describe(r);
+  std::string json = readText(dir_ / "R.json");
+  double sanitized = jsonNumber(json, "sanitized_pixels");
+  EXPECT_GT(sanitized, 0) << json;
+  // stderr reports how many pixels were replaced.
+  EXPECT_NE(r.err.find("replaced " + std::to_string(std::int64_t(sanitized)) + " pixel"),
+            std::string::npos)
+      << describe(r);
+  Image img = readImage((dir_ / "X.exr").string());
+  EXPECT_EQ(img.width, 64);
+  EXPECT_EQ(img.height, 36);
+  for (float v : img.pixels) ASSERT_TRUE(std::isfinite(v));
+}
+
+TEST_F(CliEnvironment, OnePixelMapRenders) {
+  Result r = run(cat({"render", "--env", kData + "/envmaps/bad/one_pixel.exr", "--size", "32x18",
+                      "--out", "one.png"},
+                     kFast));
+  EXPECT_EQ(r.code, 0) << describe(r);
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "one.png")) << describe(r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Bad parameters: exit 2, one line naming the parameter, nothing written.
+
+class CliParams : public CliFixture {
+ protected:
+  void expectBad(const std::vector<std::string>& extra, const std::string& mention) {
+    SCOPED_TRACE(extra.empty() ? std::string() : extra[0]);
+    std::vector<std::string> args = {"render", "--size", "16x9", "--out", path("out.png")};
+    args.insert(args.end(), extra.begin(), extra.end());  // later options override earlier ones
+    expectFailure(args, {mention});
+  }
+};
+
+TEST_F(CliParams, LightsZero) { expectBad({"--lights", "0"}, "--lights"); }
+TEST_F(CliParams, LightsNotANumber) { expectBad({"--lights", "abc"}, "--lights"); }
+TEST_F(CliParams, LightsTooMany) { expectBad({"--lights", "100000"}, "--lights"); }
+TEST_F(CliParams, SizeZero) { expectBad({"--size", "0x10"}, "--size"); }
+TEST_F(CliParams, SizeWithoutHeight) { expectBad({"--size", "12"}, "--size"); }
+TEST_F(CliParams, SizeEmptyHeight) { expectBad({"--size", "12x"}, "--size"); }
+TEST_F(CliParams, UnknownShadows) { expectBad({"--shadows", "foo"}, "--shadows"); }
+TEST_F(CliParams, ShadowMapSizeZero) { expectBad({"--shadow-map-size", "0"}, "--shadow-map-size"); }
+TEST_F(CliParams, CameraTooFewNumbers) { expectBad({"--camera", "1,2"}, "--camera"); }
+TEST_F(CliParams, OutUnsupportedExtension) { expectBad({"--out", path("file.bmp")}, "--out"); }
+TEST_F(CliParams, OutMissingDirectory) {
+  expectBad({"--out", "/nonexistent_dir/x.png"}, "--out");
+}
+TEST_F(CliParams, ReportWrongExtension) { expectBad({"--report", path("r.txt")}, "--report"); }
+// An output path that is an existing directory is refused before any work: no image is written
+// beside it and no hidden temporary file is left behind.
+TEST_F(CliParams, OutputIsADirectory) {
+  for (const char* which : {"--out", "--report"}) {
+    SCOPED_TRACE(which);
+    fs::create_directory(dir_ / "taken.png");
+    fs::create_directory(dir_ / "taken.json");
+    std::string out = std::string(which) == "--out" ? path("taken.png") : path("a.png");
+    std::string report = std::string(which) == "--out" ? path("r.json") : path("taken.json");
+    Result r = run(cat({"render", "--size", "16x9", "--out", out, "--report", report}, kFast));
+    EXPECT_EQ(r.code, 2) << describe(r);
+    EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+    EXPECT_NE(r.err.find(which), std::string::npos) << describe(r);
+    auto left = entries();
+    std::sort(left.begin(), left.end());
+    EXPECT_EQ(left, (std::vector<std::string>{"taken.json", "taken.png"}));
+    EXPECT_TRUE(fs::is_empty(dir_ / "taken.png"));
+    EXPECT_TRUE(fs::is_empty(dir_ / "taken.json"));
+    fs::remove(dir_ / "taken.png");
+    fs::remove(dir_ / "taken.json");
+  }
+}
+TEST_F(CliParams, UnknownOption) { expectBad({"--bogus"}, "--bogus"); }
+TEST_F(CliParams, OptionWithoutValue) {
+  // --lights as the last argument has no value.
+  expectFailure({"render", "--out", path("out.png"), "--lights"}, {"--lights"});
+}
+TEST_F(CliParams, UnknownExtraction) { expectBad({"--extract", "foo"}, "--extract"); }
+TEST_F(CliParams, NonFiniteExposure) { expectBad({"--exposure", "nan"}, "--exposure"); }
+TEST_F(CliParams, FaceSizeZero) { expectBad({"--face-size", "0"}, "--face-size"); }
+TEST_F(CliParams, UnknownCommand) { expectFailure({"frobnicate"}, {"frobnicate"}); }
+TEST_F(CliParams, UnknownDevice) {
+  expectFailure({"render", "--size", "16x9", "--out", path("out.png"), "--device",
+                 "no-such-device-xyz"},
+                {"no-such-device-xyz"});
+}
+TEST_F(CliParams, ReferenceSppZero) {
+  expectFailure({"reference", "--size", "16x9", "--spp", "0", "--out", path("ref.exr")}, {"--spp"});
+}
+TEST_F(CliParams, LightsCommandBadCount) {
+  expectFailure({"lights", "--lights", "abc", "--out", path("l.json")}, {"--lights"});
+}
+TEST_F(CliParams, LightsOverlayNotPng) {
+  expectFailure({"lights", "--lights", "4", "--overlay", path("o.exr")}, {"--overlay"});
+}
+TEST_F(CliParams, NoCommandShowsUsage) {
+  Result r = run({});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_NE(r.out.find("usage"), std::string::npos) << describe(r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. --help for every command; 5. devices.
+
+class CliHelp : public CliFixture {};
+
+TEST_F(CliHelp, EveryCommand) {
+  struct Case {
+    std::string command;
+    std::vector<std::string> mentions;
+  };
+  std::vector<Case> cases = {
+      {"devices", {"usage: penumbra devices"}},
+      {"render", {"usage: penumbra render", "--shadows", "--lights", "--out", "--report", "--size",
+                  "--env", "--scene", "--shadow-map-size", "--camera"}},
+      {"reference", {"usage: penumbra reference", "--spp", "--lights", "--out", "--size"}},
+      {"compare", {"usage: penumbra compare", "--out"}},
+      {"lights", {"usage: penumbra lights", "--lights", "--env", "--overlay", "--out"}},
+  };
+  for (auto& c : cases) {
+    SCOPED_TRACE(c.command);
+    Result r = run({c.command, "--help"});
+    EXPECT_EQ(r.code, 0) << describe(r);
+    EXPECT_TRUE(r.err.empty()) << describe(r);
+    for (auto& m : c.mentions) EXPECT_NE(r.out.find(m), std::string::npos) << m << "\n" << describe(r);
+  }
+  EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(CliHelp, TopLevel) {
+  Result r = run({"--help"});
+  EXPECT_EQ(r.code, 0) << describe(r);
+  for (const char* c : {"devices", "render", "reference", "compare", "lights"})
+    EXPECT_NE(r.out.find(c), std::string::npos) << c;
+  Result v = run({"--version"});
+  EXPECT_EQ(v.code, 0);
+  EXPECT_FALSE(v.out.empty());
+}
+
+class CliDevices : public CliFixture {};
+
+TEST_F(CliDevices, ListsAtLeastOne) {
+  Result r = run({"devices"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  auto out = lines(r.out);
+  ASSERT_GE(out.size(), 1u) << describe(r);
+  EXPECT_EQ(out[0].rfind("0: ", 0), 0u) << describe(r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 6. render: PNG + report, EXR with alpha.
+
+class CliRender : public CliFixture {};
+
+TEST_F(CliRender, PngAndReport) {
+  Result r = run({"render", "--size", "96x54", "--lights", "8", "--shadow-map-size", "64",
+                  "--face-size", "32", "--out", "a.png", "--report", "r.json"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  // stdout names the picture by its absolute path.
+  EXPECT_NE(r.out.find("wrote " + (dir_ / "a.png").string()), std::string::npos) << describe(r);
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "a.png"));
+  std::string bytes = readText(dir_ / "a.png");
+  ASSERT_GE(bytes.size(), 8u);
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  Image img = readImage((dir_ / "a.png").string());
+  EXPECT_EQ(img.width, 96);
+  EXPECT_EQ(img.height, 54);
+  EXPECT_GE(img.channels, 3);
+  float lo = 1e9f, hi = -1e9f;
+  for (float v : img.pixels) lo = std::min(lo, v), hi = std::max(hi, v);
+  EXPECT_LT(lo, hi) << "flat image";
+
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "r.json"));
+  std::string json = readText(dir_ / "r.json");
+  for (const char* key : {"\"device\"", "\"lights\"", "\"sanitized_pixels\"", "\"timings_ms\"",
+                          "\"total\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
+  EXPECT_EQ(jsonNumber(json, "lights"), 8) << json;
+  EXPECT_EQ(jsonNumber(json, "sanitized_pixels"), 0) << json;
+  EXPECT_GT(jsonNumber(json, "total"), 0) << json;
+  // Exactly the two outputs, no leftover temporaries.
+  auto left = entries();
+  EXPECT_EQ(left.size(), 2u);
+}
+
+TEST_F(CliRender, ExrHasAlpha) {
+  Result r = run(cat({"render", "--size", "48x27", "--out", "a.exr", "--shadows", "none"}, kFast));
+  ASSERT_EQ(r.code, 0) << describe(r);
+  Image img = readImage((dir_ / "a.exr").string());
+  EXPECT_EQ(img.width, 48);
+  EXPECT_EQ(img.height, 27);
+  ASSERT_EQ(img.channels, 4);
+  int zeros = 0, ones = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      float a = img.at(x, y, 3);
+      zeros += a == 0.0f;
+      ones += a == 1.0f;
+    }
+  EXPECT_GT(zeros, 0);
+  EXPECT_GT(ones, 0);
+  EXPECT_EQ(zeros + ones, img.width * img.height) << "alpha is a coverage mask";
+}
+
+// ---------------------------------------------------------------------------------------------
+// 7. lights.
+
+class CliLights : public CliFixture {};
+
+TEST_F(CliLights, JsonAndOverlay) {
+  Result r = run({"lights", "--lights", "8", "--face-size", "32", "--out", "l.json", "--overlay",
+                  "o.png"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "l.json"));
+  std::string json = readText(dir_ / "l.json");
+  EXPECT_EQ(jsonNumber(json, "count"), 8) << json;
+  EXPECT_EQ(count(json, "\"direction\""), 8u) << json;
+  ASSERT_TRUE(fs::is_regular_file(dir_ / "o.png"));
+  Image overlay = readImage((dir_ / "o.png").string());
+  EXPECT_GT(overlay.width, 0);
+  EXPECT_GT(overlay.height, 0);
+  EXPECT_EQ(entries().size(), 2u);
+}
+
+TEST_F(CliLights, JsonOnStdout) {
+  Result r = run({"lights", "--lights", "3", "--face-size", "16"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  EXPECT_EQ(count(r.out, "\"direction\""), 3u) << describe(r);
+  EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(CliLights, TruncatedEnvironmentFails) {
+  std::string f = kData + "/envmaps/bad/truncated.exr";
+  expectFailure({"lights", "--env", f}, {f});
+}
+
+// ---------------------------------------------------------------------------------------------
+// 8. reference and compare.
+
+class CliReference : public CliFixture {};
+
+TEST_F(CliReference, EnvironmentLightSetAndCompare) {
+  Result env = run({"reference", "--size", "32x18", "--spp", "4", "--out", "ref.exr"});
+  ASSERT_EQ(env.code, 0) << describe(env);
+  EXPECT_NE(env.out.find("wrote " + (dir_ / "ref.exr").string()), std::string::npos)
+      << describe(env);
+  Result ls = run({"reference", "--lights", "8", "--face-size", "32", "--size", "32x18", "--spp",
+                   "4", "--out", "refl.exr"});
+  ASSERT_EQ(ls.code, 0) << describe(ls);
+  Image a = readImage((dir_ / "ref.exr").string());
+  Image b = readImage((dir_ / "refl.exr").string());
+  EXPECT_EQ(a.width, 32);
+  EXPECT_EQ(a.height, 18);
+  EXPECT_EQ(b.width, 32);
+  EXPECT_EQ(b.height, 18);
+
+  Result cmp = run({"compare", "refl.exr", "ref.exr", "--out", "m.json"});
+  ASSERT_EQ(cmp.code, 0) << describe(cmp);
+  for (const char* key : {"rmse", "relative_rmse", "psnr", "max_abs_error"}) {
+    double v = jsonNumber(cmp.out, key);
+    EXPECT_TRUE(std::isfinite(v) && v >= 0) << key << "\n" << describe(cmp);
+  }
+  EXPECT_EQ(readText(dir_ / "m.json"), cmp.out);
+
+  // Missing reference: exit 2, the line names the file.
+  Result missing = run({"compare", "ref.exr", "missing.exr"});
+  EXPECT_EQ(missing.code, 2) << describe(missing);
+  EXPECT_EQ(lines(missing.err).size(), 1u) << describe(missing);
+  EXPECT_NE(missing.err.find("missing.exr"), std::string::npos) << describe(missing);
+  EXPECT_FALSE(fs::exists(dir_ / "missing.exr"));
+}
+
+class CliCompare : public CliFixture {};
+
+TEST_F(CliCompare, IdenticalImages) {
+  Image img(8, 4, 4, 1.0f);  // alpha 1: every pixel is compared
+  writeImage(path("a.exr"), img);
+  Result r = run({"compare", "a.exr", "a.exr"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  EXPECT_EQ(jsonNumber(r.out, "rmse"), 0) << describe(r);
+  EXPECT_EQ(jsonNumber(r.out, "max_abs_error"), 0) << describe(r);
+  EXPECT_NE(r.out.find("\"psnr\""), std::string::npos) << describe(r);
+}
+
+TEST_F(CliCompare, DifferentSizesFail) {
+  writeImage(path("a.exr"), Image(8, 4, 4, 1.0f));
+  writeImage(path("b.exr"), Image(16, 8, 4, 1.0f));
+  Result r = run({"compare", "a.exr", "b.exr", "--out", "m.json"});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+  EXPECT_FALSE(fs::exists(dir_ / "m.json"));
+}
+
+TEST_F(CliCompare, WrongArgumentCount) {
+  writeImage(path("a.exr"), Image(8, 4, 4, 1.0f));
+  Result r = run({"compare", "a.exr"});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+}
+
+TEST_F(CliCompare, MissingFirstImage) {
+  Result r = run({"compare", path("nope.exr"), path("nope2.exr")});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+  EXPECT_NE(r.err.find("nope.exr"), std::string::npos) << describe(r);
+}
+
+}  // namespace
