@@ -95,6 +95,9 @@ float parseFloat(const std::string& name, const std::string& text) {
   return v;
 }
 
+// 0 means automatic exposure; an explicit value must be positive.
+float parseExposure(const Args& a);
+
 void parseSize(const std::string& text, int& w, int& h) {
   auto x = text.find('x');
   if (x == std::string::npos) badInput("--size must look like WIDTHxHEIGHT, got '" + text + "'");
@@ -108,6 +111,13 @@ std::string get(const Args& a, const std::string& name, const std::string& def) 
 }
 bool has(const Args& a, const std::string& name) {
   return a.values.count(name) || a.flags.count(name);
+}
+
+float parseExposure(const Args& a) {
+  if (!has(a, "exposure")) return 0.0f;
+  float e = parseFloat("exposure", get(a, "exposure", ""));
+  if (!(e > 0)) badInput("--exposure must be > 0, got " + get(a, "exposure", ""));
+  return e;
 }
 
 // Refuses an output path before any work is done: known extension, existing directory.
@@ -255,7 +265,7 @@ int cmdRender(int argc, char** argv) {
   if (has(a, "light-size-scale"))
     ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
   if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
-  float exposure = has(a, "exposure") ? parseFloat("exposure", get(a, "exposure", "")) : 0.0f;
+  float exposure = parseExposure(a);
   MedianCutOptions mc = extractOptions(a);
   SceneSetup s = loadSetup(a);
 
@@ -300,6 +310,7 @@ int cmdReference(int argc, char** argv) {
   ro.spp = int(parseInt("spp", get(a, "spp", "256"), 1, 1 << 20));
   ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", "1"), 0, 1L << 62));
   ro.threads = int(parseInt("threads", get(a, "threads", "0"), 0, 1024));
+  float exposure = parseExposure(a);
   bool lightMode = has(a, "lights");
   MedianCutOptions mc = extractOptions(a);
   SceneSetup s = loadSetup(a);
@@ -316,7 +327,6 @@ int cmdReference(int argc, char** argv) {
     img = referenceEnvironment(s.scene, s.camera, s.env, ro);
   }
   if (tty) std::fprintf(stderr, "\rreference: 100%%\n");
-  float exposure = has(a, "exposure") ? parseFloat("exposure", get(a, "exposure", "")) : 0.0f;
   writeImage(out, img, exposure > 0 ? exposure : autoExposure(img));
   std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
             << ro.height << ", " << ro.spp << " spp, "
@@ -341,7 +351,7 @@ int cmdCompare(int argc, char** argv) {
   if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
   Image A = readImage(a.positional[0]);
   Image B = readImage(a.positional[1]);
-  std::string json = toJson(compareImages(A, B));
+  std::string json = toJson(compareImages(A, B)) + "\n";
   std::cout << json;
   if (has(a, "out")) writeTextAtomic(get(a, "out", ""), json);
   return 0;
@@ -371,11 +381,12 @@ int cmdLights(int argc, char** argv) {
   Context ctx(get(a, "device", ""));
   LightSet lights = extractMedianCut(ctx, env, mc);
   std::string json = lights.toJson();
+  // the overlay first: if it fails, no JSON is left behind either
+  if (has(a, "overlay")) writeLightOverlay(get(a, "overlay", ""), env, lights);
   if (has(a, "out"))
     writeTextAtomic(get(a, "out", ""), json);
   else
     std::cout << json;
-  if (has(a, "overlay")) writeLightOverlay(get(a, "overlay", ""), env, lights);
   return 0;
 }
 

@@ -18,8 +18,8 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
   float range = lights[l].origin[3];
   float z = bits == PB_DEPTH_EMPTY ? 1.0f : clamp(as_float(bits) / range, 0.0f, 1.0f);
   float z2 = z * z;
-  moments[i] = (long4)((long)rint(z * PB_MOMENT_SCALE), (long)rint(z2 * PB_MOMENT_SCALE),
-                       (long)rint(z2 * z * PB_MOMENT_SCALE), (long)rint(z2 * z2 * PB_MOMENT_SCALE));
+  // z is a float, so float products carry all its precision; 2^32 is exact in float.
+  moments[i] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
 }
 
 // Lattice value P(i,j) = sum of texels a < i, b < j of the moment image; P(0,.) = P(.,0) = 0.

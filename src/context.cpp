@@ -205,8 +205,26 @@ std::size_t Context::workGroupSize(const cl::Kernel& k, std::size_t preferred) c
 void Context::launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
                      const cl::NDRange& local) {
   cl::Event ev;
+  cl::NDRange g = global, l = local;
+  if (local.dimensions() == 0 && global.dimensions() > 0) {
+    // Left to itself PoCL picks work-groups of a handful of items for 2D/3D ranges, and per-group
+    // overhead then dominates simple kernels (measured: 10x on depth_to_moments). Use groups of up
+    // to 64 along the first dimension, padding it; kernels ignore ids past their range.
+    std::size_t wg = workGroupSize(k, 64);
+    std::size_t g0 = (global[0] + wg - 1) / wg * wg;
+    if (global.dimensions() == 1) {
+      g = cl::NDRange(g0);
+      l = cl::NDRange(wg);
+    } else if (global.dimensions() == 2) {
+      g = cl::NDRange(g0, global[1]);
+      l = cl::NDRange(wg, 1);
+    } else {
+      g = cl::NDRange(g0, global[1], global[2]);
+      l = cl::NDRange(wg, 1, 1);
+    }
+  }
   try {
-    queue_.enqueueNDRangeKernel(k, cl::NullRange, global, local, nullptr, &ev);
+    queue_.enqueueNDRangeKernel(k, cl::NullRange, g, l, nullptr, &ev);
   } catch (const cl::Error& e) {
     rethrowCl(e, "launching " + stage);
   }

@@ -114,8 +114,9 @@ void writeImage(const std::string& path, const Image& image, float exposure) {
   out.reset();
   fs::rename(tmp, target, ec);
   if (ec) {
+    std::string why = ec.message();
     fs::remove(tmp, ec);
-    badInput(path + ": cannot move the finished image into place (" + ec.message() + ")");
+    badInput(path + ": cannot move the finished image into place (" + why + ")");
   }
 }
 

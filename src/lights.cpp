@@ -101,19 +101,22 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   // Splat when the map's texels are at least as fine as the cube's (equator texel 2 pi / W versus
   // face-centre texel (pi/2) / m); gather otherwise.
   const bool splat = eq.width >= 4 * m;
+  // Sub-samples per side: about two per destination texel (splat: per cube texel a map texel
+  // covers; gather: per map texel a cube texel covers), capped by the option. More only smooths
+  // aliasing; energy is conserved either way (splat exactly).
+  const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
+  const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, opt.supersample);
   if (splat) {
     cl::Kernel k = ctx.kernel("envmap.cl", "env_splat");
     k.setArg(0, eqBuf);
     k.setArg(1, cl_int(eq.width));
     k.setArg(2, cl_int(eq.height));
-    k.setArg(3, cl_int(opt.supersample));
+    k.setArg(3, cl_int(ss));
     k.setArg(4, cl_int(m));
     k.setArg(5, cl_float(scale));
     k.setArg(6, energy);
     ctx.launch("env/resample", k, cl::NDRange(eq.width, eq.height));
   } else {
-    // enough sub-samples per cube texel that each map texel is hit many times
-    int ss = std::clamp(opt.supersample, 1, 8);
     cl::Kernel k = ctx.kernel("envmap.cl", "env_gather");
     k.setArg(0, eqBuf);
     k.setArg(1, cl_int(eq.width));
@@ -195,7 +198,12 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
 }
 
 void writeLightOverlay(const std::string& path, const Environment& env, const LightSet& set) {
-  Image img = env.equirect;
+  // Small maps are enlarged (nearest texel) so the outlines stay legible.
+  const int k = std::max(1, (1024 + env.equirect.width - 1) / env.equirect.width);
+  Image img(env.equirect.width * k, env.equirect.height * k, 3);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = env.equirect.at(x / k, y / k, c);
   const int W = img.width, H = img.height;
   auto mark = [&](float x, float y, float z, const float col[3]) {
     float s, t;
@@ -236,7 +244,7 @@ void writeLightOverlay(const std::string& path, const Environment& env, const Li
       for (int c = 0; c < 3; ++c) img.at(si, ti, c) = centre[c];
     }
   }
-  writeImage(path, img);
+  writeImage(path, img, autoExposure(env.equirect));
 }
 
 }  // namespace penumbra

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <sstream>
 #include <cstring>
 #include <cstdlib>
@@ -124,7 +125,26 @@ struct Renderer::Impl {
   Context& ctx;
   int lastPixels = 0, lastLights = 0;
   cl::Buffer vis;
+  // Device buffers kept between frames by role; reallocated only when a frame needs more.
+  // Fresh allocations cost first-touch page faults on CPU devices (measured: a 64 MiB moment
+  // buffer doubled the moments stage) and allocation calls on GPUs.
+  std::map<std::string, std::pair<cl::Buffer, std::size_t>> pool;
   explicit Impl(Context& c) : ctx(c) {}
+  cl::Buffer& buffer(const std::string& role, std::size_t bytes) {
+    auto& slot = pool[role];
+    if (slot.second < bytes) {
+      slot.first = cl::Buffer();  // release before allocating the larger one
+      slot.first = ctx.buffer(bytes, role);
+      slot.second = bytes;
+    }
+    return slot.first;
+  }
+  template <class T>
+  cl::Buffer& upload(const std::string& role, const std::vector<T>& data) {
+    cl::Buffer& b = buffer(role, std::max<std::size_t>(1, data.size()) * sizeof(T));
+    if (!data.empty()) ctx.write(b, data.data(), data.size() * sizeof(T), role);
+    return b;
+  }
 };
 
 Renderer::Renderer(Context& ctx) : impl_(std::make_unique<Impl>(ctx)) {}
@@ -167,10 +187,10 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     alb.push_back({{m.albedo[0], m.albedo[1], m.albedo[2], 1.0f}});
   }
   const int ntris = int(tris.size());
-  cl::Buffer posB = ctx.upload(pos, "vertex positions");
-  cl::Buffer nrmB = ctx.upload(nrm, "vertex normals");
-  cl::Buffer triB = ctx.upload(tris, "triangles");
-  cl::Buffer albB = ctx.upload(alb, "albedo");
+  cl::Buffer posB = impl_->upload("vertex positions", pos);
+  cl::Buffer nrmB = impl_->upload("vertex normals", nrm);
+  cl::Buffer triB = impl_->upload("triangles", tris);
+  cl::Buffer albB = impl_->upload("albedo", alb);
 
   const int W = opt.width, H = opt.height, npx = W * H;
   const int nl = int(lightSet.lights.size());
@@ -183,8 +203,8 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     lviews.push_back(orthoView(lights.back(), S));
   }
   std::vector<pb_view> cview{cameraView(camera, W, H)};
-  cl::Buffer camB = ctx.upload(cview, "camera");
-  cl::Buffer lightB = ctx.upload(lights, "lights");
+  cl::Buffer camB = impl_->upload("camera", cview);
+  cl::Buffer lightB = impl_->upload("lights", lights);
 
   cl::Kernel raster = ctx.kernel("raster.cl", "raster_triangles");
   auto rasterize = [&](cl::Buffer& views, int nviews, int pass, cl::Buffer& depth, cl::Buffer& ids,
@@ -201,17 +221,17 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   };
 
   // --- camera G-buffer
-  cl::Buffer cdepth = ctx.buffer(std::size_t(npx) * 4, "camera depth");
-  cl::Buffer cids = ctx.buffer(std::size_t(npx) * 4, "camera triangle ids");
+  cl::Buffer cdepth = impl_->buffer("camera depth", std::size_t(npx) * 4);
+  cl::Buffer cids = impl_->buffer("camera triangle ids", std::size_t(npx) * 4);
   cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
   ctx.fill(cdepth, &emptyDepth, 4, std::size_t(npx) * 4, "camera depth");
   ctx.fill(cids, &emptyId, 4, std::size_t(npx) * 4, "camera triangle ids");
   rasterize(camB, 1, 0, cdepth, cids, "gbuffer/depth");
   rasterize(camB, 1, 1, cdepth, cids, "gbuffer/ids");
-  cl::Buffer gpos = ctx.buffer(std::size_t(npx) * 16, "G-buffer positions");
-  cl::Buffer gnrm = ctx.buffer(std::size_t(npx) * 16, "G-buffer normals");
-  cl::Buffer ggeo = ctx.buffer(std::size_t(npx) * 16, "G-buffer geometric normals");
-  cl::Buffer galb = ctx.buffer(std::size_t(npx) * 16, "G-buffer albedo");
+  cl::Buffer gpos = impl_->buffer("G-buffer positions", std::size_t(npx) * 16);
+  cl::Buffer gnrm = impl_->buffer("G-buffer normals", std::size_t(npx) * 16);
+  cl::Buffer ggeo = impl_->buffer("G-buffer geometric normals", std::size_t(npx) * 16);
+  cl::Buffer galb = impl_->buffer("G-buffer albedo", std::size_t(npx) * 16);
   {
     cl::Kernel k = ctx.kernel("raster.cl", "gbuffer_resolve");
     k.setArg(0, posB);
@@ -229,19 +249,17 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
 
   // --- visibility per light
   const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
-  if (impl_->lastPixels != npx || impl_->lastLights != nl) {
-    impl_->vis = ctx.buffer(visBytes, "visibility buffer");
-    impl_->lastPixels = npx;
-    impl_->lastLights = nl;
-  }
+  impl_->vis = impl_->buffer("visibility buffer", visBytes);
+  impl_->lastPixels = npx;
+  impl_->lastLights = nl;
   Frame frame;
   if (nl > 0 && opt.shadows == ShadowTechnique::MSSM4) {
     const std::size_t texels = std::size_t(S) * S * nl;
-    cl::Buffer lviewB = ctx.upload(lviews, "light views");
-    cl::Buffer ldepth = ctx.buffer(texels * 4, "shadow maps");
+    cl::Buffer lviewB = impl_->upload("light views", lviews);
+    cl::Buffer ldepth = impl_->buffer("shadow maps", texels * 4);
     ctx.fill(ldepth, &emptyDepth, 4, texels * 4, "shadow maps");
     rasterize(lviewB, nl, 0, ldepth, ldepth, "shadow-maps/raster");
-    cl::Buffer moments = ctx.buffer(texels * sizeof(cl_long4), "moment shadow maps");
+    cl::Buffer moments = impl_->buffer("moment shadow maps", texels * sizeof(cl_long4));
     frame.shadowMapBytes = texels * sizeof(cl_long4);
     {
       cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments");
@@ -272,8 +290,8 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   }
 
   // --- shading
-  cl::Buffer envB = ctx.upload(env.equirect.pixels, "environment map");
-  cl::Buffer outB = ctx.buffer(std::size_t(npx) * 16, "frame");
+  cl::Buffer envB = impl_->upload("environment map", env.equirect.pixels);
+  cl::Buffer outB = impl_->buffer("frame", std::size_t(npx) * 16);
   {
     cl::Kernel k = ctx.kernel("shade.cl", "shade");
     std::size_t wg = ctx.workGroupSize(k, 64);

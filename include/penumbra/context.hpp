@@ -62,7 +62,9 @@ class Context {
   // The work-group size to use for a kernel: the largest power of two <= min(preferred, limits).
   std::size_t workGroupSize(const cl::Kernel& k, std::size_t preferred = 256) const;
 
-  // Enqueues k under a stage name; the event's profiled duration is added to that stage.
+  // Enqueues k under a stage name; the event's profiled duration is added to that stage. Without
+  // a local size, the first dimension is padded up to a multiple of the chosen work-group size:
+  // such kernels must return early for ids beyond their range.
   void launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
               const cl::NDRange& local = cl::NullRange);
   // Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
