@@ -237,7 +237,7 @@ int cmdRender(int argc, char** argv) {
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
       {"moment-bias", true, "MSSM moment bias (default 3e-5)"},
       {"depth-bias", true, "MSSM depth bias, normalized depth (default 0.002)"},
-      {"slope-bias", true, "MSSM receiver-slope bias factor (default 1.5)"},
+      {"slope-bias", true, "MSSM receiver-slope bias factor (default 0)"},
       {"light-size-scale", true, "scale of every light's size in the filters (default 1)"},
       {"max-filter", true, "largest filter width in texels (default 27)"},
       {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},

@@ -9,7 +9,7 @@
 // environment energies) as 64-bit fixed point, long/long4 holding round(v * 2^32)
 // (PB_MOMENT_SCALE): integer addition is exact and associative, so a box query is the exact sum
 // of the quantized values whatever the box size or position, and the tables are bit-identical
-// for every work-group size and device. (Values <= 2^32 in a 4096^2 table stay below 2^56.) The
+// for every work-group size and device. (Values <= 2^32 in a 4096^2 table stay within 2^56.) The
 // float/float4 variants are for general use; the tests hold them to a double-precision reference
 // with a tolerance derived from the sums' magnitude, and show the box-query gap on moment data.
 //

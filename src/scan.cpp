@@ -167,6 +167,10 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   if (tuning.workGroup > 0 && !isPow2(tuning.workGroup))
     badInput("summedAreaTable: tuning.workGroup must be a power of two, got " +
              std::to_string(tuning.workGroup));
+  if (tuning.workGroup > 0 && std::size_t(tuning.workGroup) > ctx.info().maxWorkGroupSize)
+    badInput("summedAreaTable: tuning.workGroup " + std::to_string(tuning.workGroup) +
+             " exceeds the work-group limit " + std::to_string(ctx.info().maxWorkGroupSize) +
+             " of " + ctx.info().name);
   if (tuning.valuesPerItem > 64 || tuning.segmentRows > kMaxSide)
     badInput("summedAreaTable: tuning.valuesPerItem " + std::to_string(tuning.valuesPerItem) +
              " (max 64) or segmentRows " + std::to_string(tuning.segmentRows) + " too large");

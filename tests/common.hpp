@@ -6,9 +6,11 @@
 
 namespace penumbra::test {
 
+// Never destroyed: under oclgrind a Context released during static destruction (after LLVM's
+// own static state is gone) corrupts the heap and aborts the run.
 inline Context& ctx() {
-  static Context c;
-  return c;
+  static Context* c = new Context;
+  return *c;
 }
 
 inline std::string data(const std::string& rel) { return std::string(PENUMBRA_TEST_DATA) + "/" + rel; }

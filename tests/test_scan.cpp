@@ -54,7 +54,8 @@ std::string label(ScanType t, Size s) {
 
 // Uploads `in` (scalars, lanes(t) per element), scans on the device, downloads.
 template <class S>
-std::vector<S> deviceSat(ScanType t, const std::vector<S>& in, Size s, const ScanTuning& tune = {}) {
+std::vector<S> deviceSat(ScanType t, const std::vector<S>& in, Size s,
+                         const ScanTuning& tune = {}) {
   cl::Buffer buf = ctx().upload(in, "scan test data");
   penumbra::summedAreaTable(ctx(), buf, t, s.w, s.h, s.batch, "test", tune);
   return ctx().download<S>(buf, in.size(), "scan test data");
@@ -338,6 +339,7 @@ TEST(Scan, BadInputThrows) {
   expectBad(sat(ScanType::Float, 4, 4, 1, {3, 0, 0}), "power of two");
   expectBad(sat(ScanType::Float, 4, 4, 1, {0, -1, 0}), "tuning");
   expectBad(sat(ScanType::Float, 4, 4, 1, {0, 0, 0, 2}), "columnLockstep");
+  expectBad(sat(ScanType::Float, 4, 4, 1, {1 << 20, 0, 0}), "work-group limit");
   cl::Buffer null;
   EXPECT_THROW(penumbra::summedAreaTable(ctx(), null, ScanType::Float, 1, 1), penumbra::Error);
   // The valid call on the same buffer still works.
