@@ -47,7 +47,8 @@ struct Result {
 };
 
 // Runs the CLI with `args` in `cwd`; kills it after `timeoutS` seconds (reported as a failure).
-Result runCli(const std::vector<std::string>& args, const fs::path& cwd, int timeoutS = 120) {
+Result runCli(const std::vector<std::string>& args, const fs::path& cwd, int timeoutS = 120,
+              const std::vector<std::string>& extraEnv = {}) {
   Result r;
   // Everything the child needs is prepared before fork(): only async-signal-safe calls after it.
   std::vector<std::string> argStore;
@@ -59,6 +60,7 @@ Result runCli(const std::vector<std::string>& args, const fs::path& cwd, int tim
   std::vector<char*> envp;
   for (char** e = environ; *e; ++e)
     if (std::strncmp(*e, "PENUMBRA_DEVICE=", 16) != 0) envp.push_back(*e);
+  for (auto& e : extraEnv) envp.push_back(const_cast<char*>(e.c_str()));
   envp.push_back(nullptr);
   std::string dir = cwd.string();
 
@@ -447,6 +449,32 @@ TEST_F(CliDevices, ListsAtLeastOne) {
   auto out = lines(r.out);
   ASSERT_GE(out.size(), 1u) << describe(r);
   EXPECT_EQ(out[0].rfind("0: ", 0), 0u) << describe(r);
+}
+
+TEST_F(CliDevices, NoOpenCLPlatformNamesThePackage) {
+  // ocl-icd finds no vendor files in a missing directory: no platform at all
+  Result r = runCli({"render", "--out", path("out.png")}, dir_, 120,
+                    {"OCL_ICD_VENDORS=" + path("no-vendors")});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  auto err = lines(r.err);
+  ASSERT_EQ(err.size(), 1u) << describe(r);
+  EXPECT_NE(err[0].find("no OpenCL platform"), std::string::npos) << describe(r);
+  EXPECT_NE(err[0].find("pocl-opencl-icd"), std::string::npos) << describe(r);
+  EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(CliDevices, UnknownDeviceIsRefused) {
+  Result r = runCli({"devices"}, dir_);
+  ASSERT_EQ(r.code, 0);
+  expectFailure({"render", "--device", "no-such-device", "--out", path("out.png")},
+                {"no-such-device"});
+}
+
+TEST_F(CliDevices, OutOfDeviceMemoryIsOneLineAndWritesNothing) {
+  // 1024 lights x 4096^2 shadow maps need 64 GiB of depth maps alone
+  expectFailure({"render", "--size", "64x36", "--lights", "1024", "--face-size", "64",
+                 "--shadow-map-size", "4096", "--out", path("out.png"), "--report", path("r.json")},
+                {"out of device memory", "shadow maps"});
 }
 
 // ---------------------------------------------------------------------------------------------

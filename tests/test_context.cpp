@@ -1,0 +1,80 @@
+// OpenCL context: device selection, typed errors.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "common.hpp"
+
+using namespace penumbra;
+
+TEST(Context, ListsDevicesAndSelectsByIndexAndName) {
+  auto devices = listDevices();
+  ASSERT_FALSE(devices.empty());
+  Context byIndex("0");
+  EXPECT_EQ(byIndex.info().name, devices[0].name);
+  // a case-insensitive substring of the device or platform name
+  std::string part = devices[0].name.substr(0, std::min<std::size_t>(6, devices[0].name.size()));
+  for (auto& c : part) c = char(std::toupper(c));
+  Context byName(part);
+  EXPECT_EQ(byName.info().name, devices[0].name);
+}
+
+TEST(Context, UnknownDeviceIsANamedError) {
+  for (std::string sel : {"no-such-device-xyz", "99"}) {
+    try {
+      Context c(sel);
+      FAIL() << sel << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::NoPlatform);
+      EXPECT_NE(std::string(e.what()).find(sel), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Context, EnvironmentVariableSelectsTheDevice) {
+  ::setenv("PENUMBRA_DEVICE", "no-such-device-xyz", 1);
+  EXPECT_THROW(Context c, Error);
+  ::unsetenv("PENUMBRA_DEVICE");
+  EXPECT_NO_THROW(Context c);
+}
+
+TEST(Context, KernelBuildFailureCarriesLogAndFile) {
+  Context& ctx = test::ctx();
+  try {
+    ctx.kernel("scan.cl", "scan_rows", "-DSCAN_T=not_a_type");
+    FAIL() << "bad build options accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::KernelBuild);
+    std::string msg = e.what();
+    EXPECT_NE(msg.find("kernels/scan.cl"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("not_a_type"), std::string::npos) << msg;  // from the build log
+  }
+  EXPECT_THROW(ctx.kernel("missing.cl", "x"), Error);
+}
+
+TEST(Context, OversizedBufferIsOutOfMemory) {
+  Context& ctx = test::ctx();
+  try {
+    ctx.buffer(ctx.info().globalMemBytes + (std::size_t(1) << 30), "test buffer");
+    FAIL() << "oversized buffer accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::OutOfMemory);
+    EXPECT_NE(std::string(e.what()).find("test buffer"), std::string::npos);
+  }
+}
+
+TEST(Context, NamedLaunchesBecomeStageTimes) {
+  Context& ctx = test::ctx();
+  ctx.resetTimings();
+  std::vector<float> data(64 * 8, 1.0f);
+  cl::Buffer b = ctx.upload(data, "data");
+  summedAreaTable(ctx, b, ScanType::Float, 64, 8, 1, "mysat");
+  auto times = ctx.stageTimesMs();
+  ASSERT_FALSE(times.empty());
+  for (auto& [name, ms] : times) {
+    EXPECT_EQ(name.rfind("mysat/", 0), 0u) << name;
+    EXPECT_GE(ms, 0.0);
+  }
+  auto out = ctx.download<float>(b, data.size(), "data");
+  EXPECT_FLOAT_EQ(out.back(), 64.0f * 8.0f);
+}
