@@ -132,9 +132,10 @@ typedef struct {
 #define BOX_FROM_DISC 0.88622692545f
 
 // Visibility of each light at each pixel: vis[light][pixel]. One work-item per (pixel, light).
-kernel void mssm4_visibility(global const float4* gpos, global const float4* ggeo,
-                             global const pb_light* lights, global const long4* sats, int size,
-                             int npixels, mssm_params P, global float* vis) {
+kernel void mssm4_visibility(global const float4* gpos, global const float4* gnrm,
+                             global const float4* ggeo, global const pb_light* lights,
+                             global const long4* sats, int size, int npixels, mssm_params P,
+                             global float* vis) {
   int px = get_global_id(0), l = get_global_id(1);
   if (px >= npixels) return;
   float4 p4 = gpos[px];
@@ -142,6 +143,10 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gge
   if (p4.w == 0.0f) { vis[out] = 1.0f; return; }
   pb_light L = lights[l];
   float3 w = (float3)(L.dir[0], L.dir[1], L.dir[2]);
+  // A light wholly below the surface's horizon adds nothing (pb_cap_irradiance is 0): skip it.
+  // For an upward ground, that is every light of the lower hemisphere.
+  float sin_a = sqrt(fmax(1.0f - L.dir[3] * L.dir[3], 0.0f));
+  if (dot(gnrm[px].xyz, w) <= -sin_a) { vis[out] = 1.0f; return; }
   float3 ex = (float3)(L.ex[0], L.ex[1], L.ex[2]), ey = (float3)(L.ey[0], L.ey[1], L.ey[2]);
   float3 org = (float3)(L.origin[0], L.origin[1], L.origin[2]);
   float hx = L.ex[3], hy = L.ey[3], range = L.origin[3];

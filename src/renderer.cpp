@@ -275,13 +275,14 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility");
     std::size_t wg = ctx.workGroupSize(k, 64);
     k.setArg(0, gpos);
-    k.setArg(1, ggeo);
-    k.setArg(2, lightB);
-    k.setArg(3, moments);
-    k.setArg(4, cl_int(S));
-    k.setArg(5, cl_int(npx));
-    k.setArg(6, sizeof(P), &P);
-    k.setArg(7, impl_->vis);
+    k.setArg(1, gnrm);
+    k.setArg(2, ggeo);
+    k.setArg(3, lightB);
+    k.setArg(4, moments);
+    k.setArg(5, cl_int(S));
+    k.setArg(6, cl_int(npx));
+    k.setArg(7, sizeof(P), &P);
+    k.setArg(8, impl_->vis);
     ctx.launch("mssm4/visibility", k, cl::NDRange((npx + wg - 1) / wg * wg, nl),
                cl::NDRange(wg, 1));
   } else if (nl > 0) {

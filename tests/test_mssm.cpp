@@ -58,14 +58,16 @@ PlanarResult planarCase(double alphaDeg, double h, int mapSize) {
   light.radiance = {1, 1, 1};
   LightSet set;
   set.lights.push_back(light);
-  // The camera looks up at the ground's underside: visibility depends only on the position.
+  // The camera stands on the lit side below the blocker's height and looks across the shadow
+  // edge at the ground, which faces it and the light.
   Camera cam;
-  cam.eye = {0, -4, 0};
-  cam.target = {0, 0, 0};
-  cam.up = {0, 0, -1};
-  cam.fovyDeg = 40;
+  cam.eye = {2.2f, float(0.45 * h), 0.3f};
+  cam.target = {-1.2f, 0, 0};
+  cam.up = {0, 1, 0};
+  cam.fovyDeg = 50;
   RenderOptions ro;
-  ro.width = ro.height = 96;
+  ro.width = 128;
+  ro.height = 96;
   ro.shadowMapSize = mapSize;
   ro.environmentBackground = false;
   ro.mssm.maxFilterTexels = 64;
@@ -83,8 +85,10 @@ PlanarResult planarCase(double alphaDeg, double h, int mapSize) {
     for (int x = 0; x < ro.width; ++x) {
       if (f.image.at(x, y, 3) < 0.5f) continue;
       Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
+      if (d[1] >= 0) continue;  // the blocker's underside, not the receiver
       double t = -b.eye[1] / d[1];
-      double px = b.eye[0] + t * d[0];
+      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
+      if (std::fabs(px) > 2.9 || std::fabs(pz) > 2.9) continue;  // ground's border
       // the profile is a function of x alone: tabulate it at 1/2000 of the penumbra width
       double u = std::clamp((px + R) / (2 * R), 0.0, 1.0) * 2000;
       int k = std::min(int(u), 1999);

@@ -63,7 +63,8 @@ class Renderer {
   Frame render(const Scene& scene, const Camera& camera, const LightSet& lights,
                const Environment& env, const RenderOptions& opt);
   // Visibility of each light at each pixel (light-major, width*height per light) from the last
-  // render(), read back on demand. Background pixels hold 1.
+  // render(), read back on demand. Background pixels hold 1, and so do pixels whose surface
+  // has the light wholly below its horizon (their visibility is never used, so never computed).
   std::vector<float> lastVisibility();
 
  private:
