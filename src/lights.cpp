@@ -11,6 +11,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
+#include "cubemap.hpp"
 
 namespace penumbra {
 
@@ -79,54 +80,13 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   if (std::int64_t(opt.lights) > 6LL * m * m)
     badInput("--lights " + std::to_string(opt.lights) + " exceeds the " +
              std::to_string(6LL * m * m) + " texels of a " + std::to_string(m) + "^2 cube map");
-  if (opt.supersample < 1 || opt.supersample > 64)
-    badInput("supersample must be in [1, 64], got " + std::to_string(opt.supersample));
   if (!(opt.maxHalfAngleDeg > 0 && opt.maxHalfAngleDeg < 90))
     badInput("max half-angle must be in (0, 90) degrees");
-  const Image& eq = env.equirect;
-  if (eq.empty() || eq.channels != 3) badInput(env.source + ": environment has no RGB pixels");
 
-  // Fixed-point scale: everything (4 pi x the brightest value) fits in 2^48, leaving room for the
-  // exact luminance product (x 10^4 < 2^14) and the SAT sums below 2^63.
-  float maxv = 0.0f;
-  for (float v : eq.pixels) maxv = std::max(maxv, v);
-  const double scale = maxv > 0 ? std::ldexp(1.0, 48) / (4.0 * kPi * maxv) : 1.0;
-
+  detail::DeviceCube cube = detail::resampleToCube(ctx, env, m, opt.supersample);
+  const double scale = cube.scale;
   const std::size_t cubeTexels = 6ull * m * m;
-  cl::Buffer eqBuf = ctx.upload(eq.pixels, "environment map");
-  cl::Buffer energy = ctx.buffer(3 * cubeTexels * sizeof(cl_long), "cube-map energy");
-  cl_long zero = 0;
-  ctx.fill(energy, &zero, sizeof zero, 3 * cubeTexels * sizeof(cl_long), "cube-map energy");
-
-  // Splat when the map's texels are at least as fine as the cube's (equator texel 2 pi / W versus
-  // face-centre texel (pi/2) / m); gather otherwise.
-  const bool splat = eq.width >= 4 * m;
-  // Sub-samples per side: about two per destination texel (splat: per cube texel a map texel
-  // covers; gather: per map texel a cube texel covers), capped by the option. More only smooths
-  // aliasing; energy is conserved either way (splat exactly).
-  const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
-  const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, opt.supersample);
-  if (splat) {
-    cl::Kernel k = ctx.kernel("envmap.cl", "env_splat");
-    k.setArg(0, eqBuf);
-    k.setArg(1, cl_int(eq.width));
-    k.setArg(2, cl_int(eq.height));
-    k.setArg(3, cl_int(ss));
-    k.setArg(4, cl_int(m));
-    k.setArg(5, cl_float(scale));
-    k.setArg(6, energy);
-    ctx.launch("env/resample", k, cl::NDRange(eq.width, eq.height));
-  } else {
-    cl::Kernel k = ctx.kernel("envmap.cl", "env_gather");
-    k.setArg(0, eqBuf);
-    k.setArg(1, cl_int(eq.width));
-    k.setArg(2, cl_int(eq.height));
-    k.setArg(3, cl_int(ss));
-    k.setArg(4, cl_int(m));
-    k.setArg(5, cl_float(scale));
-    k.setArg(6, energy);
-    ctx.launch("env/resample", k, cl::NDRange(m, m, 6));
-  }
+  cl::Buffer& energy = cube.energy;
   cl::Buffer lum = ctx.buffer(cubeTexels * sizeof(cl_long4), "luminance SAT");
   cl::Buffer rgb = ctx.buffer(cubeTexels * sizeof(cl_long4), "colour SAT");
   {

@@ -1,0 +1,66 @@
+// Environment map -> cube map of radiant energy on the device (kernels/envmap.cl).
+#include "cubemap.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+namespace detail {
+
+DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int supersample) {
+  if (m < 1 || m > 4096) badInput("--face-size must be in [1, 4096], got " + std::to_string(m));
+  if (supersample < 1 || supersample > 64)
+    badInput("supersample must be in [1, 64], got " + std::to_string(supersample));
+  const Image& eq = env.equirect;
+  if (eq.empty() || eq.channels != 3) badInput(env.source + ": environment has no RGB pixels");
+
+  // Fixed-point scale: everything (4 pi x the brightest value) fits in 2^48, leaving room for the
+  // exact luminance product (x 10^4 < 2^14) and for SAT sums below 2^63.
+  float maxv = 0.0f;
+  for (float v : eq.pixels) maxv = std::max(maxv, v);
+  DeviceCube cube;
+  cube.faceSize = m;
+  cube.scale = maxv > 0 ? std::ldexp(1.0, 48) / (4.0 * 3.14159265358979323846 * maxv) : 1.0;
+
+  const std::size_t bytes = 3ull * 6 * m * m * sizeof(cl_long);
+  cl::Buffer eqBuf = ctx.upload(eq.pixels, "environment map");
+  cube.energy = ctx.buffer(bytes, "cube-map energy");
+  cl_long zero = 0;
+  ctx.fill(cube.energy, &zero, sizeof zero, bytes, "cube-map energy");
+
+  // Splat when the map's texels are at least as fine as the cube's (equator texel 2 pi / W versus
+  // face-centre texel (pi/2) / m), gather otherwise. Sub-samples per side: about two per
+  // destination texel, capped by the option; more only smooths aliasing, energy is conserved
+  // either way (exactly when splatting).
+  const bool splat = eq.width >= 4 * m;
+  const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
+  const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
+  // Both kernels take the same arguments.
+  cl::Kernel k = ctx.kernel("envmap.cl", splat ? "env_splat" : "env_gather");
+  k.setArg(0, eqBuf);
+  k.setArg(1, cl_int(eq.width));
+  k.setArg(2, cl_int(eq.height));
+  k.setArg(3, cl_int(ss));
+  k.setArg(4, cl_int(m));
+  k.setArg(5, cl_float(cube.scale));
+  k.setArg(6, cube.energy);
+  ctx.launch("env/resample", k,
+             splat ? cl::NDRange(eq.width, eq.height) : cl::NDRange(m, m, 6));
+  return cube;
+}
+
+}  // namespace detail
+
+Image cubeMapEnergy(Context& ctx, const Environment& env, int faceSize, int supersample) {
+  detail::DeviceCube cube = detail::resampleToCube(ctx, env, faceSize, supersample);
+  const std::size_t n = 6ull * faceSize * faceSize;
+  auto e = ctx.download<cl_long>(cube.energy, 3 * n, "cube-map energy");
+  Image out(faceSize, 6 * faceSize, 3);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) out.pixels[i * 3 + c] = float(double(e[c * n + i]) / cube.scale);
+  return out;
+}
+
+}  // namespace penumbra
