@@ -233,7 +233,9 @@ int cmdRender(int argc, char** argv) {
       {"lights", true, "number of area lights extracted from the map (default 32)"},
       {"extract", true, "light extraction method: median-cut (default)"},
       {"face-size", true, "cube-map face size for extraction (default 256)"},
-      {"shadows", true, "mssm4 (default) | none"},
+      {"shadows", true, "shadow technique: mssm4 (default), none, ... (see the error for all)"},
+      {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
+      {"front-back", false, "average front- and back-face depths in the shadow maps"},
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
       {"moment-bias", true, "MSSM moment bias (default 3e-5)"},
       {"depth-bias", true, "MSSM depth bias, normalized depth (default 0.002)"},
@@ -259,6 +261,8 @@ int cmdRender(int argc, char** argv) {
   parseSize(get(a, "size", "640x360"), ro.width, ro.height);
   ro.shadows = parseShadowTechnique(get(a, "shadows", "mssm4"));
   ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", "256"), 1, 4096));
+  ro.prefilter = parsePrefilter(get(a, "prefilter", "sat"));
+  ro.frontBackFaces = has(a, "front-back");
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
   if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
   if (has(a, "slope-bias")) ro.mssm.slopeBias = parseFloat("slope-bias", get(a, "slope-bias", ""));

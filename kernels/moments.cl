@@ -6,11 +6,13 @@
 // penumbra width (seed 003 eq. 5 for a directional light), filtered visibility (eq. 6) bounded
 // from the box-filtered moments.
 #include "shared.h"
+#include "filter.clh"
 
 // Depth map (ray distances from the light's near plane, uint bit patterns) -> moments in fixed
 // point. Empty texels see nothing: depth 1 (the far plane), which never shadows.
+// Map l's texels start at element l * stride of `moments` (room for the prefilter's levels).
 kernel void depth_to_moments(global const uint* depth, global const pb_light* lights, int size,
-                             global long4* moments) {
+                             ulong stride, global long4* moments) {
   int x = get_global_id(0), y = get_global_id(1), l = get_global_id(2);
   if (x >= size || y >= size) return;
   size_t i = ((size_t)l * size + y) * size + x;
@@ -19,59 +21,7 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
   float z = bits == PB_DEPTH_EMPTY ? 1.0f : clamp(as_float(bits) / range, 0.0f, 1.0f);
   float z2 = z * z;
   // z is a float, so float products carry all its precision; 2^32 is exact in float.
-  moments[i] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
-}
-
-// Lattice value P(i,j) = sum of texels a < i, b < j of the moment image; P(0,.) = P(.,0) = 0.
-static long4 lattice(global const long4* sat, int size, int i, int j) {
-  if (i <= 0 || j <= 0) return (long4)(0);
-  return sat[(size_t)(j - 1) * size + (i - 1)];
-}
-
-// Splits [x0, x1] (texel units, inside [0, size]) into three runs of whole texels with coverage
-// weights: the partly covered first texel, the fully covered middle, the partly covered last.
-// Lattice coordinates X[0..3] bound the runs; weights w[0..2]. A box within one texel uses only
-// the first run.
-static void box_runs(float x0, float x1, int size, int X[4], float w[3]) {
-  int i0 = min((int)floor(x0), size - 1), i1 = min((int)floor(x1), size - 1);
-  float f0 = x0 - i0, f1 = x1 - i1;
-  X[0] = i0;
-  X[1] = i0 + 1;
-  if (i0 == i1) {
-    X[2] = X[3] = i0 + 1;
-    w[0] = f1 - f0; w[1] = 0.0f; w[2] = 0.0f;
-  } else {
-    X[2] = i1;
-    X[3] = i1 + 1;
-    w[0] = 1.0f - f0; w[1] = 1.0f; w[2] = f1;
-  }
-}
-
-// Mean moments over the continuous box [x0,x1] x [y0,y1] (texel units, inside [0,size]): the
-// box-filtered shadow map of seed 003 eqs. 4 and 6 with fractional edges (no popping as the
-// filter grows). The nine sub-rectangles (first/middle/last texel runs in x and y) are summed
-// exactly in 64-bit integers from 16 SAT lattice values, and only then converted to float, each
-// with its coverage weight: the float error is relative to the box's own sum. (Interpolating the
-// SAT in float instead loses ~1e-4 of a small box's value to cancellation against the map's
-// total, which swamps the moment bias and turns the MSM reconstruction into noise.)
-static float4 box_mean(global const long4* sat, int size, float x0, float y0, float x1, float y1) {
-  int X[4], Y[4];
-  float wx[3], wy[3];
-  box_runs(x0, x1, size, X, wx);
-  box_runs(y0, y1, size, Y, wy);
-  long4 P[4][4];
-  for (int j = 0; j < 4; ++j)
-    for (int i = 0; i < 4; ++i) P[j][i] = lattice(sat, size, X[i], Y[j]);
-  float4 acc = (float4)(0.0f);
-  for (int b = 0; b < 3; ++b)
-    for (int a = 0; a < 3; ++a) {
-      float w = wx[a] * wy[b];
-      if (w == 0.0f) continue;
-      long4 s = P[b + 1][a + 1] - P[b + 1][a] - P[b][a + 1] + P[b][a];
-      acc += w * convert_float4(s);
-    }
-  float area = (x1 - x0) * (y1 - y0);
-  return acc / (area * (float)PB_MOMENT_SCALE);
+  moments[l * stride + (size_t)y * size + x] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
 }
 
 // Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the three-atom
@@ -134,8 +84,8 @@ typedef struct {
 // Visibility of each light at each pixel: vis[light][pixel]. One work-item per (pixel, light).
 kernel void mssm4_visibility(global const float4* gpos, global const float4* gnrm,
                              global const float4* ggeo, global const pb_light* lights,
-                             global const long4* sats, int size, int npixels, mssm_params P,
-                             global float* vis) {
+                             global const long4* sats, int size, ulong stride, int npixels,
+                             mssm_params P, global float* vis) {
   int px = get_global_id(0), l = get_global_id(1);
   if (px >= npixels) return;
   float4 p4 = gpos[px];
@@ -143,10 +93,8 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   if (p4.w == 0.0f) { vis[out] = 1.0f; return; }
   pb_light L = lights[l];
   float3 w = (float3)(L.dir[0], L.dir[1], L.dir[2]);
-  // A light wholly below the surface's horizon adds nothing (pb_cap_irradiance is 0): skip it.
-  // For an upward ground, that is every light of the lower hemisphere.
-  float sin_a = sqrt(fmax(1.0f - L.dir[3] * L.dir[3], 0.0f));
-  if (dot(gnrm[px].xyz, w) <= -sin_a) { vis[out] = 1.0f; return; }
+  // For an upward ground, every light of the lower hemisphere is skipped here.
+  if (light_below_horizon(gnrm[px].xyz, &L)) { vis[out] = 1.0f; return; }
   float3 ex = (float3)(L.ex[0], L.ex[1], L.ex[2]), ey = (float3)(L.ey[0], L.ey[1], L.ey[2]);
   float3 org = (float3)(L.origin[0], L.origin[1], L.origin[2]);
   float hx = L.ex[3], hy = L.ey[3], range = L.origin[3];
@@ -163,7 +111,7 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   float3 g = ggeo[px].xyz;
   float cn = fabs(dot(g, w));
   float slope = fmin(sqrt(fmax(1.0f - cn * cn, 0.0f)) / fmax(cn, 1e-3f), 10.0f);
-  const global long4* sat = sats + (size_t)l * size * size;
+  const global long4* sat = sats + l * stride;
   u = clamp(u, 0.0f, (float)size);
   v = clamp(v, 0.0f, (float)size);
 
@@ -173,7 +121,7 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   float hs = clamp(search / texel, 0.5f * P.min_filter, 0.5f * P.max_filter);
   float bias_s = P.depth_bias + P.slope_bias * hs * texel * slope / range;
   float zf = d - bias_s;
-  float4 m = box_mean(sat, size, fmax(u - hs * texel / texel_x, 0.0f),
+  float4 m = FILTER_BOX(sat, size, fmax(u - hs * texel / texel_x, 0.0f),
                       fmax(v - hs * texel / texel_y, 0.0f),
                       fmin(u + hs * texel / texel_x, (float)size),
                       fmin(v + hs * texel / texel_y, (float)size));
@@ -188,7 +136,7 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   float pen = BOX_FROM_DISC * fmax(d - z_avg, 0.0f) * range * tan_a;
   float hf = clamp(pen / texel, 0.5f * P.min_filter, 0.5f * P.max_filter);
   float bias_f = P.depth_bias + P.slope_bias * hf * texel * slope / range;
-  float4 mf = box_mean(sat, size, fmax(u - hf * texel / texel_x, 0.0f),
+  float4 mf = FILTER_BOX(sat, size, fmax(u - hf * texel / texel_x, 0.0f),
                        fmax(v - hf * texel / texel_y, 0.0f),
                        fmin(u + hf * texel / texel_x, (float)size),
                        fmin(v + hf * texel / texel_y, (float)size));

@@ -97,15 +97,22 @@ static bool triangle_bounds(const pb_view* v, float3 a, float3 b, float3 c, int*
 }
 
 // pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among
-// those whose t equals the stored depth (views must be 1).
+// those whose t equals the stored depth (views must be 1). cull: 0 keeps every triangle, 1 only
+// those facing the view (counter-clockwise seen from it), 2 only those facing away (the back
+// faces of closed meshes; seed 003 §4.2.3).
 kernel void raster_triangles(global const float4* pos, global const int4* tris, int ntris,
                              global const pb_view* views, int stripes, int pass,
-                             volatile global uint* depth, volatile global uint* ids) {
+                             volatile global uint* depth, volatile global uint* ids, int cull) {
   int tri = get_global_id(0), stripe = get_global_id(1), vi = get_global_id(2);
   if (tri >= ntris) return;
   pb_view v = views[vi];
   int4 t = tris[tri];
   float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
+  if (cull != 0) {
+    // orthographic views (the only ones culled) look along `forward` everywhere
+    float facing = dot(cross(b - a, c - a), (float3)(v.forward[0], v.forward[1], v.forward[2]));
+    if ((cull == 1 && facing >= 0.0f) || (cull == 2 && facing <= 0.0f)) return;
+  }
   int x0, y0, x1, y1;
   if (!triangle_bounds(&v, a, b, c, &x0, &y0, &x1, &y1)) return;
   size_t base = (size_t)vi * v.width * v.height;
@@ -166,4 +173,16 @@ kernel void gbuffer_resolve(global const float4* pos, global const float4* nrm,
   gnrm[i] = (float4)(n, 0.0f);
   ggeo[i] = (float4)(g, 0.0f);
   galb[i] = albedo[t.w];
+}
+
+// Front + back face depth maps (seed 003 §4.2.3): the mean of the nearest front-facing and the
+// nearest back-facing surface lies inside a closed caster, so receivers on its surface need no
+// depth bias. Where only one of them exists (open geometry, a ground plane), keep it.
+kernel void combine_front_back(global uint* front, global const uint* back, int count) {
+  int i = get_global_id(0);
+  if (i >= count) return;
+  uint f = front[i], b = back[i];
+  if (f == PB_DEPTH_EMPTY) { front[i] = b; return; }
+  if (b == PB_DEPTH_EMPTY) return;
+  front[i] = as_uint(0.5f * (as_float(f) + as_float(b)));
 }

@@ -15,26 +15,44 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
+#include "shadow_pass.hpp"
 
 namespace penumbra {
 
+namespace {
+const std::pair<ShadowTechnique, const char*> kTechniques[] = {
+    {ShadowTechnique::None, "none"},   {ShadowTechnique::Hard, "hard"},
+    {ShadowTechnique::PCSS, "pcss"},   {ShadowTechnique::CSSM, "cssm"},
+    {ShadowTechnique::MSSM4, "mssm4"}, {ShadowTechnique::MSSM6, "mssm6"},
+    {ShadowTechnique::Brute, "brute"},
+};
+}  // namespace
+
 ShadowTechnique parseShadowTechnique(const std::string& name) {
-  if (name == "none") return ShadowTechnique::None;
-  if (name == "mssm4") return ShadowTechnique::MSSM4;
-  badInput("--shadows: unknown technique '" + name + "' (available: mssm4, none)");
+  std::string list;
+  for (auto& [t, n] : kTechniques) {
+    if (name == n && detail::techniqueAvailable(t)) return t;
+    if (detail::techniqueAvailable(t)) list += (list.empty() ? "" : ", ") + std::string(n);
+  }
+  badInput("--shadows: unknown technique '" + name + "' (available: " + list + ")");
 }
 
 const char* toString(ShadowTechnique t) {
-  return t == ShadowTechnique::None ? "none" : "mssm4";
+  for (auto& [k, n] : kTechniques)
+    if (k == t) return n;
+  return "?";
 }
 
-namespace {
+Prefilter parsePrefilter(const std::string& name) {
+  if (name == "sat") return Prefilter::SAT;
+  if (name == "mip" && detail::prefilterAvailable(Prefilter::Mip)) return Prefilter::Mip;
+  badInput("--prefilter: unknown prefilter '" + name + "' (available: sat" +
+           std::string(detail::prefilterAvailable(Prefilter::Mip) ? ", mip" : "") + ")");
+}
 
-// Must match kernels/moments.cl's mssm_params.
-struct MssmParams {
-  cl_float momentBias, depthBias, slopeBias, lightSizeScale;
-  cl_float maxFilter, minFilter, blockerEps, pad;
-};
+const char* toString(Prefilter p) { return p == Prefilter::SAT ? "sat" : "mip"; }
+
+namespace {
 
 using V3 = std::array<float, 3>;
 float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -44,57 +62,6 @@ V3 cross(V3 a, V3 b) {
 V3 normalize(V3 a) {
   float l = std::sqrt(dot(a, a));
   return {a[0] / l, a[1] / l, a[2] / l};
-}
-
-// Orthographic shadow-map frame of a directional light, fitted to the scene's bounding box: the
-// box's corners projected onto the light's axes give the map's extent and depth range (plus a
-// small margin so nothing sits exactly on the near plane or the border).
-pb_light lightFrame(const AreaLight& l, const Bounds& b) {
-  pb_light L{};
-  V3 w = normalize({l.direction[0], l.direction[1], l.direction[2]});
-  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
-  V3 ex = normalize(cross(ref, w));
-  V3 ey = cross(w, ex);
-  V3 fwd = {-w[0], -w[1], -w[2]};
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (int i = 0; i < 8; ++i) {
-    V3 c = {i & 1 ? b.hi[0] : b.lo[0], i & 2 ? b.hi[1] : b.lo[1], i & 4 ? b.hi[2] : b.lo[2]};
-    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], p[k]);
-      hi[k] = std::max(hi[k], p[k]);
-    }
-  }
-  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
-  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]), z0 = lo[2] - margin;
-  for (int k = 0; k < 3; ++k) {
-    L.dir[k] = w[k];
-    L.radiance[k] = l.radiance[k];
-    L.ex[k] = ex[k];
-    L.ey[k] = ey[k];
-    L.origin[k] = cx * ex[k] + cy * ey[k] + z0 * fwd[k];
-  }
-  L.dir[3] = l.cosAlpha;
-  L.radiance[3] = l.halfAngle();
-  L.ex[3] = 0.5f * (hi[0] - lo[0]) + margin;
-  L.ey[3] = 0.5f * (hi[1] - lo[1]) + margin;
-  L.origin[3] = hi[2] + margin - z0;
-  return L;
-}
-
-pb_view orthoView(const pb_light& L, int size) {
-  pb_view v{};
-  for (int k = 0; k < 3; ++k) {
-    v.origin[k] = L.origin[k];
-    v.forward[k] = -L.dir[k];
-    v.right[k] = L.ex[k];
-    v.up[k] = L.ey[k];
-  }
-  v.right[3] = L.ex[3];
-  v.up[3] = L.ey[3];
-  v.width = v.height = size;
-  v.ortho = 1;
-  return v;
 }
 
 pb_view cameraView(const Camera& c, int w, int h) {
@@ -120,30 +87,81 @@ constexpr int kStripes = 8;
 
 }  // namespace
 
+namespace detail {
+
+cl::Buffer& BufferPool::buffer(const std::string& role, std::size_t bytes) {
+  auto& slot = pool_[role];
+  if (slot.second < bytes) {
+    slot.first = cl::Buffer();  // release before allocating the larger one
+    slot.first = ctx_.buffer(bytes, role);
+    slot.second = bytes;
+  }
+  return slot.first;
+}
+
+// Orthographic shadow-map frame of a directional light, fitted to the scene's bounding box: the
+// box's corners projected onto the light's axes give the map's extent and depth range (plus a
+// small margin so nothing sits exactly on the near plane or the border).
+pb_light lightFrame(const std::array<float, 3>& direction, float cosAlpha,
+                    const std::array<float, 3>& radiance, const Bounds& b) {
+  pb_light L{};
+  V3 w = normalize({direction[0], direction[1], direction[2]});
+  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
+  V3 ex = normalize(cross(ref, w));
+  V3 ey = cross(w, ex);
+  V3 fwd = {-w[0], -w[1], -w[2]};
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (int i = 0; i < 8; ++i) {
+    V3 c = {i & 1 ? b.hi[0] : b.lo[0], i & 2 ? b.hi[1] : b.lo[1], i & 4 ? b.hi[2] : b.lo[2]};
+    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], p[k]);
+      hi[k] = std::max(hi[k], p[k]);
+    }
+  }
+  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
+  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]), z0 = lo[2] - margin;
+  for (int k = 0; k < 3; ++k) {
+    L.dir[k] = w[k];
+    L.radiance[k] = radiance[k];
+    L.ex[k] = ex[k];
+    L.ey[k] = ey[k];
+    L.origin[k] = cx * ex[k] + cy * ey[k] + z0 * fwd[k];
+  }
+  L.dir[3] = cosAlpha;
+  L.radiance[3] = std::acos(std::clamp(cosAlpha, -1.0f, 1.0f));
+  L.ex[3] = 0.5f * (hi[0] - lo[0]) + margin;
+  L.ey[3] = 0.5f * (hi[1] - lo[1]) + margin;
+  L.origin[3] = hi[2] + margin - z0;
+  return L;
+}
+
+pb_view orthoView(const pb_light& L, int size) {
+  pb_view v{};
+  for (int k = 0; k < 3; ++k) {
+    v.origin[k] = L.origin[k];
+    v.forward[k] = -L.dir[k];
+    v.right[k] = L.ex[k];
+    v.up[k] = L.ey[k];
+  }
+  v.right[3] = L.ex[3];
+  v.up[3] = L.ey[3];
+  v.width = v.height = size;
+  v.ortho = 1;
+  return v;
+}
+
+}  // namespace detail
+
+using detail::BufferPool;
+using detail::Cull;
+
 struct Renderer::Impl {
   Context& ctx;
+  BufferPool pool;
   int lastPixels = 0, lastLights = 0;
   cl::Buffer vis;
-  // Device buffers kept between frames by role; reallocated only when a frame needs more.
-  // Fresh allocations cost first-touch page faults on CPU devices (measured: a 64 MiB moment
-  // buffer doubled the moments stage) and allocation calls on GPUs.
-  std::map<std::string, std::pair<cl::Buffer, std::size_t>> pool;
-  explicit Impl(Context& c) : ctx(c) {}
-  cl::Buffer& buffer(const std::string& role, std::size_t bytes) {
-    auto& slot = pool[role];
-    if (slot.second < bytes) {
-      slot.first = cl::Buffer();  // release before allocating the larger one
-      slot.first = ctx.buffer(bytes, role);
-      slot.second = bytes;
-    }
-    return slot.first;
-  }
-  template <class T>
-  cl::Buffer& upload(const std::string& role, const std::vector<T>& data) {
-    cl::Buffer& b = buffer(role, std::max<std::size_t>(1, data.size()) * sizeof(T));
-    if (!data.empty()) ctx.write(b, data.data(), data.size() * sizeof(T), role);
-    return b;
-  }
+  explicit Impl(Context& c) : ctx(c), pool(c) {}
 };
 
 Renderer::Renderer(Context& ctx) : impl_(std::make_unique<Impl>(ctx)) {}
@@ -186,10 +204,10 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     alb.push_back({{m.albedo[0], m.albedo[1], m.albedo[2], 1.0f}});
   }
   const int ntris = int(tris.size());
-  cl::Buffer posB = impl_->upload("vertex positions", pos);
-  cl::Buffer nrmB = impl_->upload("vertex normals", nrm);
-  cl::Buffer triB = impl_->upload("triangles", tris);
-  cl::Buffer albB = impl_->upload("albedo", alb);
+  cl::Buffer posB = impl_->pool.upload("vertex positions", pos);
+  cl::Buffer nrmB = impl_->pool.upload("vertex normals", nrm);
+  cl::Buffer triB = impl_->pool.upload("triangles", tris);
+  cl::Buffer albB = impl_->pool.upload("albedo", alb);
 
   const int W = opt.width, H = opt.height, npx = W * H;
   const int nl = int(lightSet.lights.size());
@@ -198,16 +216,16 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   std::vector<pb_light> lights;
   std::vector<pb_view> lviews;
   for (auto& l : lightSet.lights) {
-    lights.push_back(lightFrame(l, bounds));
-    lviews.push_back(orthoView(lights.back(), S));
+    lights.push_back(detail::lightFrame(l.direction, l.cosAlpha, l.radiance, bounds));
+    lviews.push_back(detail::orthoView(lights.back(), S));
   }
   std::vector<pb_view> cview{cameraView(camera, W, H)};
-  cl::Buffer camB = impl_->upload("camera", cview);
-  cl::Buffer lightB = impl_->upload("lights", lights);
+  cl::Buffer camB = impl_->pool.upload("camera", cview);
+  cl::Buffer lightB = impl_->pool.upload("lights", lights);
 
   cl::Kernel raster = ctx.kernel("raster.cl", "raster_triangles");
-  auto rasterize = [&](cl::Buffer& views, int nviews, int pass, cl::Buffer& depth, cl::Buffer& ids,
-                       const std::string& stage) {
+  auto rasterize = [&](cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
+                       cl::Buffer& ids, const std::string& stage) {
     raster.setArg(0, posB);
     raster.setArg(1, triB);
     raster.setArg(2, cl_int(ntris));
@@ -216,21 +234,22 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     raster.setArg(5, cl_int(pass));
     raster.setArg(6, depth);
     raster.setArg(7, ids);
+    raster.setArg(8, cl_int(cull));
     ctx.launch(stage, raster, cl::NDRange(ntris, kStripes, nviews));
   };
 
   // --- camera G-buffer
-  cl::Buffer cdepth = impl_->buffer("camera depth", std::size_t(npx) * 4);
-  cl::Buffer cids = impl_->buffer("camera triangle ids", std::size_t(npx) * 4);
+  cl::Buffer cdepth = impl_->pool.buffer("camera depth", std::size_t(npx) * 4);
+  cl::Buffer cids = impl_->pool.buffer("camera triangle ids", std::size_t(npx) * 4);
   cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
   ctx.fill(cdepth, &emptyDepth, 4, std::size_t(npx) * 4, "camera depth");
   ctx.fill(cids, &emptyId, 4, std::size_t(npx) * 4, "camera triangle ids");
-  rasterize(camB, 1, 0, cdepth, cids, "gbuffer/depth");
-  rasterize(camB, 1, 1, cdepth, cids, "gbuffer/ids");
-  cl::Buffer gpos = impl_->buffer("G-buffer positions", std::size_t(npx) * 16);
-  cl::Buffer gnrm = impl_->buffer("G-buffer normals", std::size_t(npx) * 16);
-  cl::Buffer ggeo = impl_->buffer("G-buffer geometric normals", std::size_t(npx) * 16);
-  cl::Buffer galb = impl_->buffer("G-buffer albedo", std::size_t(npx) * 16);
+  rasterize(camB, 1, 0, Cull::None, cdepth, cids, "gbuffer/depth");
+  rasterize(camB, 1, 1, Cull::None, cdepth, cids, "gbuffer/ids");
+  cl::Buffer gpos = impl_->pool.buffer("G-buffer positions", std::size_t(npx) * 16);
+  cl::Buffer gnrm = impl_->pool.buffer("G-buffer normals", std::size_t(npx) * 16);
+  cl::Buffer ggeo = impl_->pool.buffer("G-buffer geometric normals", std::size_t(npx) * 16);
+  cl::Buffer galb = impl_->pool.buffer("G-buffer albedo", std::size_t(npx) * 16);
   {
     cl::Kernel k = ctx.kernel("raster.cl", "gbuffer_resolve");
     k.setArg(0, posB);
@@ -248,50 +267,49 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
 
   // --- visibility per light
   const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
-  impl_->vis = impl_->buffer("visibility buffer", visBytes);
+  impl_->vis = impl_->pool.buffer("visibility buffer", visBytes);
   impl_->lastPixels = npx;
   impl_->lastLights = nl;
   Frame frame;
-  if (nl > 0 && opt.shadows == ShadowTechnique::MSSM4) {
+  if (!detail::techniqueAvailable(opt.shadows))
+    badInput(std::string("--shadows ") + toString(opt.shadows) + " is not available");
+  if (!detail::prefilterAvailable(opt.prefilter))
+    badInput(std::string("--prefilter ") + toString(opt.prefilter) + " is not available");
+  std::unique_ptr<detail::ShadowPass> pass = detail::makeShadowPass(opt.shadows);
+  if (nl > 0 && pass) {
+    auto rasterizeDepth = [&](const std::vector<pb_view>& views, Cull cull, cl::Buffer& out,
+                              const std::string& stage) {
+      cl::Buffer& vb = impl_->pool.upload("views " + stage, views);
+      const std::size_t bytes = views.size() * std::size_t(S) * S * 4;
+      ctx.fill(out, &emptyDepth, 4, bytes, stage);
+      rasterize(vb, int(views.size()), 0, cull, out, out, stage);
+    };
     const std::size_t texels = std::size_t(S) * S * nl;
-    cl::Buffer lviewB = impl_->upload("light views", lviews);
-    cl::Buffer ldepth = impl_->buffer("shadow maps", texels * 4);
-    ctx.fill(ldepth, &emptyDepth, 4, texels * 4, "shadow maps");
-    rasterize(lviewB, nl, 0, ldepth, ldepth, "shadow-maps/raster");
-    cl::Buffer moments = impl_->buffer("moment shadow maps", texels * sizeof(cl_long4));
-    frame.shadowMapBytes = texels * sizeof(cl_long4);
-    {
-      cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments");
+    cl::Buffer& ldepth = impl_->pool.buffer("shadow maps", texels * 4);
+    if (opt.frontBackFaces) {
+      cl::Buffer& back = impl_->pool.buffer("back-face shadow maps", texels * 4);
+      rasterizeDepth(lviews, Cull::KeepFront, ldepth, "shadow-maps/raster-front");
+      rasterizeDepth(lviews, Cull::KeepBack, back, "shadow-maps/raster-back");
+      cl::Kernel k = ctx.kernel("raster.cl", "combine_front_back");
       k.setArg(0, ldepth);
-      k.setArg(1, lightB);
-      k.setArg(2, cl_int(S));
-      k.setArg(3, moments);
-      ctx.launch("mssm4/moments", k, cl::NDRange(S, S, nl));
+      k.setArg(1, back);
+      k.setArg(2, cl_int(texels));
+      ctx.launch("shadow-maps/front-back", k, cl::NDRange(texels));
+    } else {
+      rasterizeDepth(lviews, Cull::None, ldepth, "shadow-maps/raster");
     }
-    summedAreaTable(ctx, moments, ScanType::Long4, S, S, nl, "mssm4/sat");
-    MssmParams P{mo.momentBias,     mo.depthBias,      mo.slopeBias,      mo.lightSizeScale,
-                 mo.maxFilterTexels, mo.minFilterTexels, mo.blockerEpsilon, 0.0f};
-    cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility");
-    std::size_t wg = ctx.workGroupSize(k, 64);
-    k.setArg(0, gpos);
-    k.setArg(1, gnrm);
-    k.setArg(2, ggeo);
-    k.setArg(3, lightB);
-    k.setArg(4, moments);
-    k.setArg(5, cl_int(S));
-    k.setArg(6, cl_int(npx));
-    k.setArg(7, sizeof(P), &P);
-    k.setArg(8, impl_->vis);
-    ctx.launch("mssm4/visibility", k, cl::NDRange((npx + wg - 1) / wg * wg, nl),
-               cl::NDRange(wg, 1));
+    detail::ShadowFrame sf{ctx, impl_->pool, opt, W, H, npx, S, lights, lightB, gpos, gnrm, ggeo,
+                           ldepth, impl_->vis, rasterizeDepth};
+    pass->computeVisibility(sf);
+    frame.shadowMapBytes = texels * pass->bytesPerTexel(opt);
   } else if (nl > 0) {
     cl_float one = 1.0f;
     ctx.fill(impl_->vis, &one, 4, std::size_t(npx) * nl * 4, "visibility buffer");
   }
 
   // --- shading
-  cl::Buffer envB = impl_->upload("environment map", env.equirect.pixels);
-  cl::Buffer outB = impl_->buffer("frame", std::size_t(npx) * 16);
+  cl::Buffer envB = impl_->pool.upload("environment map", env.equirect.pixels);
+  cl::Buffer outB = impl_->pool.buffer("frame", std::size_t(npx) * 16);
   {
     cl::Kernel k = ctx.kernel("shade.cl", "shade");
     std::size_t wg = ctx.workGroupSize(k, 64);
@@ -337,7 +355,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << opt.height << ",\n  \"shadow_map_size\": " << opt.shadowMapSize
     << ",\n  \"shadow_map_bytes\": " << f.shadowMapBytes
     << ",\n  \"shadow_map_bytes_per_texel\": "
-    << (opt.shadows == ShadowTechnique::MSSM4 ? 32 : 0) << ",\n  \"mssm\": {\"moment_bias\": "
+    << (f.shadowMapBytes / std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size())) << ",\n  \"mssm\": {\"moment_bias\": "
     << opt.mssm.momentBias << ", \"depth_bias\": " << opt.mssm.depthBias
     << ", \"slope_bias\": " << opt.mssm.slopeBias
     << ", \"light_size_scale\": " << opt.mssm.lightSizeScale

@@ -19,9 +19,23 @@ namespace penumbra {
 class Context;
 struct Environment;
 
-enum class ShadowTechnique { None, MSSM4 };
-ShadowTechnique parseShadowTechnique(const std::string& name);  // "none" | "mssm4"
+enum class ShadowTechnique {
+  None,   // no shadows (every light fully visible)
+  Hard,   // one shadow map at the light's centre, one depth test
+  PCSS,   // percentage-closer soft shadows by explicit sampling (Fernando 2005)
+  CSSM,   // convolution soft shadow maps, Fourier basis (seed 000)
+  MSSM4,  // moment soft shadow mapping, 4 moments (seed 003 §3.2.1)
+  MSSM6,  // 6 moments (seed 003 §4.2.1)
+  Brute,  // K point-sample shadow maps per area light, averaged (seed 000 Fig. 11d)
+};
+// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute"
+ShadowTechnique parseShadowTechnique(const std::string& name);
 const char* toString(ShadowTechnique t);
+
+// How the filtered techniques (CSSM, MSSM4, MSSM6) prefilter their maps (seed 000 Fig. 8).
+enum class Prefilter { SAT, Mip };
+Prefilter parsePrefilter(const std::string& name);  // "sat" | "mip"
+const char* toString(Prefilter p);
 
 // Moment soft shadow mapping with 4 moments (seed 003 §3.2.1). Distances are in shadow-map texels
 // or normalized light-space depth (0 at the map's near plane, 1 at its far plane).
@@ -38,13 +52,42 @@ struct MSSMOptions {
   float maxFilterTexels = 27.0f;// largest filter width in texels (seed 003 §6.2 used 27 at 256^2)
   float minFilterTexels = 1.0f; // smallest filter width in texels
   float blockerEpsilon = 1e-3f; // epsilon of seed 003 eq. 7 (pulls z_avg towards the receiver)
+  // Upper-bound blocker depth (seed 003 §4.2.2, eq. 19): weights of atoms at the receiver's depth
+  // clamped to [delta1, delta2]; shadows harden rather than vanish under complex depth.
+  bool upperBoundBlocker = false;
+  float delta1 = 1e-3f, delta2 = 0.1f;
+};
+
+// Convolution soft shadow maps (seed 000 §3).
+struct CSSMOptions {
+  int order = 4;                // Fourier order M: terms k = 1..M, c_k = pi (2k - 1) (appendix)
+  float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0: off
+  float sharpenB = 10.0f;       // per unit of normalized depth
+};
+
+// Percentage-closer soft shadows (Fernando 2005; seed 003 eqs. 4-6 by explicit sampling).
+struct PCSSOptions {
+  int blockerTaps = 16;         // samples of the blocker search
+  int filterTaps = 32;          // samples of the percentage-closer filter
+};
+
+// Brute force: K point lights spread over each area light's cap, one hard shadow map each.
+struct BruteOptions {
+  int samples = 64;             // K per light
 };
 
 struct RenderOptions {
   int width = 640, height = 360;
   int shadowMapSize = 256;      // square shadow map per light, texels
   ShadowTechnique shadows = ShadowTechnique::MSSM4;
-  MSSMOptions mssm;
+  Prefilter prefilter = Prefilter::SAT;
+  // Depth maps average the front- and back-facing surfaces' depths (seed 003 §4.2.3) instead of
+  // keeping the nearest surface; for closed casters, it removes the need for a depth bias.
+  bool frontBackFaces = false;
+  MSSMOptions mssm;             // also used by MSSM6; bias, light size and filter limits by all
+  CSSMOptions cssm;
+  PCSSOptions pcss;
+  BruteOptions brute;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
 };
 
