@@ -233,7 +233,7 @@ int cmdRender(int argc, char** argv) {
       {"lights", true, "number of area lights extracted from the map (default 32)"},
       {"extract", true, "light extraction method: median-cut (default)"},
       {"face-size", true, "cube-map face size for extraction (default 256)"},
-      {"shadows", true, "shadow technique: mssm4 (default), none, ... (see the error for all)"},
+      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | none"},
       {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
       {"front-back", false, "average front- and back-face depths in the shadow maps"},
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
@@ -242,6 +242,13 @@ int cmdRender(int argc, char** argv) {
       {"slope-bias", true, "MSSM receiver-slope bias factor (default 0)"},
       {"light-size-scale", true, "scale of every light's size in the filters (default 1)"},
       {"max-filter", true, "largest filter width in texels (default 27)"},
+      {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19)"},
+      {"cssm-order", true, "CSSM Fourier order M (default 4)"},
+      {"sharpen-a", true, "CSSM sharpening strength A (default 30; 0 disables)"},
+      {"sharpen-b", true, "CSSM sharpening falloff B (default 10)"},
+      {"pcss-blocker-taps", true, "PCSS blocker-search samples (default 16; 0: every texel)"},
+      {"pcss-filter-taps", true, "PCSS filter samples (default 0: every texel, explicit)"},
+      {"brute-samples", true, "brute force: point samples per light (default 64)"},
       {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},
       {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
       {"report", true, "write a JSON report (device, lights, timings, ...)"},
@@ -249,8 +256,8 @@ int cmdRender(int argc, char** argv) {
   Args a = parse(argc, argv, 2, specs, "render");
   if (has(a, "help")) {
     printHelp("penumbra render [options]",
-              "Renders a scene lit by an environment map: median-cut area lights, moment soft "
-              "shadows (MSSM4), diffuse shading.",
+              "Renders a scene lit by an environment map: median-cut area lights, soft shadows "
+              "(--shadows hard|pcss|cssm|mssm4|mssm6|brute|none), diffuse shading.",
               specs);
     return 0;
   }
@@ -262,6 +269,16 @@ int cmdRender(int argc, char** argv) {
   ro.shadows = parseShadowTechnique(get(a, "shadows", "mssm4"));
   ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", "256"), 1, 4096));
   ro.prefilter = parsePrefilter(get(a, "prefilter", "sat"));
+  ro.mssm.upperBoundBlocker = has(a, "upper-bound");
+  if (has(a, "cssm-order")) ro.cssm.order = int(parseInt("cssm-order", get(a, "cssm-order", ""), 1, 64));
+  if (has(a, "sharpen-a")) ro.cssm.sharpenA = parseFloat("sharpen-a", get(a, "sharpen-a", ""));
+  if (has(a, "sharpen-b")) ro.cssm.sharpenB = parseFloat("sharpen-b", get(a, "sharpen-b", ""));
+  if (has(a, "pcss-blocker-taps"))
+    ro.pcss.blockerTaps = int(parseInt("pcss-blocker-taps", get(a, "pcss-blocker-taps", ""), 0, 4096));
+  if (has(a, "pcss-filter-taps"))
+    ro.pcss.filterTaps = int(parseInt("pcss-filter-taps", get(a, "pcss-filter-taps", ""), 0, 4096));
+  if (has(a, "brute-samples"))
+    ro.brute.samples = int(parseInt("brute-samples", get(a, "brute-samples", ""), 1, 4096));
   ro.frontBackFaces = has(a, "front-back");
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
   if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));

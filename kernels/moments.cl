@@ -1,24 +1,28 @@
-// Moment soft shadow mapping with four moments (MSSM4, seed 003 §3.2.1; Peters et al. 2016 for
-// MSSM, Peters & Klein 2015 for the Hamburger four-moment reconstruction).
+// Moment soft shadow mapping with four and six moments (MSSM4: seed 003 §3.2.1, MSSM6: §4.2.1;
+// Peters et al. 2016 for MSSM, Peters & Klein 2015 for the Hamburger moment reconstruction), and
+// the upper-bound blocker depth of seed 003 §4.2.2 for both.
 //
-// Per light: depth map -> fixed-point moments (z, z^2, z^3, z^4) -> SAT (kernels/scan.cl, exact
-// 64-bit sums) -> per pixel: blocker search box, average blocker depth (seed 003 eq. 7),
-// penumbra width (seed 003 eq. 5 for a directional light), filtered visibility (eq. 6) bounded
-// from the box-filtered moments.
+// Per light: depth map -> fixed-point moments -> prefilter (SAT: kernels/scan.cl, exact 64-bit
+// sums; or the mip pyramid) -> per pixel: blocker search box, average blocker depth (seed 003
+// eq. 7, or eq. 19), penumbra width (seed 003 eq. 5 for a directional light), filtered
+// visibility (eq. 6) bounded from the box-filtered moments.
 #include "shared.h"
 #include "filter.clh"
 
-// Depth map (ray distances from the light's near plane, uint bit patterns) -> moments in fixed
-// point. Empty texels see nothing: depth 1 (the far plane), which never shadows.
-// Map l's texels start at element l * stride of `moments` (room for the prefilter's levels).
+// Depth map (ray distances from the light's near plane, uint bit patterns) -> normalized depth.
+// Empty texels see nothing: depth 1 (the far plane), which never shadows.
+static float map_depth(uint bits, float range) {
+  return bits == PB_DEPTH_EMPTY ? 1.0f : clamp(as_float(bits) / range, 0.0f, 1.0f);
+}
+
+// MSSM4 moments (z, z^2, z^3, z^4) in fixed point. Map l's texels start at element l * stride of
+// `moments` (room for the prefilter's levels).
 kernel void depth_to_moments(global const uint* depth, global const pb_light* lights, int size,
                              ulong stride, global long4* moments) {
   int x = get_global_id(0), y = get_global_id(1), l = get_global_id(2);
   if (x >= size || y >= size) return;
   size_t i = ((size_t)l * size + y) * size + x;
-  uint bits = depth[i];
-  float range = lights[l].origin[3];
-  float z = bits == PB_DEPTH_EMPTY ? 1.0f : clamp(as_float(bits) / range, 0.0f, 1.0f);
+  float z = map_depth(depth[i], lights[l].origin[3]);
   float z2 = z * z;
   // z is a float, so float products carry all its precision; 2^32 is exact in float.
   moments[l * stride + (size_t)y * size + x] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
@@ -30,15 +34,16 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
 // c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
 //   w_i = (b2 - b1 (z_j + z_k) + z_j z_k) / ((z_i - z_j)(z_i - z_k)).
 // The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
-// returns that weight and `blocker_sum` the weighted depth sum for seed 003 eq. 7.
+// returns that weight, `blocker_sum` the weighted depth sum for seed 003 eq. 7 and
+// `receiver_weight` the weight of the atom at zf for eq. 19.
 static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
-                        float* blocker_sum) {
+                        float* blocker_sum, float* receiver_weight) {
   // Moment bias (MSM §4) towards the moments of the uniform distribution on [0,1]. Peters & Klein
   // blend towards (0.5, 0.5, 0.5, 0.5), the moments of atoms at 0 and 1; penumbra fits each map's
   // depth range to the scene, so blockers at ~0 and receivers at ~1 are the common case, and the
   // blend then stays a two-atom distribution with a singular Hankel matrix (d33 = 0: NaN, or a
   // wrong bound). A blend with a continuous distribution keeps B positive definite for any input
-  // (d33 >= bias * 1/180), checked in float against double in tests/test_mssm.cpp.
+  // (d33 >= bias * 1/180).
   float4 b = mix(b_raw, (float4)(0.5f, 1.0f / 3.0f, 0.25f, 0.2f), moment_bias);
   float b1 = b.x, b2 = b.y, b3 = b.z, b4 = b.w;
   float d22 = b2 - b1 * b1;
@@ -63,85 +68,384 @@ static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blocke
     shadow += w3;
     zsum += w3 * z3;
   }
+  float wf = (b2 - b1 * (z2 + z3) + z2 * z3) / ((zf - z2) * (zf - z3));
   if (!(shadow == shadow) || !(zsum == zsum)) {  // NaN from a degenerate system: no shadow
     shadow = 0.0f;
     zsum = 0.0f;
   }
   *blockers = clamp(shadow, 0.0f, 1.0f);
   *blocker_sum = zsum;
+  *receiver_weight = wf == wf ? clamp(wf, 0.0f, 1.0f) : 0.0f;
   return 1.0f - *blockers;
 }
 
+// ---- MSSM6 (seed 003 §4.2.1) ----
+//
+// Storage. Six moments in the Chebyshev basis of s = 2z - 1: t_k = T_k(s), k = 1..6 (T_0 = 1,
+// T_1 = s, T_{k+1} = 2 s T_k - T_{k-1}). T_k(2z - 1) is an invertible triangular combination of
+// 1, z, ..., z^k, so the maps hold exactly the information of the power moments z..z^6, in the
+// same 64-bit fixed point as MSSM4 (|t_k| <= 1). The reason is precision: the canonical
+// representation does not depend on the basis, but its linear algebra does. The 4x4 Hankel matrix
+// of power moments on [0,1] has a smallest LDL^T pivot of bias/2800 for the biased two-atom
+// distribution (atoms at 0 and 1, the common case in a fitted map): at bias 3e-5 that is 1e-8,
+// below float's resolution of its O(1) entries, and a float solve returns garbage (measured on
+// 20000 random distributions against an 80-bit solve: shadow errors up to 1 at bias <= 1e-4, and
+// over 0.01 in 1% of the cases still at 3e-4). Double would do (3e-3 at bias 3e-5), but runs at
+// 1/2 to 1/64 of float's rate on GPUs. In the Chebyshev basis the Gram matrix
+// G_ij = E[T_i T_j] = (t_{i+j} + t_{|i-j|}) / 2 has a smallest pivot of bias * 0.37 there, and a
+// float solve stays within 0.009 of the 80-bit one at bias 3e-5 (0.018 at 1e-5).
+// tests/test_mssm6.cpp checks float against double on the degenerate two-atom cases and against
+// an independent long-double reconstruction on random ones.
+//
+// Packing: two lights share three long4 images, 48 bytes per texel and light with nothing
+// padded (two long4 groups per light, (t1..t4) and (t5, t6, 0, 0), would waste a quarter):
+//   image 3p     : t1..t4 of light 2p
+//   image 3p + 1 : t1..t4 of light 2p + 1 (zeros when the light count is odd)
+//   image 3p + 2 : (t5, t6) of light 2p, (t5, t6) of light 2p + 1
+// One work-item per (texel, pair) writes all three, so every element is defined.
+kernel void depth_to_moments6(global const uint* depth, global const pb_light* lights, int size,
+                              int nlights, ulong stride, global long4* maps) {
+  int x = get_global_id(0), y = get_global_id(1), p = get_global_id(2);
+  if (x >= size || y >= size) return;
+  size_t texel = (size_t)y * size + x;
+  float t[2][6];
+  for (int h = 0; h < 2; ++h) {
+    int l = 2 * p + h;
+    for (int k = 0; k < 6; ++k) t[h][k] = 0.0f;
+    if (l >= nlights) continue;
+    float s = 2.0f * map_depth(depth[(size_t)l * size * size + texel], lights[l].origin[3]) - 1.0f;
+    float prev = 1.0f, cur = s;
+    t[h][0] = s;
+    for (int k = 1; k < 6; ++k) {
+      float next = 2.0f * s * cur - prev;
+      prev = cur;
+      cur = next;
+      t[h][k] = cur;
+    }
+  }
+  const float scale = (float)PB_MOMENT_SCALE;
+  size_t base = (size_t)3 * p * stride + texel;
+  maps[base] = convert_long4_rte((float4)(t[0][0], t[0][1], t[0][2], t[0][3]) * scale);
+  maps[base + stride] = convert_long4_rte((float4)(t[1][0], t[1][1], t[1][2], t[1][3]) * scale);
+  maps[base + 2 * stride] = convert_long4_rte((float4)(t[0][4], t[0][5], t[1][4], t[1][5]) * scale);
+}
+
+// The solve runs in float: in the Chebyshev basis it is as good as double (above) and it is what
+// GPUs run at full rate. -DMSSM6_DOUBLE (tests only, where the device has fp64) runs it in double.
+#if defined(MSSM6_DOUBLE) && defined(PB_HAS_FP64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef double m6real;
+#else
+typedef float m6real;
+#endif
+
+// Roots farther out than this (in s = 2z - 1) are clamped: their atoms' weights are below
+// 1e-10, and the clamp keeps T_3(s)^2 finite.
+#define M6_ROOT_MAX ((m6real)64)
+
+// Three real roots of the cubic a3 s^3 + a2 s^2 + a1 s + a0 (Blinn 2006-07, "How to solve a cubic
+// equation"; Peters 2016, "How to solve a cubic equation, revisited"). Derivation, written here
+// from the ground up. Homogeneous form A s^3 + 3B s^2 + 3C s + D with A >= 0 (negating every
+// coefficient keeps the roots). With the Hessian terms d1 = AC - B^2, d2 = AD - BC, d3 = BD - C^2,
+// s = t - B/A depresses it to t^3 + 3 (d1/A^2) t + (A d2 - 2 B d1)/A^3. Put t = 2 R cos(phi),
+// R = sqrt(-d1)/A: since 4 cos^3 - 3 cos = cos(3 phi) the cubic becomes
+// 2 R^3 cos(3 phi) = -(A d2 - 2 B d1)/A^3, and because (A d2 - 2 B d1)^2 + 4 d1^3 = -A^2 Delta with
+// the discriminant Delta = 4 d1 d3 - d2^2 (>= 0 for three real roots),
+//   3 phi = atan2(A sqrt(Delta), 2 B d1 - A d2)   in [0, pi]
+// (both arguments scaled by 2 sqrt(-d1)^3 > 0; atan2 needs no division and no acos of a clamped
+// ratio). The roots are s_k = (2 sqrt(-d1) cos(phi + 2 pi k/3) - B) / A.
+// Robustness: -B/A is large whenever A is small (the kernel polynomial degenerates towards a
+// quadratic and one root runs off to infinity); subtracting it from t cancels every digit of the
+// moderate roots. So only one root is taken from the formula, the one whose two terms share a sign
+// (k = 0, cos >= 1/2, when B <= 0; k = 1, cos <= -1/2, when B > 0): x0 = 2 sqrt(-d1) cos - B has
+// no cancellation, r0 = x0/A is at least half the largest root in magnitude, and A = 0 gives
+// x0 != 0, r0 = infinity (clamped) instead of 0/0. The other two are the roots of the quadratic
+// left after deflating by r0, from Vieta's relations of A (s - r0)(s - r1)(s - r2):
+//   r1 r2 = -D/x0,   r1 + r2 = (3C + A D/x0) / x0
+// (the second form, not -3B/A - r0, which cancels as r0 grows), solved by the stable quadratic
+// formula (the larger root first, the smaller as the product over it).
+static void cubic_roots(m6real a0, m6real a1, m6real a2, m6real a3, m6real r[3]) {
+  m6real A = a3, B = a2 / 3, C = a1 / 3, D = a0;
+  if (A < 0) {
+    A = -A; B = -B; C = -C; D = -D;
+  }
+  m6real d1 = A * C - B * B, d2 = A * D - B * C, d3 = B * D - C * C;
+  m6real delta = fmax(4 * d1 * d3 - d2 * d2, (m6real)0);  // < 0 only by rounding here
+  m6real sq = sqrt(fmax(-d1, (m6real)0));
+  m6real phi = atan2(A * sqrt(delta), 2 * B * d1 - A * d2) / 3;
+  if (B > 0) phi += (m6real)2.09439510239319549;  // 2 pi / 3
+  m6real x0 = 2 * sq * cos(phi) - B;
+  if (x0 == 0) {  // d1 = B = 0: a triple root at 0 (or no cubic at all)
+    r[0] = r[1] = r[2] = 0;
+    return;
+  }
+  r[0] = fabs(x0) < A * M6_ROOT_MAX ? x0 / A : copysign(M6_ROOT_MAX, x0);
+  m6real prod = -D / x0, sum = (3 * C + A * D / x0) / x0;
+  m6real m = (m6real)0.5 * sum + copysign(sqrt(fmax((m6real)0.25 * sum * sum - prod, (m6real)0)), sum);
+  r[1] = clamp(m, -M6_ROOT_MAX, M6_ROOT_MAX);
+  r[2] = m != 0 ? clamp(prod / m, -M6_ROOT_MAX, M6_ROOT_MAX) : (m6real)0;
+}
+
+// T_0..T_3 at s.
+static void cheb4(m6real s, m6real T[4]) {
+  T[0] = 1;
+  T[1] = s;
+  T[2] = 2 * s * s - 1;
+  T[3] = 2 * s * T[2] - s;
+}
+
+// sum_k y_k^2 / D_k for y = L^-1 T(s): the Christoffel function's reciprocal K(s, s), where
+// K(x, y) = T(x)^T G^-1 T(y) is the kernel polynomial of the biased moments (G = L D L^T).
+// Dinv = 1/D.
+static m6real kernel_diag(const m6real L[4][4], const m6real Dinv[4], m6real s, m6real y[4]) {
+  m6real T[4];
+  cheb4(s, T);
+  m6real k = 0;
+  for (int i = 0; i < 4; ++i) {
+    m6real v = T[i];
+    for (int j = 0; j < i; ++j) v -= L[i][j] * y[j];
+    y[i] = v;
+    k += v * v * Dinv[i];
+  }
+  return k;
+}
+
+// Hamburger six-moment reconstruction (Peters & Klein 2015 §3 for any even number of moments;
+// seed 003 §4.2.1): the four-atom canonical representation through the receiver depth zf of the
+// biased moments, and the weight of its atoms in front of zf (the shadowed fraction's lower
+// bound). tA = (t1..t4), tB = (t5, t6): box-filtered Chebyshev moments.
+//  1. Bias towards the uniform distribution on [0,1] as MSSM4 does (moments 1/2, 1/3, ..., 1/7;
+//     in this basis E[T_k(2z-1)] = 0, -1/3, 0, -1/15, 0, -1/35): G stays positive definite.
+//  2. Kernel polynomial K(s, sf) = sum_k c_k T_k(s) with G c = T(sf) (L D L^T solve of the 4x4
+//     system). Its three roots and sf are the atoms: any two of them x != y satisfy K(x, y) = 0
+//     (Christoffel-Darboux: they are the zeros of p_4 - c p_3 for the orthonormal p_k), which is
+//     what makes them a canonical representation.
+//  3. Weights: the 4x4 Vandermonde system sum_i w_i T_k(x_i) = t_k, k = 0..3, has for such mutually
+//     K-orthogonal nodes the closed-form solution w_i = 1 / K(x_i, x_i) (Christoffel numbers). One
+//     forward substitution per atom with the L D L^T already at hand; every weight is a sum of
+//     squares over positive pivots, so no weight is negative and two nearly coincident atoms
+//     cannot produce the huge opposite-signed weights of an inverted Vandermonde matrix.
+// `blockers`, `blocker_sum`, `receiver_weight` as in hamburger4 (depths z, not s).
+static float hamburger6(float4 tA, float2 tB, float zf, float moment_bias, float* blockers,
+                        float* blocker_sum, float* receiver_weight) {
+  m6real beta = moment_bias;
+  m6real t[7] = {1, tA.x, tA.y, tA.z, tA.w, tB.x, tB.y};
+  const m6real uniform[7] = {1, 0, (m6real)(-1.0 / 3.0), 0, (m6real)(-1.0 / 15.0), 0, (m6real)(-1.0 / 35.0)};
+  for (int k = 1; k < 7; ++k) t[k] = (1 - beta) * t[k] + beta * uniform[k];
+  // Gram matrix of T_0..T_3 (T_i T_j = (T_{i+j} + T_{|i-j|}) / 2) and its L D L^T
+  // U = L D (row i, column k < i): the unscaled entries, so no pivot is divided more than once
+  m6real L[4][4], U[4][4], Dinv[4];
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < i; ++j) {
+      m6real v = (t[i + j] + t[i - j]) / 2;
+      for (int k = 0; k < j; ++k) v -= U[i][k] * L[j][k];
+      U[i][j] = v;
+      L[i][j] = v * Dinv[j];
+    }
+    m6real v = (t[2 * i] + 1) / 2;
+    for (int k = 0; k < i; ++k) v -= U[i][k] * L[i][k];
+    // > 0 for any bias > 0; the guard only keeps bias 0 finite
+    Dinv[i] = 1 / fmax(v, (m6real)1e-30);
+    L[i][i] = 1;
+  }
+  m6real sf = 2 * (m6real)zf - 1;
+  m6real y[4], c[4];
+  m6real kf = kernel_diag(L, Dinv, sf, y);
+  for (int i = 3; i >= 0; --i) {
+    m6real v = y[i] * Dinv[i];
+    for (int j = i + 1; j < 4; ++j) v -= L[j][i] * c[j];
+    c[i] = v;
+  }
+  // K(s, sf) in the monomial basis: T_2 = 2s^2 - 1, T_3 = 4s^3 - 3s
+  m6real r[3];
+  cubic_roots(c[0] - c[2], c[1] - 3 * c[3], 2 * c[2], 4 * c[3], r);
+  m6real shadow = 0, zsum = 0;
+  for (int i = 0; i < 3; ++i) {
+    if (!(r[i] < sf)) continue;
+    m6real w = 1 / kernel_diag(L, Dinv, r[i], y);
+    shadow += w;
+    zsum += w * (r[i] + 1) / 2;
+  }
+  float sh = (float)shadow, zs = (float)zsum, wf = (float)(1 / kf);
+  if (!isfinite(sh) || !isfinite(zs)) {  // NaN from a degenerate system: no shadow
+    sh = 0.0f;
+    zs = 0.0f;
+  }
+  *blockers = clamp(sh, 0.0f, 1.0f);
+  *blocker_sum = zs;
+  *receiver_weight = isfinite(wf) ? clamp(wf, 0.0f, 1.0f) : 0.0f;
+  return 1.0f - *blockers;
+}
+
+// ---- Per pixel: blocker search, z_avg, penumbra width, filtered visibility ----
+
 typedef struct {
   float moment_bias, depth_bias, slope_bias, light_size_scale;
-  float max_filter, min_filter, blocker_eps, pad;
+  float max_filter, min_filter, blocker_eps;
+  int upper_bound;  // seed 003 eq. 19 instead of eq. 7
+  float delta1, delta2, pad0, pad1;
 } mssm_params;
+
+// Average blocker depth from the reconstructed atoms in front of the receiver (weight `blockers`,
+// weighted depth sum `blocker_sum`) and the weight `receiver_weight` of the atom at zf.
+// Seed 003 eq. 7: z_avg = (eps zf + sum w_i z_i) / (eps + sum w_i), eps pulls towards the receiver.
+// Seed 003 eq. 19 (upper bound, §4.2.2): the atom at the receiver's depth counts as a blocker too
+// (z_i <= d), its weight clamped to [delta1, delta2]: under complex depth distributions the
+// reconstruction parks weight at zf, which pulls z_avg towards the receiver: smaller filters,
+// harder shadows when in doubt. delta1 = delta2 = eps is eq. 7; delta1 >= eps keeps z_avg at or
+// above eq. 7's (the receiver's depth is the largest of the averaged depths).
+// Blockers lie between the near plane and the receiver: z_avg is clamped to [0, zf] (an atom of
+// the reconstruction can fall outside [0, 1]).
+static float mssm_blocker_depth(float zf, float blockers, float blocker_sum, float receiver_weight,
+                                const mssm_params* P) {
+  float w0 = P->upper_bound ? clamp(receiver_weight, P->delta1, P->delta2) : P->blocker_eps;
+  return clamp((w0 * zf + blocker_sum) / (w0 + blockers), 0.0f, fmax(zf, 0.0f));
+}
 
 // Width of the equal-area square of a disc of radius r is sqrt(pi) r: the box filter that stands
 // in for the disc-shaped light has half-width (sqrt(pi)/2) r.
 #define BOX_FROM_DISC 0.88622692545f
 
+// What the filter boxes of one (pixel, light) need.
+typedef struct {
+  float u, v;                     // shadow-map texel coordinates (row 0 at +ey)
+  float d;                        // receiver's normalized depth
+  float range;                    // the map's depth range (world)
+  float texel, texel_x, texel_y;  // texel sizes (world): the smaller one, along x, along y
+  float tan_a;                    // tan of the light's (scaled) half-angle
+  float slope;                    // receiver plane's depth slope along the light
+} mssm_pixel;
+
+// Fills q for pixel px and light L; returns 0 where the light needs no test (background, or the
+// light wholly below the surface's horizon): visibility 1.
+static int mssm_pixel_setup(int px, global const float4* gpos, global const float4* gnrm,
+                            global const float4* ggeo, const pb_light* L, int size,
+                            const mssm_params* P, mssm_pixel* q) {
+  float4 p4 = gpos[px];
+  if (p4.w == 0.0f) return 0;
+  float3 w = (float3)(L->dir[0], L->dir[1], L->dir[2]);
+  // For an upward ground, every light of the lower hemisphere is skipped here.
+  if (light_below_horizon(gnrm[px].xyz, L)) return 0;
+  float3 ex = (float3)(L->ex[0], L->ex[1], L->ex[2]), ey = (float3)(L->ey[0], L->ey[1], L->ey[2]);
+  float3 org = (float3)(L->origin[0], L->origin[1], L->origin[2]);
+  float hx = L->ex[3], hy = L->ey[3];
+  q->range = L->origin[3];
+  float3 r = p4.xyz - org;
+  // shadow-map texel coordinates and normalized depth, as in raster.cl's ortho view
+  q->u = clamp((dot(r, ex) / hx + 1.0f) * 0.5f * size, 0.0f, (float)size);
+  q->v = clamp((1.0f - dot(r, ey) / hy) * 0.5f * size, 0.0f, (float)size);
+  q->d = dot(r, -w) / q->range;
+  q->texel_x = 2.0f * hx / size;
+  q->texel_y = 2.0f * hy / size;
+  q->texel = fmin(q->texel_x, q->texel_y);
+  float cos_a = L->dir[3];
+  q->tan_a = sqrt(fmax(1.0f - cos_a * cos_a, 0.0f)) / fmax(cos_a, 1e-4f) * P->light_size_scale;
+  // receiver plane's depth slope along the light: tan of the angle between normal and light
+  float3 g = ggeo[px].xyz;
+  float cn = fabs(dot(g, w));
+  q->slope = fmin(sqrt(fmax(1.0f - cn * cn, 0.0f)) / fmax(cn, 1e-3f), 10.0f);
+  return 1;
+}
+
+// Filter half-width in texels for blockers spreading the light's disc to world radius `world`
+// (seed 003 eq. 5 for a light at infinity), clamped to the option's limits.
+static float mssm_half_width(const mssm_pixel* q, const mssm_params* P, float world) {
+  return clamp(BOX_FROM_DISC * world / q->texel, 0.5f * P->min_filter, 0.5f * P->max_filter);
+}
+
+// Receiver depth for a filter of half-width h texels (depth bias plus slope bias).
+static float mssm_receiver(const mssm_pixel* q, const mssm_params* P, float h) {
+  return q->d - (P->depth_bias + P->slope_bias * h * q->texel * q->slope / q->range);
+}
+
+// One group's mean over the box of half-width h texels around the pixel.
+static float4 mssm_box(global const long4* map, int size, const mssm_pixel* q, float h) {
+  return FILTER_BOX(map, size, fmax(q->u - h * q->texel / q->texel_x, 0.0f),
+                    fmax(q->v - h * q->texel / q->texel_y, 0.0f),
+                    fmin(q->u + h * q->texel / q->texel_x, (float)size),
+                    fmin(q->v + h * q->texel / q->texel_y, (float)size));
+}
+
 // Visibility of each light at each pixel: vis[light][pixel]. One work-item per (pixel, light).
+// 1. blocker search over the region that can hold blockers of this light: distance to the near
+//    plane times the light's angular size (seed 003 §3.2, Fig. 1, directional light);
+// 2. z_avg (eq. 7 or 19) and the penumbra width, seed 003 eq. 5 for a light at infinity:
+//    blockers at distance (d - z_avg) range above the receiver spread the light's disc to radius
+//    (d - z_avg) range tan(alpha);
+// 3. filtered visibility, seed 003 eq. 6, bounded by the moments.
 kernel void mssm4_visibility(global const float4* gpos, global const float4* gnrm,
                              global const float4* ggeo, global const pb_light* lights,
                              global const long4* sats, int size, ulong stride, int npixels,
                              mssm_params P, global float* vis) {
   int px = get_global_id(0), l = get_global_id(1);
   if (px >= npixels) return;
-  float4 p4 = gpos[px];
   size_t out = (size_t)l * npixels + px;
-  if (p4.w == 0.0f) { vis[out] = 1.0f; return; }
   pb_light L = lights[l];
-  float3 w = (float3)(L.dir[0], L.dir[1], L.dir[2]);
-  // For an upward ground, every light of the lower hemisphere is skipped here.
-  if (light_below_horizon(gnrm[px].xyz, &L)) { vis[out] = 1.0f; return; }
-  float3 ex = (float3)(L.ex[0], L.ex[1], L.ex[2]), ey = (float3)(L.ey[0], L.ey[1], L.ey[2]);
-  float3 org = (float3)(L.origin[0], L.origin[1], L.origin[2]);
-  float hx = L.ex[3], hy = L.ey[3], range = L.origin[3];
-  float3 r = p4.xyz - org;
-  // shadow-map texel coordinates (row 0 at +ey) and normalized depth, as in raster.cl's ortho view
-  float u = (dot(r, ex) / hx + 1.0f) * 0.5f * size;
-  float v = (1.0f - dot(r, ey) / hy) * 0.5f * size;
-  float d = dot(r, -w) / range;
-  float texel_x = 2.0f * hx / size, texel_y = 2.0f * hy / size;
-  float texel = fmin(texel_x, texel_y);
-  float cos_a = L.dir[3];
-  float tan_a = sqrt(fmax(1.0f - cos_a * cos_a, 0.0f)) / fmax(cos_a, 1e-4f) * P.light_size_scale;
-  // receiver plane's depth slope along the light: tan of the angle between normal and light
-  float3 g = ggeo[px].xyz;
-  float cn = fabs(dot(g, w));
-  float slope = fmin(sqrt(fmax(1.0f - cn * cn, 0.0f)) / fmax(cn, 1e-3f), 10.0f);
+  mssm_pixel q;
+  if (!mssm_pixel_setup(px, gpos, gnrm, ggeo, &L, size, &P, &q)) { vis[out] = 1.0f; return; }
   const global long4* sat = sats + l * stride;
-  u = clamp(u, 0.0f, (float)size);
-  v = clamp(v, 0.0f, (float)size);
-
-  // 1. blocker search over the region that can hold blockers of this light: distance to the
-  //    near plane times the light's angular size (seed 003 §3.2, Fig. 1, directional light).
-  float search = BOX_FROM_DISC * d * range * tan_a;  // world half-width
-  float hs = clamp(search / texel, 0.5f * P.min_filter, 0.5f * P.max_filter);
-  float bias_s = P.depth_bias + P.slope_bias * hs * texel * slope / range;
-  float zf = d - bias_s;
-  float4 m = FILTER_BOX(sat, size, fmax(u - hs * texel / texel_x, 0.0f),
-                      fmax(v - hs * texel / texel_y, 0.0f),
-                      fmin(u + hs * texel / texel_x, (float)size),
-                      fmin(v + hs * texel / texel_y, (float)size));
-  float wb, zb;
-  hamburger4(m, zf, P.moment_bias, &wb, &zb);
+  float hs = mssm_half_width(&q, &P, q.d * q.range * q.tan_a);
+  float zf = mssm_receiver(&q, &P, hs);
+  float wb, zb, wr;
+  hamburger4(mssm_box(sat, size, &q, hs), zf, P.moment_bias, &wb, &zb, &wr);
   if (wb < 1e-3f) { vis[out] = 1.0f; return; }  // nothing in front anywhere: fully lit
-  // seed 003 eq. 7
-  float z_avg = (P.blocker_eps * zf + zb) / (P.blocker_eps + wb);
-  // 2. penumbra width, seed 003 eq. 5 for a light at infinity: blockers at distance
-  //    (d - z_avg) range above the receiver spread the light's disc to radius (d - z_avg) range
-  //    tan(alpha).
-  float pen = BOX_FROM_DISC * fmax(d - z_avg, 0.0f) * range * tan_a;
-  float hf = clamp(pen / texel, 0.5f * P.min_filter, 0.5f * P.max_filter);
-  float bias_f = P.depth_bias + P.slope_bias * hf * texel * slope / range;
-  float4 mf = FILTER_BOX(sat, size, fmax(u - hf * texel / texel_x, 0.0f),
-                       fmax(v - hf * texel / texel_y, 0.0f),
-                       fmin(u + hf * texel / texel_x, (float)size),
-                       fmin(v + hf * texel / texel_y, (float)size));
-  float wf, zs;
-  // 3. filtered visibility, seed 003 eq. 6, bounded by the moments
-  float visibility = hamburger4(mf, d - bias_f, P.moment_bias, &wf, &zs);
+  float z_avg = mssm_blocker_depth(zf, wb, zb, wr, &P);
+  float hf = mssm_half_width(&q, &P, fmax(q.d - z_avg, 0.0f) * q.range * q.tan_a);
+  float visibility = hamburger4(mssm_box(sat, size, &q, hf), mssm_receiver(&q, &P, hf),
+                                P.moment_bias, &wb, &zb, &wr);
   vis[out] = clamp(visibility, 0.0f, 1.0f);
+}
+
+// MSSM6's visibility, the same three steps with the six-moment reconstruction. Light l's images
+// are 3 (l/2) + (l%2) (t1..t4) and 3 (l/2) + 2 (t5, t6 in .xy or .zw), depth_to_moments6's packing.
+kernel void mssm6_visibility(global const float4* gpos, global const float4* gnrm,
+                             global const float4* ggeo, global const pb_light* lights,
+                             global const long4* maps, int size, ulong stride, int npixels,
+                             mssm_params P, global float* vis) {
+  int px = get_global_id(0), l = get_global_id(1);
+  if (px >= npixels) return;
+  size_t out = (size_t)l * npixels + px;
+  pb_light L = lights[l];
+  mssm_pixel q;
+  if (!mssm_pixel_setup(px, gpos, gnrm, ggeo, &L, size, &P, &q)) { vis[out] = 1.0f; return; }
+  const global long4* mapA = maps + (size_t)(3 * (l / 2) + (l & 1)) * stride;
+  const global long4* mapB = maps + (size_t)(3 * (l / 2) + 2) * stride;
+  int odd = l & 1;
+  float hs = mssm_half_width(&q, &P, q.d * q.range * q.tan_a);
+  float zf = mssm_receiver(&q, &P, hs);
+  float4 b = mssm_box(mapB, size, &q, hs);
+  float wb, zb, wr;
+  hamburger6(mssm_box(mapA, size, &q, hs), odd ? b.zw : b.xy, zf, P.moment_bias, &wb, &zb, &wr);
+  if (wb < 1e-3f) { vis[out] = 1.0f; return; }  // nothing in front anywhere: fully lit
+  float z_avg = mssm_blocker_depth(zf, wb, zb, wr, &P);
+  float hf = mssm_half_width(&q, &P, fmax(q.d - z_avg, 0.0f) * q.range * q.tan_a);
+  b = mssm_box(mapB, size, &q, hf);
+  float visibility = hamburger6(mssm_box(mapA, size, &q, hf), odd ? b.zw : b.xy,
+                                mssm_receiver(&q, &P, hf), P.moment_bias, &wb, &zb, &wr);
+  vis[out] = clamp(visibility, 0.0f, 1.0f);
+}
+
+// The reconstructions on given filtered moments, for tests: case i reads m[10 i ..]: (b1..b4)
+// power moments for MSSM4, then (t1..t6) Chebyshev moments for MSSM6, and zf[i]; writes out[8 i ..]:
+// MSSM4's shadowed fraction, z_avg by eq. 7, z_avg by eq. 19, receiver weight; then MSSM6's four.
+kernel void mssm_reconstruct(global const float* m, global const float* zf, int n, mssm_params P,
+                             global float* out) {
+  int i = get_global_id(0);
+  if (i >= n) return;
+  global const float* c = m + 10 * i;
+  float z = zf[i], wb, zb, wr;
+  mssm_params lower = P, upper = P;
+  lower.upper_bound = 0;
+  upper.upper_bound = 1;
+  global float* o = out + 8 * i;
+  hamburger4((float4)(c[0], c[1], c[2], c[3]), z, P.moment_bias, &wb, &zb, &wr);
+  o[0] = wb;
+  o[1] = mssm_blocker_depth(z, wb, zb, wr, &lower);
+  o[2] = mssm_blocker_depth(z, wb, zb, wr, &upper);
+  o[3] = wr;
+  hamburger6((float4)(c[4], c[5], c[6], c[7]), (float2)(c[8], c[9]), z, P.moment_bias, &wb, &zb, &wr);
+  o[4] = wb;
+  o[5] = mssm_blocker_depth(z, wb, zb, wr, &lower);
+  o[6] = mssm_blocker_depth(z, wb, zb, wr, &upper);
+  o[7] = wr;
 }

@@ -361,7 +361,14 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ", \"light_size_scale\": " << opt.mssm.lightSizeScale
     << ", \"max_filter_texels\": " << opt.mssm.maxFilterTexels
     << ", \"min_filter_texels\": " << opt.mssm.minFilterTexels
-    << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon << "},\n  \"timings_ms\": {";
+    << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon
+    << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
+    << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
+    << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
+    << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
+    << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
+    << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps
+    << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"timings_ms\": {";
   for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
     o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
   o << "}\n}\n";

@@ -72,6 +72,9 @@ class ShadowPass {
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t);
 bool techniqueAvailable(ShadowTechnique t);
 std::unique_ptr<ShadowPass> makeMSSM4Pass();
+std::unique_ptr<ShadowPass> makeMSSM6Pass();
+std::unique_ptr<ShadowPass> makeCSSMPass();
+std::unique_ptr<ShadowPass> makeHardPass(), makePCSSPass(), makeBrutePass();
 
 // Filterable maps: `count` images of S x S long4 texels, image i at element i * stride.
 // prefilterStride: elements one image needs for the prefilter (S*S for a SAT; more for a mip

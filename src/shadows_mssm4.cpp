@@ -2,16 +2,10 @@
 #include <algorithm>
 
 #include "penumbra/scan.hpp"
-#include "shadow_pass.hpp"
+#include "shadows_mssm.hpp"
 
 namespace penumbra::detail {
 namespace {
-
-// Must match kernels/moments.cl's mssm_params.
-struct MssmParams {
-  cl_float momentBias, depthBias, slopeBias, lightSizeScale;
-  cl_float maxFilter, minFilter, blockerEps, pad;
-};
 
 class MSSM4Pass : public ShadowPass {
  public:
@@ -30,25 +24,14 @@ class MSSM4Pass : public ShadowPass {
       ctx.launch("mssm4/moments", k, cl::NDRange(S, S, nl));
     }
     prefilter(ctx, moments, f.opt.prefilter, S, nl, "mssm4");
-    const MSSMOptions& mo = f.opt.mssm;
-    MssmParams P{mo.momentBias,      mo.depthBias,       mo.slopeBias,      mo.lightSizeScale,
-                 mo.maxFilterTexels, mo.minFilterTexels, mo.blockerEpsilon, 0.0f};
     cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility", prefilterOption(f.opt.prefilter));
-    k.setArg(0, f.gpos);
-    k.setArg(1, f.gnrm);
-    k.setArg(2, f.ggeo);
-    k.setArg(3, f.lightBuffer);
-    k.setArg(4, moments);
-    k.setArg(5, cl_int(S));
-    k.setArg(6, cl_ulong(stride));
-    k.setArg(7, cl_int(f.pixels));
-    k.setArg(8, sizeof(P), &P);
-    k.setArg(9, f.vis);
+    setVisibilityArgs(k, f, moments, stride);
     ctx.launch("mssm4/visibility", k, cl::NDRange(f.pixels, nl));
   }
   std::size_t bytesPerTexel(const RenderOptions& opt) const override {
     // one long4 per texel, times the prefilter's overhead (measured on a 1024^2 map)
-    return prefilterStride(opt.prefilter, 1024) * sizeof(cl_long4) / (1024 * 1024);
+    const std::size_t bytes = prefilterStride(opt.prefilter, 1024) * sizeof(cl_long4);
+    return (bytes + 512 * 1024) / (1024 * 1024);  // rounded to the nearest byte
   }
 };
 

@@ -41,7 +41,9 @@ const char* toString(Prefilter p);
 // or normalized light-space depth (0 at the map's near plane, 1 at its far plane).
 struct MSSMOptions {
   float momentBias = 3e-5f;     // blend of the filtered moments towards those of the uniform
-                                // distribution (kernels/moments.cl). Larger: more light leaking
+                                // distribution (kernels/moments.cl). Larger: more light leaking.
+                                // MSSM6 uses the same value: its float solve (Chebyshev basis)
+                                // is within 0.01 of a long-double one at 3e-5, 0.02 at 1e-5
   float depthBias = 0.002f;     // subtracted from the receiver depth (normalized depth units)
   float slopeBias = 0.0f;       // extra depth bias: this times the filter radius times the
                                 // receiver's depth slope. Off by default: it hides real blockers
@@ -52,10 +54,18 @@ struct MSSMOptions {
   float maxFilterTexels = 27.0f;// largest filter width in texels (seed 003 §6.2 used 27 at 256^2)
   float minFilterTexels = 1.0f; // smallest filter width in texels
   float blockerEpsilon = 1e-3f; // epsilon of seed 003 eq. 7 (pulls z_avg towards the receiver)
-  // Upper-bound blocker depth (seed 003 §4.2.2, eq. 19): weights of atoms at the receiver's depth
-  // clamped to [delta1, delta2]; shadows harden rather than vanish under complex depth.
+  // Upper-bound blocker depth (seed 003 §4.2.2, eq. 19), MSSM4 and MSSM6: the reconstruction's
+  // atom at the receiver's depth counts as a blocker, its weight clamped to [delta1, delta2];
+  // shadows harden rather than soften under complex depth. Off by default (eq. 7). Measured
+  // relative RMSE vs Embree, built-in / Wuson-courtyard / spider-interior at 160x90: MSSM4
+  // 4.9/8.5/5.8% off, 4.2/7.1/5.3% on; MSSM6 5.5/9.8/6.1% off, 4.2/7.2/5.3% on. It sharpens the
+  // planar penumbra (max error vs analytic 0.03 -> 0.21 MSSM4, 0.09 MSSM6: tests/test_mssm6.cpp).
   bool upperBoundBlocker = false;
-  float delta1 = 1e-3f, delta2 = 0.1f;
+  float delta1 = 1e-3f;         // lower clamp; >= blockerEpsilon keeps z_avg >= eq. 7's, and the
+                                // denominator of eq. 19 away from 0
+  float delta2 = 0.5f;          // upper clamp. 0.5, not 0.1: frame errors above fall with it up to
+                                // ~0.5 and are flat beyond (0.1: 4.5/7.6/5.5% MSSM4, 4.6/8.2/5.6%
+                                // MSSM6)
 };
 
 // Convolution soft shadow maps (seed 000 §3).
@@ -63,17 +73,54 @@ struct CSSMOptions {
   int order = 4;                // Fourier order M: terms k = 1..M, c_k = pi (2k - 1) (appendix)
   float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0: off
   float sharpenB = 10.0f;       // per unit of normalized depth
+  // Ringing suppression (§3.3): the scale that puts the series' ripple outside [0,1] is derived
+  // from M (src/shadows_cssm.cpp); this is the shift along depth, as a fraction of the series'
+  // rise t0(M) (0.076 at M = 4, 0.019 at M = 16, in units of kappa-scaled depth). 0 (default):
+  // the receiver's own depth maps to 0 at the series' centre, so tilted receivers cancel by the
+  // series' odd symmetry and contact shadows start within t0; surfaces behind the receiver then
+  // weigh about -1.2 in the filter. 1: the symmetric map of seed 000 Fig. 3c (surfaces behind
+  // weigh ~0, but tilted receivers shadow themselves and the contact zone is 2 t0). In [0, 1].
+  // Measured relative RMSE of the default frame vs the same-light-set reference, M = 4, no
+  // sharpening: 3.4% at 0, 3.7% at 0.25, 4.8% at 1 (M = 16).
+  float ringingOffset = 0.0f;
+  // Attenuation alpha of the series' terms, sigma_k = exp(-alpha (k/M)^2) (Annen et al. 2007),
+  // applied alike to CSM and CSM-Z. 0: the plain series of seed 000 eq. 10. In [0, 8].
+  float damping = 0.0f;
+  // Subtracted from the receiver's depth (normalized depth units). CSSM needs none for planar
+  // receivers (above); a bias moves the receiver onto the steepest part of the series, which
+  // brightens every penumbra by 2 M scale kappa bias (0.13 at M = 16 for 0.002). Default 0.
+  float depthBias = 0.0f;
+  float slopeBias = 0.0f;       // extra bias: this times the filter radius times the receiver's
+                                // depth slope (as MSSMOptions::slopeBias). Default 0
+  // Device memory for the prefiltered basis images (4M + 1 values per texel); lights are
+  // processed in batches that fit, at least one light per batch. Bytes; default 256 MiB.
+  std::size_t maxBasisBytes = std::size_t(256) << 20;
 };
 
 // Percentage-closer soft shadows (Fernando 2005; seed 003 eqs. 4-6 by explicit sampling).
 struct PCSSOptions {
-  int blockerTaps = 16;         // samples of the blocker search
-  int filterTaps = 32;          // samples of the percentage-closer filter
+  // The search and filter boxes are MSSM's (mssm.lightSizeScale, min/maxFilterTexels, depthBias).
+  int blockerTaps = 16;         // samples of the blocker search (eq. 4): a g x g grid over the
+                                // box, g = round(sqrt(n)) (16: 4x4); 0: every texel of the box
+  int filterTaps = 0;           // samples of the percentage-closer filter (eq. 6). 0 (default):
+                                // every texel of the box, weighted by its coverage: the explicit
+                                // convolution of seed 003 §6.2, cost proportional to the box's
+                                // area in texels. n > 0: a g x g grid, g = round(sqrt(n)), of 2x2
+                                // bilinear PCF taps: fixed cost, the box merely spreads the taps
+  bool receiverPlaneBias = true;// compare each texel with the receiver's tangent plane at that
+                                // texel (from the geometric normal) instead of the receiver's
+                                // depth: tilted surfaces do not shadow themselves inside wide
+                                // filters. Hard and brute force always do so (one texel away)
 };
 
 // Brute force: K point lights spread over each area light's cap, one hard shadow map each.
 struct BruteOptions {
-  int samples = 64;             // K per light
+  int samples = 64;             // K per light, in [1, 4096]: directions uniform in solid angle over
+                                // the cap (spherical Fibonacci), visibility weighted by max(0,
+                                // n.w_k) (irradiance). Ignores mssm.lightSizeScale (no filter)
+  std::size_t batchBytes = std::size_t(256) << 20;  // device bytes of sample depth maps held at
+                                // once (default 256 MiB, at least one map): maps are rasterized
+                                // and tested in batches of this size
 };
 
 struct RenderOptions {

@@ -1,0 +1,192 @@
+// Brute force (seed 000 Fig. 11d): K point lights per area light, spread over its cap, one hard
+// shadow map each, visibility = the irradiance-weighted mean of the K depth tests
+// (kernels/pcss.cl's brute_visibility). The baseline that bounds the problem from above: it
+// converges to the exact visibility of the cap as K grows, at K times the shadow-map cost.
+//
+// The K * lights maps are rasterized and tested in batches of at most BruteOptions::batchBytes,
+// so memory stays bounded whatever K, the light count and the map size.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "penumbra/error.hpp"
+#include "shadow_pass.hpp"
+
+namespace penumbra::detail {
+namespace {
+
+using V3 = std::array<float, 3>;
+float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+V3 cross(V3 a, V3 b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+V3 normalize(V3 a) {
+  float l = std::sqrt(dot(a, a));
+  return {a[0] / l, a[1] / l, a[2] / l};
+}
+V3 xyz(const float* v) { return {v[0], v[1], v[2]}; }
+
+constexpr int kMaxSamples = 4096;
+
+// Direction k of K over the cap of `area` (axis dir, half-angle alpha): a spherical Fibonacci
+// set, uniform in solid angle. cos(theta_k) = 1 - (1 - cos alpha)(k + 1/2)/K splits the cap into
+// K rings of equal solid angle (d omega = d cos(theta) d phi), and the golden angle turns each
+// sample away from its neighbours in phi: a deterministic low-discrepancy set, so the sample mean
+// converges to the cap's uniform-radiance average.
+V3 capSample(const pb_light& area, int k, int K) {
+  const float kGoldenAngle = 2.39996322972865332f;  // pi (3 - sqrt 5)
+  float cosA = std::clamp(area.dir[3], -1.0f, 1.0f);
+  float ct = 1.0f - (1.0f - cosA) * (k + 0.5f) / K;
+  float st = std::sqrt(std::max(0.0f, 1.0f - ct * ct));
+  float ph = kGoldenAngle * k;
+  V3 w = xyz(area.dir), ex = xyz(area.ex), ey = xyz(area.ey);
+  V3 d;
+  for (int i = 0; i < 3; ++i)
+    d[i] = ct * w[i] + st * (std::cos(ph) * ex[i] + std::sin(ph) * ey[i]);
+  return normalize(d);
+}
+
+// Radical inverse of i in base b (Halton): a low-discrepancy sequence in [0, 1).
+float radicalInverse(int i, int b) {
+  float f = 1.0f, r = 0.0f;
+  for (; i > 0; i /= b) {
+    f /= b;
+    r += f * (i % b);
+  }
+  return r;
+}
+
+// Orthographic frame of a point light in direction `dir`, fitted (as lightFrame fits the scene's
+// box) to the oriented box of the area light's own frame, which holds the whole scene: a sample
+// near the cap's axis gets the area light's texel size, not that of a looser world-axis box.
+//
+// The map's texel grid is shifted by (jx, jy) texels (in [-1/2, 1/2)). Without it every sample's
+// grid is anchored at the projection of the box's centre, so a sample's texel rounding of its
+// shadow edge moves with the same tilt that moves the edge: on a plane the K edges then fall only
+// on every other texel-wide strip and the average is a staircase of two-texel steps (measured:
+// 0.086 max error at K = 256 on a 5-degree planar penumbra). Shifts from a Halton sequence make
+// the rounding independent of the direction, so it only blurs the profile by about a texel.
+pb_light sampleFrame(const pb_light& area, V3 dir, int size, float jx, float jy) {
+  V3 aex = xyz(area.ex), aey = xyz(area.ey), afwd = {-area.dir[0], -area.dir[1], -area.dir[2]};
+  V3 w = normalize(dir);
+  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
+  V3 ex = normalize(cross(ref, w));
+  V3 ey = cross(w, ex);
+  V3 fwd = {-w[0], -w[1], -w[2]};
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (int i = 0; i < 8; ++i) {
+    float sx = i & 1 ? area.ex[3] : -area.ex[3], sy = i & 2 ? area.ey[3] : -area.ey[3];
+    float sz = i & 4 ? area.origin[3] : 0.0f;
+    V3 c;
+    for (int a = 0; a < 3; ++a) c[a] = area.origin[a] + sx * aex[a] + sy * aey[a] + sz * afwd[a];
+    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
+  // one more texel each side, so that the shift keeps the whole box inside the map
+  float hx = (0.5f * (hi[0] - lo[0]) + margin) * size / std::max(size - 2, 1);
+  float hy = (0.5f * (hi[1] - lo[1]) + margin) * size / std::max(size - 2, 1);
+  float cx = 0.5f * (lo[0] + hi[0]) + jx * 2 * hx / size;
+  float cy = 0.5f * (lo[1] + hi[1]) + jy * 2 * hy / size;
+  float z0 = lo[2] - margin;
+  pb_light L{};
+  for (int a = 0; a < 3; ++a) {
+    L.dir[a] = w[a];
+    L.radiance[a] = area.radiance[a];
+    L.ex[a] = ex[a];
+    L.ey[a] = ey[a];
+    L.origin[a] = cx * ex[a] + cy * ey[a] + z0 * fwd[a];
+  }
+  L.dir[3] = 1.0f;  // a point on the cap
+  L.radiance[3] = 0.0f;
+  L.ex[3] = hx;
+  L.ey[3] = hy;
+  L.origin[3] = hi[2] + margin - z0;
+  return L;
+}
+
+class BrutePass : public ShadowPass {
+ public:
+  void computeVisibility(ShadowFrame& f) override {
+    const BruteOptions& bo = f.opt.brute;
+    if (bo.samples < 1 || bo.samples > kMaxSamples)
+      badInput("brute-force samples per light must be in [1, 4096], got " +
+               std::to_string(bo.samples));
+    const int K = bo.samples, nl = int(f.lights.size()), S = f.mapSize;
+    const int total = K * nl;
+    const std::size_t mapBytes = std::size_t(S) * S * sizeof(cl_uint) * (f.opt.frontBackFaces ? 2 : 1);
+    // at least one map per batch; counts of texels stay within the kernels' int range
+    const std::size_t fit = std::min<std::size_t>(bo.batchBytes / mapBytes, (std::size_t(1) << 31) / (std::size_t(S) * S));
+    const int batch = int(std::clamp<std::size_t>(fit, 1, std::size_t(total)));
+    std::vector<pb_light> samples;
+    std::vector<pb_view> views;
+    samples.reserve(total);
+    views.reserve(total);
+    for (int l = 0; l < nl; ++l)
+      for (int k = 0; k < K; ++k) {
+        samples.push_back(sampleFrame(f.lights[l], capSample(f.lights[l], k, K), S,
+                                      radicalInverse(k + 1, 2) - 0.5f,
+                                      radicalInverse(k + 1, 3) - 0.5f));
+        views.push_back(orthoView(samples.back(), S));
+      }
+    cl::Buffer& sampleBuf = f.pool.upload("brute sample lights", samples);
+    const std::size_t texels = std::size_t(batch) * S * S;
+    cl::Buffer& maps = f.pool.buffer("brute sample maps", texels * sizeof(cl_uint));
+    cl::Buffer* back = nullptr;
+    if (f.opt.frontBackFaces) back = &f.pool.buffer("brute sample back-face maps", texels * sizeof(cl_uint));
+    heldBytesPerTexel_ = double(batch) * mapBytes / (double(S) * S * nl);
+
+    cl::Kernel k = f.ctx.kernel("pcss.cl", "brute_visibility");
+    for (int first = 0; first < total; first += batch) {
+      const int count = std::min(batch, total - first);
+      std::vector<pb_view> bv(views.begin() + first, views.begin() + first + count);
+      if (back) {
+        // seed 003 §4.2.3, as the renderer does for the standard maps
+        f.rasterizeDepth(bv, Cull::KeepFront, maps, "brute/raster-front");
+        f.rasterizeDepth(bv, Cull::KeepBack, *back, "brute/raster-back");
+        cl::Kernel c = f.ctx.kernel("raster.cl", "combine_front_back");
+        c.setArg(0, maps);
+        c.setArg(1, *back);
+        c.setArg(2, cl_int(std::size_t(count) * S * S));
+        f.ctx.launch("brute/front-back", c, cl::NDRange(std::size_t(count) * S * S));
+      } else {
+        f.rasterizeDepth(bv, Cull::None, maps, "brute/raster");
+      }
+      const int l0 = first / K, l1 = (first + count - 1) / K;
+      k.setArg(0, f.gpos);
+      k.setArg(1, f.gnrm);
+      k.setArg(2, f.ggeo);
+      k.setArg(3, f.lightBuffer);
+      k.setArg(4, sampleBuf);
+      k.setArg(5, maps);
+      k.setArg(6, cl_int(S));
+      k.setArg(7, cl_int(K));
+      k.setArg(8, cl_int(first));
+      k.setArg(9, cl_int(count));
+      k.setArg(10, cl_int(l0));
+      k.setArg(11, cl_int(f.pixels));
+      k.setArg(12, cl_float(f.opt.mssm.depthBias));
+      k.setArg(13, f.vis);
+      f.ctx.launch("brute/visibility", k, cl::NDRange(f.pixels, l1 - l0 + 1));
+    }
+  }
+  // Device bytes of depth maps held at once (one batch), per texel per light: K * 4 when all
+  // maps fit in BruteOptions::batchBytes, less when batched. Known after computeVisibility.
+  std::size_t bytesPerTexel(const RenderOptions& opt) const override {
+    if (heldBytesPerTexel_ > 0) return std::size_t(std::ceil(heldBytesPerTexel_));
+    return std::size_t(std::max(opt.brute.samples, 1)) * sizeof(cl_uint);
+  }
+
+ private:
+  double heldBytesPerTexel_ = 0;  // bytes per texel per light of the last frame's batch buffer(s)
+};
+
+}  // namespace
+
+std::unique_ptr<ShadowPass> makeBrutePass() { return std::make_unique<BrutePass>(); }
+
+}  // namespace penumbra::detail
