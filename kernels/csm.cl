@@ -10,9 +10,9 @@
 // Build options: -DCSSM_ORDER=M (terms k = 1..M, c_k = pi (2k - 1)), plus the prefilter's option.
 //
 // Channel layout of one texel, 4M + 1 values in CSSM_GROUPS = M + 1 long4 groups (3 lanes spare):
-//   j = 2(k-1), 2(k-1)+1          cos(c_k z~), sin(c_k z~)            (CSM, j < 2M)
-//   j = 2M + 2(k-1), 2M + 2(k-1)+1  z cos(c_k z~), z sin(c_k z~)      (CSM-Z)
-//   j = 4M                         z                                  (the appendix's plain z image)
+//   j = 2(k-1), 2(k-1)+1            cos(c_k z~), sin(c_k z~)      (CSM, j < 2M)
+//   j = 2M + 2(k-1), 2M + 2(k-1)+1  z cos(c_k z~), z sin(c_k z~)  (CSM-Z)
+//   j = 4M                          z                             (the appendix's plain z image)
 // z is the normalized depth in [0,1] (empty texels: 1), z~ = kappa z the depth the series sees
 // (kappa < 1 keeps every depth difference on the series' plateau, see src/shadows_cssm.cpp).
 // The CSM groups come first so that the final lookup reads only ceil(M/2) of the M + 1 groups.
@@ -38,11 +38,12 @@
 #define BOX_FROM_DISC 0.88622692545f
 #endif
 
-// sin(c_k x), cos(c_k x) for k = 1..M by the angle-addition recurrence: c_{k+1} x = c_k x + 2 pi x.
-// Two sincos instead of 2M; the rotation's rounding grows by ~1 ulp per step (< 1e-5 at M = 32).
+// sin(c_k x), cos(c_k x) for k = 1..M by the angle-addition recurrence
+// c_{k+1} x = c_k x + 2 pi x, the step's sine and cosine by the double angle. One sincos instead
+// of 2M; the rotation's rounding grows by ~1 ulp per step (< 1e-5 at M = 32).
 static void fourier_terms(float x, float* s, float* c) {
   float c1, s1 = sincos(CSSM_PI * x, &c1);
-  float cs, ss = sincos(2.0f * CSSM_PI * x, &cs);
+  float ss = 2.0f * s1 * c1, cs = c1 * c1 - s1 * s1;
   s[0] = s1;
   c[0] = c1;
   for (int k = 1; k < CSSM_ORDER; ++k) {
@@ -53,7 +54,8 @@ static void fourier_terms(float x, float* s, float* c) {
 
 // Depth map (ray distances from the light's near plane, uint bit patterns) of lights
 // first_light + l -> basis images, fixed point round(v * 2^32) (|v| <= 1: exact sums below 2^56
-// for maps up to 4096^2). Image g of batch light l starts at element (l * CSSM_GROUPS + g) * stride.
+// for maps up to 4096^2). Image g of batch light l starts at element
+// (l * CSSM_GROUPS + g) * stride.
 kernel void cssm_basis(global const uint* depth, global const pb_light* lights, int size,
                        ulong stride, int first_light, float kappa, global long4* basis) {
   int x = get_global_id(0), y = get_global_id(1), l = get_global_id(2);
@@ -75,9 +77,13 @@ kernel void cssm_basis(global const uint* depth, global const pb_light* lights, 
   v[4 * CSSM_ORDER] = z;
   for (int j = CSSM_CHANNELS; j < 4 * CSSM_GROUPS; ++j) v[j] = 0.0f;
   global long4* out = basis + (size_t)l * CSSM_GROUPS * stride + (size_t)y * size + x;
-  for (int g = 0; g < CSSM_GROUPS; ++g)
-    out[g * stride] = convert_long4_rte((float4)(v[4 * g], v[4 * g + 1], v[4 * g + 2], v[4 * g + 3]) *
-                                        (float)PB_MOMENT_SCALE);
+  // Rounded half away from zero by hand: PoCL emulates convert_long4_rte (and rint) element by
+  // element, half this kernel's time on a CPU; truncation after +-0.5 is a plain conversion.
+  for (int g = 0; g < CSSM_GROUPS; ++g) {
+    float4 f = (float4)(v[4 * g], v[4 * g + 1], v[4 * g + 2], v[4 * g + 3]) *
+               (float)PB_MOMENT_SCALE;
+    out[g * stride] = convert_long4(f + copysign((float4)(0.5f), f));
+  }
 }
 
 typedef struct {
@@ -86,7 +92,8 @@ typedef struct {
   float scale, shift, tau0, kappa;
   // The same for the blocker search (z_avg, eq. 8): the symmetric map of Fig. 3c, shifted by the
   // series' whole rise, so that the receiver's own texels and everything behind it weigh ~0.
-  float scale_z, shift_z, tau0_z, rise;
+  float scale_z, shift_z, tau0_z;
+  float rise;  // t0 / kappa: the series' rise in normalized depth
   float depth_bias, slope_bias, light_size_scale, max_filter;
   float min_filter, sharpen_a, sharpen_b, damping;
 } cssm_params;
@@ -106,11 +113,13 @@ static void filtered_basis(global const long4* maps, int size, ulong stride, flo
 
 // The filtered complementary shadow test from the filtered basis m, scaled and shifted but not
 // yet clamped: a * (w * f_bar) + b, f_bar by eq. 10 expanded as in eq. 3 (d~ = the argument dt):
-//   w * f_bar = 1/2 + 2 sum_k (1/c_k) [sin(c_k d~) (w * cos(c_k z~)) - cos(c_k d~) (w * sin(c_k z~))]
+//   w * f_bar = 1/2 + 2 sum_k (1/c_k) [sin(c_k d~) (w * cos(c_k z~))
+//                                      - cos(c_k d~) (w * sin(c_k z~))]
 // With zsum, also the numerator of eq. 8 by eq. 11 under the SAME expansion and the same affine
 // scale/shift (an affine map of the per-texel test commutes with the filter):
 //   a * (w * (f_bar z)) + b (w * z),
-//   w * (f_bar z) = (w * z)/2 + 2 sum_k (1/c_k) [sin(c_k d~) (w * z cos) - cos(c_k d~) (w * z sin)].
+//   w * (f_bar z) = (w * z)/2
+//                   + 2 sum_k (1/c_k) [sin(c_k d~) (w * z cos) - cos(c_k d~) (w * z sin)].
 static float series_test(const float* m, float dt, float a, float b, float damping, float* zsum) {
   float s[CSSM_ORDER], c[CSSM_ORDER];
   fourier_terms(dt, s, c);
@@ -176,18 +185,23 @@ kernel void cssm_visibility(global const float4* gpos, global const float4* gnrm
                  fmax(v - hs * texel / texel_y, 0.0f), fmin(u + hs * texel / texel_x, (float)size),
                  fmin(v + hs * texel / texel_y, (float)size), CSSM_GROUPS, m);
   // Any blocker at all, by the visibility's own test? If not, the pixel is lit.
-  float any = series_test(m, P.kappa * (d - P.depth_bias) - P.tau0, P.scale, P.shift, P.damping, 0);
+  float zsum_any;
+  float any = series_test(m, P.kappa * (d - P.depth_bias) - P.tau0, P.scale, P.shift, P.damping,
+                          &zsum_any);
   if (!(any >= CSSM_MIN_BLOCKER)) { vis[out] = 1.0f; return; }  // (NaN too)
   // 2. Average blocker depth, eq. 8: numerator and denominator from the same expansion, here
-  //    the one shifted by the whole rise. The visibility's test is centred on the receiver; a
-  //    tilted receiver's own texels then cancel in the denominator but not in the numerator
-  //    (each adds w(t) t > 0), which would push z_avg away and blur every shadow on it.
+  //    the one shifted by the whole rise. (Not the visibility's test: centred on the receiver,
+  //    it weighs a tilted receiver's own texels w(t) with w odd in t = d - z. They cancel in the
+  //    denominator but each adds w(t) t > 0 to d - z_avg, which would push z_avg away from the
+  //    receiver and blur every shadow on it.)
   float zsum;
   float mass = series_test(m, P.kappa * (d - bias_s) - P.tau0_z, P.scale_z, P.shift_z, P.damping,
                            &zsum);
-  // No blocker beyond the contact zone (t < 2 t0): the blockers found above touch the receiver;
-  // take the zone's middle.
-  float z_avg = mass >= CSSM_MIN_BLOCKER ? clamp(zsum / mass, 0.0f, d) : fmax(d - P.rise, 0.0f);
+  // No blocker beyond the contact zone (t < 2 t0/kappa): the blockers found above touch the
+  // receiver. Their depth from the visibility's test (same fetch), kept inside the zone.
+  float z_avg = mass >= CSSM_MIN_BLOCKER
+                    ? clamp(zsum / mass, 0.0f, d)
+                    : clamp(zsum_any / any, fmax(d - 2.0f * P.rise, 0.0f), d);
   // 3. Final filter (Fig. 2c): the map moved to z_avg; for a light at infinity the penumbra's
   //    radius is (d - z_avg) range tan(alpha) (as MSSM4, seed 003 eq. 5).
   float pen = BOX_FROM_DISC * (d - z_avg) * range * tan_a;
@@ -195,7 +209,8 @@ kernel void cssm_visibility(global const float4* gpos, global const float4* gnrm
   filtered_basis(maps_l, size, stride, fmax(u - hf * texel / texel_x, 0.0f),
                  fmax(v - hf * texel / texel_y, 0.0f), fmin(u + hf * texel / texel_x, (float)size),
                  fmin(v + hf * texel / texel_y, (float)size), CSSM_CSM_GROUPS, m);
-  float shadow = series_test(m, P.kappa * (d - P.depth_bias) - P.tau0, P.scale, P.shift, P.damping, 0);
+  float shadow =
+      series_test(m, P.kappa * (d - P.depth_bias) - P.tau0, P.scale, P.shift, P.damping, 0);
   // 4. Clamp after scale and shift (§3.3): the series' ringing lies outside [0,1] and vanishes.
   float visibility = 1.0f - clamp(shadow, 0.0f, 1.0f);
   // 5. Adaptive sharpening, eq. 9: G(v) = v^p, p = 1 + A exp(-B (d - z_avg)). Darkens only where

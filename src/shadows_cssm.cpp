@@ -5,7 +5,10 @@
 // processed in batches so that the basis images of one batch fit CSSMOptions::maxBasisBytes.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <string>
+#include <utility>
 
 #include "penumbra/error.hpp"
 #include "shadow_pass.hpp"
@@ -126,12 +129,54 @@ void check(const CSSMOptions& o) {
     badInput("CSSM ringing offset must be in [0, 1], got " + std::to_string(o.ringingOffset));
   if (!(o.damping >= 0 && o.damping <= 8))
     badInput("CSSM damping must be in [0, 8], got " + std::to_string(o.damping));
-  if (!std::isfinite(o.depthBias))
-    badInput("CSSM depth bias must be finite, got " + std::to_string(o.depthBias));
+  if (!std::isfinite(o.depthBias) || !std::isfinite(o.slopeBias))
+    badInput("CSSM depth and slope bias must be finite, got " + std::to_string(o.depthBias) +
+             " and " + std::to_string(o.slopeBias));
   if (!(o.sharpenA >= 0) || !std::isfinite(o.sharpenA))
     badInput("CSSM sharpening A must be finite and >= 0, got " + std::to_string(o.sharpenA));
   if (!(o.sharpenB >= 0) || !std::isfinite(o.sharpenB))
     badInput("CSSM sharpening B must be finite and >= 0, got " + std::to_string(o.sharpenB));
+}
+
+// The series is sampled on 2^14 points per (M, alpha): a few ms at M = 32, so once per process.
+const CssmSeries& seriesFor(int M, double alpha) {
+  static std::mutex mutex;
+  static std::map<std::pair<int, double>, CssmSeries> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = cache.find({M, alpha});
+  if (it == cache.end())
+    it = cache.emplace(std::make_pair(M, alpha), deriveCssmSeries(M, alpha)).first;
+  return it->second;
+}
+
+// kernels/csm.cl's cssm_basis: basis images of lights first .. first + count - 1.
+void launchBasis(Context& ctx, cl::Kernel& k, ShadowFrame& f, std::size_t stride, int first,
+                 int count, float kappa, cl::Buffer& maps) {
+  k.setArg(0, f.depth);
+  k.setArg(1, f.lightBuffer);
+  k.setArg(2, cl_int(f.mapSize));
+  k.setArg(3, cl_ulong(stride));
+  k.setArg(4, cl_int(first));
+  k.setArg(5, cl_float(kappa));
+  k.setArg(6, maps);
+  ctx.launch("cssm/basis", k, cl::NDRange(f.mapSize, f.mapSize, count));
+}
+
+// kernels/csm.cl's cssm_visibility: vis of lights first .. first + count - 1 at every pixel.
+void launchVisibility(Context& ctx, cl::Kernel& k, ShadowFrame& f, std::size_t stride, int first,
+                      int count, const CssmParams& P, cl::Buffer& maps) {
+  k.setArg(0, f.gpos);
+  k.setArg(1, f.gnrm);
+  k.setArg(2, f.ggeo);
+  k.setArg(3, f.lightBuffer);
+  k.setArg(4, maps);
+  k.setArg(5, cl_int(f.mapSize));
+  k.setArg(6, cl_ulong(stride));
+  k.setArg(7, cl_int(f.pixels));
+  k.setArg(8, cl_int(first));
+  k.setArg(9, sizeof(P), &P);
+  k.setArg(10, f.vis);
+  ctx.launch("cssm/visibility", k, cl::NDRange(f.pixels, count));
 }
 
 class CSSMPass : public ShadowPass {
@@ -146,7 +191,8 @@ class CSSMPass : public ShadowPass {
     const std::size_t perLight = stride * G * sizeof(cl_long4);
     const int batch = int(std::clamp<std::size_t>(co.maxBasisBytes / perLight, 1, nl));
     cl::Buffer& maps = f.pool.buffer("cssm basis", perLight * batch);
-    const CssmSeries ser = deriveCssmSeries(M, co.damping);
+    const CssmSeries& ser = seriesFor(M, co.damping);
+    // the visibility's test, and the blocker search's (shifted by the whole rise)
     const CssmShift vis = shiftFor(ser, co.ringingOffset), blk = shiftFor(ser, 1.0);
     const MSSMOptions& mo = f.opt.mssm;
     const CssmParams P{float(vis.scale),     float(vis.shift),     float(vis.tau0),
@@ -155,32 +201,15 @@ class CSSMPass : public ShadowPass {
                        co.depthBias,         co.slopeBias,         mo.lightSizeScale,
                        mo.maxFilterTexels,   mo.minFilterTexels,   co.sharpenA,
                        co.sharpenB,          co.damping};
-    const std::string order = "-DCSSM_ORDER=" + std::to_string(M);
-    cl::Kernel basis = ctx.kernel("csm.cl", "cssm_basis", order + " " + prefilterOption(f.opt.prefilter));
-    cl::Kernel visK = ctx.kernel("csm.cl", "cssm_visibility", order + " " + prefilterOption(f.opt.prefilter));
+    const std::string options =
+        "-DCSSM_ORDER=" + std::to_string(M) + " " + prefilterOption(f.opt.prefilter);
+    cl::Kernel basis = ctx.kernel("csm.cl", "cssm_basis", options);
+    cl::Kernel visibility = ctx.kernel("csm.cl", "cssm_visibility", options);
     for (int first = 0; first < nl; first += batch) {
       const int count = std::min(batch, nl - first);
-      basis.setArg(0, f.depth);
-      basis.setArg(1, f.lightBuffer);
-      basis.setArg(2, cl_int(S));
-      basis.setArg(3, cl_ulong(stride));
-      basis.setArg(4, cl_int(first));
-      basis.setArg(5, cl_float(ser.kappa));
-      basis.setArg(6, maps);
-      ctx.launch("cssm/basis", basis, cl::NDRange(S, S, count));
+      launchBasis(ctx, basis, f, stride, first, count, float(ser.kappa), maps);
       prefilter(ctx, maps, f.opt.prefilter, S, count * G, "cssm");
-      visK.setArg(0, f.gpos);
-      visK.setArg(1, f.gnrm);
-      visK.setArg(2, f.ggeo);
-      visK.setArg(3, f.lightBuffer);
-      visK.setArg(4, maps);
-      visK.setArg(5, cl_int(S));
-      visK.setArg(6, cl_ulong(stride));
-      visK.setArg(7, cl_int(f.pixels));
-      visK.setArg(8, cl_int(first));
-      visK.setArg(9, sizeof(P), &P);
-      visK.setArg(10, f.vis);
-      ctx.launch("cssm/visibility", visK, cl::NDRange(f.pixels, count));
+      launchVisibility(ctx, visibility, f, stride, first, count, P, maps);
     }
   }
   // 4M + 1 values per texel (CSM 2M, CSM-Z 2M, z) in M + 1 long4 groups, times the prefilter's
