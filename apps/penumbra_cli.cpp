@@ -245,7 +245,7 @@ int cmdRender(int argc, char** argv) {
       {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19)"},
       {"cssm-order", true, "CSSM Fourier order M (default 4)"},
       {"sharpen-a", true, "CSSM sharpening strength A (default 30; 0 disables)"},
-      {"sharpen-b", true, "CSSM sharpening falloff B (default 10)"},
+      {"sharpen-b", true, "CSSM sharpening falloff B (default 80)"},
       {"pcss-blocker-taps", true, "PCSS blocker-search samples (default 16; 0: every texel)"},
       {"pcss-filter-taps", true, "PCSS filter samples (default 0: every texel, explicit)"},
       {"brute-samples", true, "brute force: point samples per light (default 64)"},
@@ -270,7 +270,7 @@ int cmdRender(int argc, char** argv) {
   ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", "256"), 1, 4096));
   ro.prefilter = parsePrefilter(get(a, "prefilter", "sat"));
   ro.mssm.upperBoundBlocker = has(a, "upper-bound");
-  if (has(a, "cssm-order")) ro.cssm.order = int(parseInt("cssm-order", get(a, "cssm-order", ""), 1, 64));
+  if (has(a, "cssm-order")) ro.cssm.order = int(parseInt("cssm-order", get(a, "cssm-order", ""), 1, 32));
   if (has(a, "sharpen-a")) ro.cssm.sharpenA = parseFloat("sharpen-a", get(a, "sharpen-a", ""));
   if (has(a, "sharpen-b")) ro.cssm.sharpenB = parseFloat("sharpen-b", get(a, "sharpen-b", ""));
   if (has(a, "pcss-blocker-taps"))
