@@ -2,6 +2,7 @@
 #pragma once
 #include <penumbra/penumbra.hpp>
 
+#include <cmath>
 #include <string>
 
 namespace penumbra::test {
@@ -16,6 +17,35 @@ inline Context& ctx() {
 inline std::string data(const std::string& rel) { return std::string(PENUMBRA_TEST_DATA) + "/" + rel; }
 
 inline const char* kMaps[] = {"envmaps/courtyard.exr", "envmaps/interior.exr", "envmaps/studio.exr"};
+
+// A horizontal quad [x0,x1] x [z0,z1] at height y, facing +y: receivers and blockers of the planar
+// parallel configuration the filtered techniques are tested on.
+inline Mesh planarQuad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
+  Mesh m;
+  m.name = name;
+  m.positions = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
+  m.normals = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}};
+  return m;
+}
+
+// Exact visibility of that configuration: the irradiance-weighted unblocked fraction of a cap of
+// half-angle alpha around +y, seen from a receiver at x on the plane y = 0, when the half-plane
+// {x' < 0, y = h} blocks (quadrature over the cap).
+inline double halfPlaneVisibility(double x, double h, double alpha) {
+  const int nt = 200, np = 400;
+  double lit = 0, total = 0;
+  for (int i = 0; i < nt; ++i) {
+    double t0 = alpha * i / nt, t1 = alpha * (i + 1) / nt, th = 0.5 * (t0 + t1);
+    double dw = (std::cos(t0) - std::cos(t1)) * std::cos(th);
+    for (int j = 0; j < np; ++j) {
+      double ph = 2 * M_PI * (j + 0.5) / np;
+      total += dw;
+      if (x + h * std::tan(th) * std::cos(ph) >= 0) lit += dw;  // ray passes the blocker's edge
+    }
+  }
+  return lit / total;
+}
 
 inline float luminance(const double rgb[3]) {
   return float(PB_LUM_R * rgb[0] + PB_LUM_G * rgb[1] + PB_LUM_B * rgb[2]);

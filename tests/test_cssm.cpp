@@ -17,14 +17,6 @@ using namespace penumbra::test;
 
 namespace {
 
-Mesh quad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
-  Mesh m;
-  m.name = name;
-  m.positions = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
-  m.normals = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
-  m.triangles = {{0, 2, 1}, {0, 3, 2}};
-  return m;
-}
 
 // Axis-aligned box (12 triangles, outward normals per face).
 Mesh box(const std::string& name, Vec3 lo, Vec3 hi) {
@@ -149,11 +141,11 @@ struct PlanarResult {
 
 PlanarResult planar(const PlanarCase& c) {
   Scene scene;
-  scene.meshes.push_back(quad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(quad("blocker", -3, 0, -3, 3, float(c.h)));
+  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
+  scene.meshes.push_back(planarQuad("blocker", -3, 0, -3, 3, float(c.h)));
   if (c.rangeTop > 0) {  // two, so that the map stays centred on the blocker's edge
-    scene.meshes.push_back(quad("top", 3.5f, 3.6f, 3.5f, 3.6f, float(c.rangeTop)));
-    scene.meshes.push_back(quad("top", -3.6f, -3.5f, -3.6f, -3.5f, float(c.rangeTop)));
+    scene.meshes.push_back(planarQuad("top", 3.5f, 3.6f, 3.5f, 3.6f, float(c.rangeTop)));
+    scene.meshes.push_back(planarQuad("top", -3.6f, -3.5f, -3.6f, -3.5f, float(c.rangeTop)));
   }
   LightSet set = oneLight({0, 1, 0}, float(std::cos(c.alphaDeg * M_PI / 180)));
   Camera cam;
@@ -298,9 +290,9 @@ namespace {
 // wall's face below its top for every ground point with -0.1 - H / tan 50 < x < -0.1).
 std::vector<float> contactVisibility(const CSSMOptions& cssm, float H) {
   Scene scene;
-  scene.meshes.push_back(quad("ground", -3, 3, -3, 3, 0));
+  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
   scene.meshes.push_back(box("wall", {-0.1f, 0.0f, -1.5f}, {0.1f, H, 1.5f}));
-  scene.meshes.push_back(quad("top", 2.9f, 3.0f, 2.9f, 3.0f, 3.0f));  // depth range as a scene's
+  scene.meshes.push_back(planarQuad("top", 2.9f, 3.0f, 2.9f, 3.0f, 3.0f));  // depth range as a scene's
   LightSet set = oneLight({1, 1, 0}, float(std::cos(5.0 * M_PI / 180)));
   Camera cam;
   cam.eye = {-0.9f, 0.6f, 0.5f};
@@ -455,8 +447,8 @@ TEST(CSSM, DegenerateInputsStayFinite) {
     // receiver exactly at the blocker's depth: a blocker quad lying in the ground's plane
     {
       Scene s;
-      s.meshes.push_back(quad("ground", -3, 3, -3, 3, 0));
-      s.meshes.push_back(quad("blocker", -3, 0, -3, 3, 0));
+      s.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
+      s.meshes.push_back(planarQuad("blocker", -3, 0, -3, 3, 0));
       Camera c;
       c.eye = {2.0f, 1.5f, 1.0f};
       c.target = {0, 0, 0};

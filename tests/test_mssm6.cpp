@@ -358,14 +358,6 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // Whole frames
 
-Mesh quad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
-  Mesh m;
-  m.name = name;
-  m.positions = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
-  m.normals = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
-  m.triangles = {{0, 2, 1}, {0, 3, 2}};
-  return m;
-}
 
 // Blocker strip {start < x < edge, y = height} across the scene (start -3: a half-plane).
 struct HalfPlane {
@@ -419,14 +411,14 @@ struct PlanarSetup {
 std::vector<PlanarPixel> planarRun(const PlanarSetup& s) {
   Scene scene;
   const double yR = s.receiverHeight;
-  scene.meshes.push_back(quad("ground", -3, 3, -3, 3, 0));
-  if (yR > 0) scene.meshes.push_back(quad("platform", -3, float(s.receiverEdge), -3, 3, float(yR)));
+  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
+  if (yR > 0) scene.meshes.push_back(planarQuad("platform", -3, float(s.receiverEdge), -3, 3, float(yR)));
   double hMax = 0, lo = 1e9, hi = -1e9;
   const double ta = std::tan(s.alphaDeg * M_PI / 180);
   std::vector<HalfPlane> above;  // heights above the receiver
   for (std::size_t i = 0; i < s.blockers.size(); ++i) {
     const HalfPlane& b = s.blockers[i];
-    scene.meshes.push_back(quad("blocker" + std::to_string(i), float(b.start), float(b.edge), -3, 3, float(b.height)));
+    scene.meshes.push_back(planarQuad("blocker" + std::to_string(i), float(b.start), float(b.edge), -3, 3, float(b.height)));
     above.push_back({b.edge, b.height - yR, b.start});
     hMax = std::max(hMax, b.height - yR);
     lo = std::min(lo, (b.start > -2.9 ? b.start : b.edge) - (b.height - yR) * ta);
@@ -646,7 +638,7 @@ namespace {
 
 Scene oneQuadScene(float y) {
   Scene scene;
-  scene.meshes.push_back(quad("ground", -2, 2, -2, 2, y));
+  scene.meshes.push_back(planarQuad("ground", -2, 2, -2, 2, y));
   return scene;
 }
 
@@ -696,9 +688,9 @@ TEST(MSSM6, DegenerateInputsStayFinite) {
   // hair above it, under an overhead light
   {
     Scene scene = oneQuadScene(0);
-    scene.meshes.push_back(quad("coplanar", -0.5f, 0.5f, -0.5f, 0.5f, 0.0f));
-    scene.meshes.push_back(quad("hair", -1.0f, 0.0f, -1.0f, 0.0f, 1e-6f));
-    scene.meshes.push_back(quad("blocker", -0.3f, 0.3f, -0.3f, 0.3f, 0.5f));
+    scene.meshes.push_back(planarQuad("coplanar", -0.5f, 0.5f, -0.5f, 0.5f, 0.0f));
+    scene.meshes.push_back(planarQuad("hair", -1.0f, 0.0f, -1.0f, 0.0f, 1e-6f));
+    scene.meshes.push_back(planarQuad("blocker", -0.3f, 0.3f, -0.3f, 0.3f, 0.5f));
     ro.mssm.depthBias = 0;  // zf exactly the receiver's depth
     expectFiniteVisibility(scene, cam, oneLight({0, 1, 0}, std::cos(0.2f)), ro, "coplanar");
     ro.mssm.depthBias = MSSMOptions{}.depthBias;

@@ -391,32 +391,7 @@ TEST(Prefilter, MipReproducesConstantsAndRamps) {
 // ---- MSSM4 with the mip pyramid ----
 namespace {
 
-Mesh quad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
-  Mesh m;
-  m.name = name;
-  m.positions = {{x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1}};
-  m.normals = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
-  m.triangles = {{0, 2, 1}, {0, 3, 2}};
-  return m;
-}
 
-// Irradiance-weighted unblocked fraction of a cap of half-angle alpha around +y, seen from a
-// receiver at x on the plane y = 0, when the half-plane {x' < 0, y = h} blocks (quadrature; as in
-// tests/test_mssm.cpp).
-double analyticVisibility(double x, double h, double alpha) {
-  const int nt = 200, np = 400;
-  double lit = 0, total = 0;
-  for (int i = 0; i < nt; ++i) {
-    double t0 = alpha * i / nt, t1 = alpha * (i + 1) / nt, th = 0.5 * (t0 + t1);
-    double dw = (std::cos(t0) - std::cos(t1)) * std::cos(th);
-    for (int j = 0; j < np; ++j) {
-      double ph = 2 * M_PI * (j + 0.5) / np;
-      if (x + h * std::tan(th) * std::cos(ph) >= 0) lit += dw;
-      total += dw;
-    }
-  }
-  return lit / total;
-}
 
 struct PlanarResult {
   double maxError = 0, rmsPenumbra = 0;
@@ -431,8 +406,8 @@ PlanarResult planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, do
   // edge x = xe lies edgeTexels texels from the map's centre line.
   const double xe = -edgeTexels * 2 * (3 + 6e-3) / mapSize;
   Scene scene;
-  scene.meshes.push_back(quad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(quad("blocker", -3, float(xe), -3, 3, float(h)));
+  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
+  scene.meshes.push_back(planarQuad("blocker", -3, float(xe), -3, 3, float(h)));
   AreaLight light;
   light.direction = {0, 1, 0};
   light.cosAlpha = float(std::cos(alphaDeg * M_PI / 180));
@@ -460,7 +435,7 @@ PlanarResult planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, do
   const double R = h * std::tan(alphaDeg * M_PI / 180);
   std::vector<double> table(2001);
   for (int k = 0; k <= 2000; ++k)
-    table[k] = analyticVisibility(-R + 2 * R * k / 2000.0, h, alphaDeg * M_PI / 180);
+    table[k] = halfPlaneVisibility(-R + 2 * R * k / 2000.0, h, alphaDeg * M_PI / 180);
   double sq = 0;
   for (int y = 0; y < ro.height; ++y)
     for (int x = 0; x < ro.width; ++x) {
