@@ -2,6 +2,8 @@
 // A thin layer over the public API; every penumbra::Error becomes one line on stderr and exit 2.
 #include <penumbra/penumbra.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -185,7 +187,18 @@ struct SceneSetup {
   int width = 640, height = 360;
 };
 
-SceneSetup loadSetup(const Args& a) {
+// Loads a map and says on stderr what sanitizing replaced.
+Environment loadEnvironmentNoting(const std::string& pathOrBuiltin) {
+  Environment env = environmentFrom(pathOrBuiltin);
+  if (env.sanitizedPixels > 0)
+    std::cerr << "penumbra: " << env.source << ": replaced " << env.sanitizedPixels
+              << " pixel(s) holding NaN/Inf (" << env.nonFiniteValues
+              << " values) or negative radiance (" << env.negativeValues << " values)\n";
+  return env;
+}
+
+// loadEnv = false leaves s.env empty (render loads its own list of maps).
+SceneSetup loadSetup(const Args& a, bool loadEnv = true) {
   SceneSetup s;
   parseSize(get(a, "size", "640x360"), s.width, s.height);
   Camera cam;
@@ -194,12 +207,8 @@ SceneSetup loadSetup(const Args& a) {
   LoadOptions lo;
   lo.addGround = !has(a, "no-ground");
   s.scene = sceneFrom(get(a, "scene", "builtin"), lo);
-  s.env = environmentFrom(get(a, "env", "builtin"));
+  if (loadEnv) s.env = loadEnvironmentNoting(get(a, "env", "builtin"));
   s.camera = haveCamera ? cam : frameCamera(s.scene, float(s.width) / float(s.height));
-  if (s.env.sanitizedPixels > 0)
-    std::cerr << "penumbra: " << s.env.source << ": replaced " << s.env.sanitizedPixels
-              << " pixel(s) holding NaN/Inf (" << s.env.nonFiniteValues
-              << " values) or negative radiance (" << s.env.negativeValues << " values)\n";
   return s;
 }
 
@@ -228,12 +237,57 @@ int cmdDevices(int argc, char** argv) {
   return 0;
 }
 
+// --extract/--lights/--face-size/--no-ambient for render: every method through extractLights.
+ExtractOptions renderExtraction(const Args& a) {
+  ExtractOptions eo;
+  eo.method = parseExtractionMethod(get(a, "extract", "median-cut"));
+  const int n = int(parseInt("lights", get(a, "lights", "32"), 1, PB_MAX_LIGHTS));
+  eo.medianCut.lights = n;
+  eo.greedy.maxLights = n;
+  eo.centerSurround.maxLights = n;
+  if (has(a, "face-size")) {
+    eo.medianCut.faceSize = int(parseInt("face-size", get(a, "face-size", ""), 1, 4096));
+    eo.greedy.faceSize = int(parseInt("face-size", get(a, "face-size", ""), 1, 1024));
+  } else {
+    eo.medianCut.faceSize = 256;
+  }
+  eo.ambient = !has(a, "no-ambient");
+  return eo;
+}
+
+// Comma-separated list, every entry non-empty.
+std::vector<std::string> splitList(const std::string& option, const std::string& text) {
+  std::vector<std::string> items;
+  std::string cur;
+  std::istringstream in(text);
+  while (std::getline(in, cur, ',')) items.push_back(cur);
+  if (!text.empty() && text.back() == ',') items.push_back("");
+  if (items.empty()) items.push_back("");
+  for (auto& i : items)
+    if (i.empty()) badInput("--" + option + ": empty entry in '" + text + "'");
+  return items;
+}
+
+// Frame i of an animation written to `out`: STEM_iiii.EXT, at least 4 digits.
+std::string framePath(const std::string& out, int i, int frames) {
+  fs::path p(out);
+  int digits = std::max(4, int(std::to_string(std::max(0, frames - 1)).size()));
+  std::string num = std::to_string(i);
+  num = std::string(std::size_t(std::max(0, digits - int(num.size()))), '0') + num;
+  return (p.parent_path() / (p.stem().string() + "_" + num + p.extension().string())).string();
+}
+
 int cmdRender(int argc, char** argv) {
   auto specs = with(kSceneOptions, {
-      {"lights", true, "number of area lights extracted from the map (default 32)"},
-      {"extract", true, "light extraction method: median-cut (default)"},
-      {"face-size", true, "cube-map face size for extraction (default 256)"},
-      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | none"},
+      {"lights", true, "area lights from the map: the count (median cut), a cap (others); 32"},
+      {"extract", true, "light extraction: median-cut (default) | greedy | center-surround"},
+      {"face-size", true, "cube-map face size for median-cut (default 256) and greedy (64)"},
+      {"no-ambient", false, "leave out the ambient residual (the map minus the lights, SH9)"},
+      {"env-rotate", true, "turn the map by DEG about +y, counter-clockwise from above (default 0)"},
+      {"frames", true, "render an animation of N frames (1..100000; see below)"},
+      {"frame-time", true, "animation: seconds between frames (default 1/24)"},
+      {"rotate-step", true, "animation: map rotation added per frame, DEG (default: see below)"},
+      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | bitmask | bitmask-hard | none"},
       {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
       {"front-back", false, "average front- and back-face depths in the shadow maps"},
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
@@ -249,6 +303,7 @@ int cmdRender(int argc, char** argv) {
       {"pcss-blocker-taps", true, "PCSS blocker-search samples (default 16; 0: every texel)"},
       {"pcss-filter-taps", true, "PCSS filter samples (default 0: every texel, explicit)"},
       {"brute-samples", true, "brute force: point samples per light (default 64)"},
+      {"light-samples", true, "bitmask: light samples per light, 128 | 256 (default) | 512 | 1024"},
       {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},
       {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
       {"report", true, "write a JSON report (device, lights, timings, ...)"},
@@ -256,8 +311,20 @@ int cmdRender(int argc, char** argv) {
   Args a = parse(argc, argv, 2, specs, "render");
   if (has(a, "help")) {
     printHelp("penumbra render [options]",
-              "Renders a scene lit by an environment map: median-cut area lights, soft shadows "
-              "(--shadows hard|pcss|cssm|mssm4|mssm6|brute|none), diffuse shading.",
+              "Renders a scene lit by an environment map: area lights extracted from the map "
+              "(--extract), soft shadows (--shadows hard|pcss|cssm|mssm4|mssm6|brute|none), "
+              "diffuse shading.\n\n"
+              "Animation (--frames N): frame i (from 0) is rendered at time i * frame-time (the "
+              "built-in scene's sphere bounces and its slab turns; a loaded mesh stands still), "
+              "with the map turned by env-rotate + i * rotate-step degrees, and with map "
+              "i mod K when --env lists K maps separated by commas (a.exr,b.exr,...). "
+              "rotate-step defaults to 1 degree per frame with one map and to 0 with a list. "
+              "Every frame is computed from scratch: lights extracted again on the device, "
+              "shadows and shading redone; the camera is framed once, on the scene at time 0. "
+              "Frame i is written to OUT's name with _iiii (4 digits, more past 9999 frames) "
+              "before the extension: --out anim/f.png gives anim/f_0000.png, anim/f_0001.png, "
+              "...; --report then writes a JSON array with one object per frame (frame, time_s, "
+              "environment, env_rotation_deg, out, lights, stage timings).",
               specs);
     return 0;
   }
@@ -279,6 +346,10 @@ int cmdRender(int argc, char** argv) {
     ro.pcss.filterTaps = int(parseInt("pcss-filter-taps", get(a, "pcss-filter-taps", ""), 0, 4096));
   if (has(a, "brute-samples"))
     ro.brute.samples = int(parseInt("brute-samples", get(a, "brute-samples", ""), 1, 4096));
+  if (has(a, "light-samples")) {
+    ro.bitmask.lightSamples = int(parseInt("light-samples", get(a, "light-samples", ""), 32, 1024));
+    if (ro.bitmask.lightSamples % 32) badInput("--light-samples must be a multiple of 32, got " + get(a, "light-samples", ""));
+  }
   ro.frontBackFaces = has(a, "front-back");
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
   if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
@@ -287,21 +358,73 @@ int cmdRender(int argc, char** argv) {
     ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
   if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
   float exposure = parseExposure(a);
-  MedianCutOptions mc = extractOptions(a);
-  SceneSetup s = loadSetup(a);
+  ExtractOptions eo = renderExtraction(a);
+
+  // Animation parameters, all checked before any work.
+  const bool animate = has(a, "frames");
+  const int frames = animate ? int(parseInt("frames", get(a, "frames", ""), 1, 100000)) : 1;
+  const std::vector<std::string> maps = splitList("env", get(a, "env", "builtin"));
+  const float rotate0 = has(a, "env-rotate") ? parseFloat("env-rotate", get(a, "env-rotate", "")) : 0.0f;
+  float frameTime = 1.0f / 24.0f;
+  if (has(a, "frame-time")) {
+    frameTime = parseFloat("frame-time", get(a, "frame-time", ""));
+    if (!(frameTime >= 0)) badInput("--frame-time must be >= 0, got " + get(a, "frame-time", ""));
+  }
+  float rotateStep = animate && maps.size() == 1 ? 1.0f : 0.0f;
+  if (has(a, "rotate-step")) rotateStep = parseFloat("rotate-step", get(a, "rotate-step", ""));
+  if (!animate)
+    for (const char* o : {"frame-time", "rotate-step"})
+      if (has(a, o)) badInput(std::string("--") + o + " needs --frames");
+
+  SceneSetup s = loadSetup(a, false);
+  const bool movingScene = get(a, "scene", "builtin") == "builtin";
+  std::vector<Environment> envs;
+  for (auto& m : maps) envs.push_back(loadEnvironmentNoting(m));
 
   Context ctx(get(a, "device", ""));
-  ctx.resetTimings();
-  LightSet lights = extractMedianCut(ctx, s.env, mc);
   Renderer renderer(ctx);
-  Frame f = renderer.render(s.scene, s.camera, lights, s.env, ro);
-  writeImage(out, f.image, exposure > 0 ? exposure : autoExposure(f.image));
+  std::string reports;
+  double totalMs = 0;
+  std::size_t lastLights = 0;
+  for (int i = 0; i < frames; ++i) {
+    const float t = float(i) * frameTime;
+    Environment& env = envs[std::size_t(i) % envs.size()];
+    // Reduced to [0, 360) in double so that long animations keep their step exactly.
+    env.rotationYDeg = float(std::fmod(double(rotate0) + double(i) * rotateStep, 360.0));
+    if (animate && movingScene) s.scene = builtinScene(t);
+    ctx.resetTimings();
+    auto t0 = std::chrono::steady_clock::now();
+    LightSet lights = extractLights(ctx, env, eo);
+    Frame f = renderer.render(s.scene, s.camera, lights, env, ro);
+    const double frameMs =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const std::string path = animate ? framePath(out, i, frames) : out;
+    writeImage(path, f.image, exposure > 0 ? exposure : autoExposure(f.image));
+    std::string json = renderReportJson(ctx.info().name, lights, env, ro, f);
+    if (animate) {
+      // The frame's own fields first, then the single-frame report's.
+      std::ostringstream head;
+      head.precision(9);
+      head << "{\"frame\": " << i << ", \"time_s\": " << t << ", \"env_rotation_deg\": "
+           << env.rotationYDeg << ", \"frame_ms\": " << frameMs << ", \"out\": \""
+           << fs::path(path).filename().string() << "\",";
+      json = head.str() + json.substr(json.find('{') + 1);
+      while (!json.empty() && (json.back() == '\n' || json.back() == ' ')) json.pop_back();
+      reports += (i ? ",\n" : "") + json;
+    } else {
+      reports = json;
+    }
+    totalMs += frameMs;
+    lastLights = lights.lights.size();
+  }
   if (has(a, "report"))
-    writeTextAtomic(get(a, "report", ""), renderReportJson(ctx.info().name, lights, s.env, ro, f));
-  double total = f.timingsMs.back().second;
-  std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
-            << ro.height << ", " << lights.lights.size() << " lights, "
-            << toString(ro.shadows) << ", " << total << " ms on " << ctx.info().name << ")\n";
+    writeTextAtomic(get(a, "report", ""), animate ? "[\n" + reports + "\n]\n" : reports);
+  std::cout << "penumbra: wrote "
+            << (animate ? fs::absolute(framePath(out, 0, frames)).string() + " .. (" +
+                              std::to_string(frames) + " frames, "
+                        : fs::absolute(out).string() + " (")
+            << ro.width << "x" << ro.height << ", " << lastLights << " lights, "
+            << toString(ro.shadows) << ", " << totalMs << " ms on " << ctx.info().name << ")\n";
   return 0;
 }
 
@@ -378,29 +501,86 @@ int cmdCompare(int argc, char** argv) {
   return 0;
 }
 
+// The extraction options of `lights` (every method, its own options, the ambient residual). An
+// option that does not belong to the chosen method is refused rather than silently ignored.
+const std::vector<OptionSpec> kExtractSpecs = {
+    {"extract", true, "median-cut (default) | greedy | center-surround"},
+    {"lights", true, "median-cut: number of lights (default 32); greedy, center-surround: the most "
+                     "lights kept (default 64, 256)"},
+    {"face-size", true, "median-cut, greedy: cube face size (default 256, 64)"},
+    {"threshold", true, "greedy: a side grows while its added energy / the light's exceeds this "
+                        "(default 0.02)"},
+    {"rect", false, "greedy: rectangular lights (default square)"},
+    {"stop", true, "center-surround: stop when a light carries less than this fraction of the "
+                   "lights so far (default 0.02)"},
+    {"sizes", true, "center-surround: filter sizes from 4.5 to 45 degrees (default 20)"},
+    {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
+};
+
+ExtractOptions parseExtractOptions(const Args& a) {
+  ExtractOptions eo;
+  eo.method = parseExtractionMethod(get(a, "extract", "median-cut"));
+  const std::string name = toString(eo.method);
+  auto only = [&](const std::string& option, std::initializer_list<ExtractionMethod> methods) {
+    if (!has(a, option)) return false;
+    for (ExtractionMethod m : methods)
+      if (m == eo.method) return true;
+    std::string list;
+    for (ExtractionMethod m : methods)
+      list += std::string(list.empty() ? "" : " or ") + toString(m);
+    badInput("--" + option + " applies to --extract " + list + ", not " + name);
+  };
+  using M = ExtractionMethod;
+  if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
+    int n = int(parseInt("lights", get(a, "lights", ""), 1, PB_MAX_LIGHTS));
+    eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
+  }
+  if (only("face-size", {M::MedianCut, M::Greedy})) {
+    int m = int(parseInt("face-size", get(a, "face-size", ""), 1, 4096));
+    eo.medianCut.faceSize = eo.greedy.faceSize = m;
+  }
+  if (only("threshold", {M::Greedy})) {
+    float t = parseFloat("threshold", get(a, "threshold", ""));
+    if (!(t > 0 && t < 1))
+      badInput("--threshold must be in (0, 1), got " + get(a, "threshold", ""));
+    eo.greedy.threshold = t;
+  }
+  if (only("rect", {M::Greedy})) eo.greedy.square = false;
+  if (only("stop", {M::CenterSurround})) {
+    float f = parseFloat("stop", get(a, "stop", ""));
+    if (!(f >= 0 && f < 1)) badInput("--stop must be in [0, 1), got " + get(a, "stop", ""));
+    eo.centerSurround.stopFraction = f;
+  }
+  if (only("sizes", {M::CenterSurround}))
+    eo.centerSurround.sizes = int(parseInt("sizes", get(a, "sizes", ""), 1, 256));
+  eo.ambient = !has(a, "no-ambient");
+  return eo;
+}
+
 int cmdLights(int argc, char** argv) {
-  std::vector<OptionSpec> specs = {
-      {"env", true, "environment map or 'builtin' (default)"},
-      {"lights", true, "number of lights (default 32)"},
-      {"extract", true, "median-cut (default)"},
-      {"face-size", true, "cube-map face size (default 256)"},
+  std::vector<OptionSpec> specs = {{"env", true, "environment map or 'builtin' (default)"}};
+  specs.insert(specs.end(), kExtractSpecs.begin(), kExtractSpecs.end());
+  specs.insert(specs.end(), {
       {"out", true, "write the light set JSON here (default: standard output)"},
       {"overlay", true, "write the map with every light outlined to this PNG"},
       {"device", true, "OpenCL device: index or name substring"},
       {"help", false, "show this help"},
-  };
+  });
   Args a = parse(argc, argv, 2, specs, "lights");
   if (has(a, "help")) {
     printHelp("penumbra lights [options]",
-              "Extracts area lights from an environment map and writes them as JSON.", specs);
+              "Extracts area lights from an environment map and writes them as JSON: each light's "
+              "direction, half-angle, radiance and power, then the ambient residual (9 RGB "
+              "spherical-harmonic coefficients of radiance, \"ambient_sh\", and its power).",
+              specs);
     return 0;
   }
   if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
   if (has(a, "overlay")) checkOutput(get(a, "overlay", ""), {".png"}, "overlay");
-  MedianCutOptions mc = extractOptions(a);
+  ExtractOptions eo = parseExtractOptions(a);
   Environment env = environmentFrom(get(a, "env", "builtin"));
   Context ctx(get(a, "device", ""));
-  LightSet lights = extractMedianCut(ctx, env, mc);
+  LightSet lights = extractLights(ctx, env, eo);
   std::string json = lights.toJson();
   // the overlay first: if it fails, no JSON is left behind either
   if (has(a, "overlay")) writeLightOverlay(get(a, "overlay", ""), env, lights);
@@ -425,7 +605,7 @@ void usage() {
                "usage: penumbra COMMAND [options]    (penumbra COMMAND --help for details)\n\n"
                "commands:\n"
                "  devices     list OpenCL devices\n"
-               "  render      render a frame (median-cut lights, MSSM4 soft shadows)\n"
+               "  render      render a frame or an animation (extracted lights, MSSM4 soft shadows)\n"
                "  reference   ray-traced ground truth with Embree\n"
                "  compare     error metrics of an image against a reference\n"
                "  lights      extract area lights from an environment map\n";

@@ -7,6 +7,8 @@
 //    Every joule lands somewhere: the cube's total equals the map's integral up to rounding.
 //  - env_gather: the cube is finer. Each cube texel averages SS x SS nearest-texel lookups, times
 //    its own solid angle (seed 003 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
+// Both honour the map's rotation about +y as a column shift (pb_env_column / pb_env_world_column
+// in shared.h), so the cube is the rotated map's and every extraction sees the rotated lights.
 #include "shared.h"
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
 
@@ -27,12 +29,13 @@ static int cube_texel(float x, float y, float z, int m) {
 }
 
 // energy: 3 planes (R, G, B) of 6*m*m longs, cleared by the host. One work-item per equirect texel.
-kernel void env_splat(global const float* equirect, int W, int H, int SS, int m, float scale,
-                      volatile global long* energy) {
+kernel void env_splat(global const float* equirect, int W, int H, float shift, int SS, int m,
+                      float scale, volatile global long* energy) {
   int s = get_global_id(0), t = get_global_id(1);
   if (s >= W || t >= H) return;
   size_t plane = (size_t)6 * m * m;
   global const float* L = equirect + 3 * ((size_t)t * W + s);
+  float s_world = pb_env_world_column(s, shift, W);
   // Sub-texels that land in the same cube texel are summed before one atomic add per channel.
   int open_texel = -1;
   float acc0 = 0.0f, acc1 = 0.0f, acc2 = 0.0f;
@@ -41,7 +44,7 @@ kernel void env_splat(global const float* equirect, int W, int H, int SS, int m,
     float dw = row_solid_angle(t0, t1, (float)W, (float)H) / SS * scale;
     for (int i = 0; i < SS; ++i) {
       float x, y, z;
-      pb_equirect_dir(s + (i + 0.5f) / SS, 0.5f * (t0 + t1), (float)W, (float)H, &x, &y, &z);
+      pb_equirect_dir(s_world + (i + 0.5f) / SS, 0.5f * (t0 + t1), (float)W, (float)H, &x, &y, &z);
       int texel = cube_texel(x, y, z, m);
       if (texel != open_texel) {
         if (open_texel >= 0) {
@@ -63,8 +66,8 @@ kernel void env_splat(global const float* equirect, int W, int H, int SS, int m,
 }
 
 // One work-item per cube texel (x, y, face).
-kernel void env_gather(global const float* equirect, int W, int H, int SS, int m, float scale,
-                       global long* energy) {
+kernel void env_gather(global const float* equirect, int W, int H, float shift, int SS, int m,
+                       float scale, global long* energy) {
   int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
   if (x >= m || y >= m) return;
   size_t plane = (size_t)6 * m * m;
@@ -76,7 +79,7 @@ kernel void env_gather(global const float* equirect, int W, int H, int SS, int m
       float dx, dy, dz, s, t;
       pb_cube_dir(face, u, v, &dx, &dy, &dz);
       pb_dir_equirect(dx, dy, dz, (float)W, (float)H, &s, &t);
-      int si = clamp((int)floor(s), 0, W - 1), ti = clamp((int)floor(t), 0, H - 1);
+      int si = pb_env_column(s, shift, W), ti = clamp((int)floor(t), 0, H - 1);
       float dw = pb_cube_texel_solid_angle(u, v, m * SS) * scale;
       global const float* L = equirect + 3 * ((size_t)ti * W + si);
       a0 += L[0] * dw;
@@ -90,9 +93,18 @@ kernel void env_gather(global const float* equirect, int W, int H, int SS, int m
 }
 
 // SAT inputs per cube texel: lum = (Y, Y*wx, Y*wy, Y*wz) with w the texel's unit direction (for the
-// luminance-weighted mean direction, seed 003 eqs. 9-10 taken on the sphere), rgb = (R, G, B, 0).
-// Y is computed exactly in fixed point with the Rec. 709 weights.
-kernel void env_sat_inputs(global const long* energy, int m, global long4* lum, global long4* rgb) {
+// luminance-weighted mean direction, seed 003 eqs. 9-10 taken on the sphere), and colour as CIE XYZ
+// (seed 003 §5: the luminance Y is one of the colour channels, so its SAT is shared and only X
+// and Z need their own: 6 channels where (Y, moments) + (R, G, B, padding) took 8).
+// Y is computed exactly in fixed point with the Rec. 709 weights, then truncated to the energy's
+// units, as before (the median-cut splits depend on it bit for bit). X and Z are kept in 1/10000
+// units, exact: every channel of the cube's energy sums to at most 2^48 (src/cubemap.cpp's
+// scale), so X <= 0.9505e4 * 2^48 < 2^61.3 and Z <= 1.089e4 * 2^48 < 2^61.5 for the whole cube,
+// and no SAT entry can overflow. xz: 3 images of m x m long4, image f/2 holding (X, Z) of face f
+// in lanes 2(f%2), 2(f%2)+1: the two planes of two faces per long4, so the colour SAT is 3 long4
+// images where RGB took 6, and runs in the scan's long4 path (12 scalar Long images take longer
+// than 6 long4 ones on the CPU here: per-element overhead, not bytes, limits that scan).
+kernel void env_sat_inputs(global const long* energy, int m, global long4* lum, global long* xz) {
   int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
   if (x >= m || y >= m) return;
   size_t plane = (size_t)6 * m * m;
@@ -106,5 +118,7 @@ kernel void env_sat_inputs(global const long* energy, int m, global long4* lum, 
   float fy = (float)Y;
   lum[i] = (long4)(Y, (long)rint(fy * dx * inv), (long)rint(fy * dy * inv),
                    (long)rint(fy * dz * inv));
-  rgb[i] = (long4)(r, g, b, 0);
+  size_t j = 4 * (((size_t)(face >> 1) * m + y) * m + x) + 2 * (face & 1);
+  xz[j] = PB_X_R_I * r + PB_X_G_I * g + PB_X_B_I * b;
+  xz[j + 1] = PB_Z_R_I * r + PB_Z_G_I * g + PB_Z_B_I * b;
 }

@@ -22,7 +22,24 @@ static long region_energy(global const long4* sat, int m, pb_region r) {
 static void split_region(global const long4* sat, int m, pb_region r, pb_region* lo,
                          pb_region* hi) {
   int w = r.x1 - r.x0, h = r.y1 - r.y0;
-  bool along_x = w >= h;
+  bool along_x = w > h;
+  if (w == h) {
+    // A square region has no longer edge. A fixed choice (always x) does not turn with the map:
+    // a quarter turn about y spins the top and bottom faces in their plane, so the same square
+    // would be cut the other way and the lights would not turn with the map (issue 4's rotation
+    // test). Cut across the axis along which the energy is less balanced about the region's
+    // centre instead: |E(first half) - E(second half)| per axis (the middle row or column of an
+    // odd size is left out of both). A quarter turn or a mirror swaps or keeps the two values
+    // exactly, so the choice turns with the map; only an exact tie falls back to x.
+    int hw = w / 2;
+    long ex = box4(sat, m, r.face, r.x0, r.y0, r.x0 + hw, r.y1).x -
+              box4(sat, m, r.face, r.x1 - hw, r.y0, r.x1, r.y1).x;
+    long ey = box4(sat, m, r.face, r.x0, r.y0, r.x1, r.y0 + hw).x -
+              box4(sat, m, r.face, r.x0, r.y1 - hw, r.x1, r.y1).x;
+    // compared as floats: an integer |x| becomes llvm.abs, which oclgrind cannot run; float
+    // conversion is odd-symmetric, so the comparison still turns with the map
+    along_x = fabs((float)ex) >= fabs((float)ey);
+  }
   long total = region_energy(sat, m, r);
   int a = along_x ? r.x0 + 1 : r.y0 + 1, b = along_x ? r.x1 - 1 : r.y1 - 1;
   // Smallest cut c in [a, b] with 2 * E(left of c) >= total (binary search on the monotone sum).
@@ -147,16 +164,20 @@ kernel void median_cut(global const long4* sat, int m, int target, global pb_reg
 //  - extent: for a uniform cap of half-angle a, the mean direction's length is (1 + cos a)/2, so
 //    cos a = 2R - 1 with R the luminance-weighted mean resultant length (1 - R^2 is the weighted
 //    variance of the direction, seed 003 eq. 10 on the sphere). Clamped to [min_cos.., max..];
-//  - power M: the region's RGB integral (seed 003 eq. 11); radiance = M / (2 pi (1 - cos a))
-//    (eqs. 16-17), so the cap carries exactly the region's energy.
-// out_dir: (direction, cos a); out_power: (M rgb, region texel count).
-kernel void resolve_lights(global const long4* lum_sat, global const long4* rgb_sat, int m,
+//  - power M: the region's colour integral (seed 003 eq. 11) as exact fixed-point CIE XYZ sums
+//    (X and Z from the xz SAT in 1/10000 units, packed two faces per long4 as envmap.cl's
+//    env_sat_inputs writes them; Y from the luminance SAT); the host converts them
+//    to RGB in double (src/lights.cpp), and radiance = M / (2 pi (1 - cos a)) (eqs. 16-17), so the
+//    cap carries exactly the region's energy.
+// out_dir: (direction, cos a); out_sums: (X * 10^4, Y, Z * 10^4, region texel count), fixed point.
+kernel void resolve_lights(global const long4* lum_sat, global const long4* xz_sat, int m,
                            global const pb_region* regions, int region_count, int light_count,
-                           float inv_scale, float cos_alpha_max, float min_alpha,
-                           global float4* out_dir, global float4* out_power) {
+                           float cos_alpha_max, float min_alpha, global float4* out_dir,
+                           global long4* out_sums) {
   int g = get_global_id(0);
   if (g >= light_count) return;
-  long4 L = (long4)(0), C = (long4)(0);
+  long4 L = (long4)(0);
+  long X = 0, Z = 0;
   int texels = 0;
   float fallback_x = 0.0f, fallback_y = 0.0f, fallback_z = 0.0f;
   float texel_dw = 0.0f;
@@ -164,7 +185,9 @@ kernel void resolve_lights(global const long4* lum_sat, global const long4* rgb_
     pb_region R = regions[r];
     if (R.group != g) continue;
     L += box4(lum_sat, m, R.face, R.x0, R.y0, R.x1, R.y1);
-    C += box4(rgb_sat, m, R.face, R.x0, R.y0, R.x1, R.y1);
+    long4 C = box4(xz_sat, m, R.face >> 1, R.x0, R.y0, R.x1, R.y1);
+    X += (R.face & 1) ? C.z : C.x;
+    Z += (R.face & 1) ? C.w : C.y;
     texels += (R.x1 - R.x0) * (R.y1 - R.y0);
     float u = (R.x0 + R.x1) / (float)m - 1.0f, v = (R.y0 + R.y1) / (float)m - 1.0f;
     float x, y, z;
@@ -191,6 +214,5 @@ kernel void resolve_lights(global const long4* lum_sat, global const long4* rgb_
   float cos_min_cap = fmin(1.0f - texel_dw / (2.0f * M_PI_F), cos(min_alpha));
   cos_a = clamp(cos_a, cos_alpha_max, cos_min_cap);
   out_dir[g] = (float4)(dir, cos_a);
-  out_power[g] = (float4)((float)C.x * inv_scale, (float)C.y * inv_scale, (float)C.z * inv_scale,
-                          (float)texels);
+  out_sums[g] = (long4)(X, L.x, Z, (long)texels);
 }

@@ -1,12 +1,16 @@
 // Final shading: diffuse reflection of every directional cap light (irradiance of seed 003
 // eqs. 15-18, with the horizon-clipped closed form of shared.h) times its visibility, times
 // albedo / pi. Background pixels show the environment (nearest texel) with alpha 0.
+// The ambient residual (9 RGB SH coefficients of radiance, zeros when the light set has none) is
+// added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
+// Ahat_l L_lm Y_lm(n) (shared.h).
 #include "shared.h"
 
 kernel void shade(global const float4* gpos, global const float4* gnrm, global const float4* galb,
                   global const pb_light* lights, int nlights, global const float* vis,
                   int npixels, global const pb_view* camera, global const float* equirect,
-                  int env_w, int env_h, int background, global float4* out) {
+                  int env_w, int env_h, float env_shift, int background,
+                  global float4* out, global const float4* ambient) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   if (gpos[px].w == 0.0f) {
@@ -20,7 +24,8 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
                  sy * v.up[3] * (float3)(v.up[0], v.up[1], v.up[2]);
       float s, t;
       pb_dir_equirect(d.x, d.y, d.z, (float)env_w, (float)env_h, &s, &t);
-      int si = clamp((int)floor(s), 0, env_w - 1), ti = clamp((int)floor(t), 0, env_h - 1);
+      // env_shift: the map's rotation about +y in columns (Environment::rotationColumns).
+      int si = pb_env_column(s, env_shift, env_w), ti = clamp((int)floor(t), 0, env_h - 1);
       global const float* e = equirect + 3 * ((size_t)ti * env_w + si);
       rgb = (float3)(e[0], e[1], e[2]);
     }
@@ -37,5 +42,11 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     float V = vis[(size_t)l * npixels + px];
     acc += e * V * (float3)(L.radiance[0], L.radiance[1], L.radiance[2]);
   }
+  float Y[9];
+  pb_sh9(n.x, n.y, n.z, Y);
+  for (int k = 0; k < 9; ++k) acc += PB_SH_AHAT(k) * Y[k] * ambient[k].xyz;
+  // A residual can be negative in places (a cap brighter than the texels it replaced); where the
+  // lights are shadowed that could leave a negative sum, which no irradiance is.
+  acc = fmax(acc, (float3)(0.0f));
   out[px] = (float4)(acc * galb[px].xyz * M_1_PI_F, 1.0f);
 }

@@ -37,15 +37,16 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   const bool splat = eq.width >= 4 * m;
   const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
   const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
-  // Both kernels take the same arguments.
+  // Both kernels take the same arguments; the rotation enters as a column shift.
   cl::Kernel k = ctx.kernel("envmap.cl", splat ? "env_splat" : "env_gather");
   k.setArg(0, eqBuf);
   k.setArg(1, cl_int(eq.width));
   k.setArg(2, cl_int(eq.height));
-  k.setArg(3, cl_int(ss));
-  k.setArg(4, cl_int(m));
-  k.setArg(5, cl_float(cube.scale));
-  k.setArg(6, cube.energy);
+  k.setArg(3, cl_float(env.rotationColumns()));
+  k.setArg(4, cl_int(ss));
+  k.setArg(5, cl_int(m));
+  k.setArg(6, cl_float(cube.scale));
+  k.setArg(7, cube.energy);
   ctx.launch("env/resample", k,
              splat ? cl::NDRange(eq.width, eq.height) : cl::NDRange(m, m, 6));
   return cube;

@@ -105,9 +105,33 @@ Environment environmentFrom(const std::string& p) {
 void Environment::lookup(float x, float y, float z, float rgb[3]) const {
   float s, t;
   pb_dir_equirect(x, y, z, float(equirect.width), float(equirect.height), &s, &t);
-  int si = std::clamp(int(std::floor(s)), 0, equirect.width - 1);
+  int si = pb_env_column(s, rotationColumns(), equirect.width);
   int ti = std::clamp(int(std::floor(t)), 0, equirect.height - 1);
   for (int c = 0; c < 3; ++c) rgb[c] = equirect.at(si, ti, c);
+}
+
+float Environment::rotationColumns() const {
+  if (!std::isfinite(rotationYDeg))
+    badInput("environment rotation must be finite, got " + std::to_string(rotationYDeg));
+  // Reduced in double so that whole turns give exactly 0 and 90 degrees exactly width / 4.
+  double turns = std::fmod(double(rotationYDeg), 360.0) / 360.0;
+  if (turns < 0) turns += 1.0;
+  float shift = float(turns * equirect.width);
+  return shift >= float(equirect.width) ? 0.0f : shift;
+}
+
+Environment Environment::withRotationApplied() const {
+  Environment out = *this;
+  out.rotationYDeg = 0.0f;
+  const float shift = rotationColumns();
+  const int W = equirect.width;
+  // Nearest column at each world column's centre, as lookup() reads it.
+  for (int s = 0; s < W; ++s) {
+    const int c = pb_env_column(s + 0.5f, shift, W);
+    for (int t = 0; t < equirect.height; ++t)
+      for (int k = 0; k < 3; ++k) out.equirect.at(s, t, k) = equirect.at(c, t, k);
+  }
+  return out;
 }
 
 double Environment::texelSolidAngle(int row) const {
@@ -117,6 +141,7 @@ double Environment::texelSolidAngle(int row) const {
 }
 
 void Environment::power(double rgb[3]) const {
+  // Invariant under the rotation: it only moves texels along their row.
   rgb[0] = rgb[1] = rgb[2] = 0;
   for (int t = 0; t < equirect.height; ++t) {
     double dw = texelSolidAngle(t);
@@ -130,6 +155,7 @@ void Environment::irradiance(const float n[3], double rgb[3]) const {
   rgb[0] = rgb[1] = rgb[2] = 0;
   const int ss = 4;
   const double pi = 3.14159265358979323846;
+  const float shift = rotationColumns();
   for (int t = 0; t < equirect.height; ++t)
     for (int j = 0; j < ss; ++j) {
       double t0 = pi * (t + double(j) / ss) / equirect.height;
@@ -139,7 +165,9 @@ void Environment::irradiance(const float n[3], double rgb[3]) const {
         double cosv = 0;
         for (int i = 0; i < ss; ++i) {
           float x, y, z;
-          pb_equirect_dir(s + (i + 0.5f) / ss, t + (j + 0.5f) / ss, float(equirect.width),
+          // Texel s of the map lies at world column pb_env_world_column (the rotation).
+          pb_equirect_dir(pb_env_world_column(s, shift, equirect.width) + (i + 0.5f) / ss,
+                          t + (j + 0.5f) / ss, float(equirect.width),
                           float(equirect.height), &x, &y, &z);
           cosv += std::max(0.0f, x * n[0] + y * n[1] + z * n[2]);
         }

@@ -322,6 +322,7 @@ class EnvSampler {
     const Image& im = env.equirect;
     w_ = im.width;
     h_ = im.height;
+    shift_ = env.rotationColumns();
     rowCdf_.assign(std::size_t(h_) + 1, 0.0);
     colCdf_.assign(std::size_t(h_) * (std::size_t(w_) + 1), 0.0);
     texelOmega_.resize(std::size_t(h_));
@@ -353,7 +354,7 @@ class EnvSampler {
   void texelOf(V3 d, int& c, int& r) const {
     float s, t;
     pb_dir_equirect(d.x, d.y, d.z, float(w_), float(h_), &s, &t);
-    c = std::clamp(int(std::floor(s)), 0, w_ - 1);
+    c = pb_env_column(s, shift_, w_);  // the map's rotation about +y
     r = std::clamp(int(std::floor(t)), 0, h_ - 1);
   }
 
@@ -373,7 +374,8 @@ class EnvSampler {
     r = pick(rowCdf_.data(), h_, double(rng.uniform()) * total_);
     const double* cdf = &colCdf_[std::size_t(r) * (std::size_t(w_) + 1)];
     c = pick(cdf, w_, double(rng.uniform()) * cdf[w_]);
-    const float s = float(c) + rng.uniform();
+    // Texel c of the (rotated) map starts at world column pb_env_world_column.
+    const float s = pb_env_world_column(c, shift_, w_) + rng.uniform();
     // cos(theta) uniform within the row: with phi uniform this is uniform in solid angle.
     const double c0 = cosEdge_[std::size_t(r)], c1 = cosEdge_[std::size_t(r) + 1];
     const double ct = c0 + double(rng.uniform()) * (c1 - c0);
@@ -397,6 +399,7 @@ class EnvSampler {
 
   const Environment& env_;
   int w_ = 0, h_ = 0;
+  float shift_ = 0;                 // Environment::rotationColumns()
   std::vector<double> rowCdf_;      // h+1: cumulative sum of rowSum(r) * dw(r)
   std::vector<double> colCdf_;      // h x (w+1): cumulative luminance within each row
   std::vector<double> texelOmega_;  // solid angle of a texel in row r
@@ -686,8 +689,13 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         for (int k = 0; k < 3; ++k) sum[k] += c.radiance[k] * wgt;
       }
     }
+    // The ambient residual, unshadowed as the renderer applies it (kernels/shade.cl): the same
+    // light set, so the only difference left between the two is the shadow technique. The sum is
+    // clamped at 0 as there (a residual may be negative where a cap outshines its texels).
+    const std::array<double, 3> amb = lights.ambientIrradiance(n);
     const auto& a = h.mesh->albedo;
-    for (int k = 0; k < 3; ++k) out[k] = float(a[k] * invPi * sum[k] / opt.spp);
+    for (int k = 0; k < 3; ++k)
+      out[k] = float(a[k] * invPi * std::max(0.0, sum[k] / opt.spp + amb[k]));
   };
 
   return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, shade, es, flat);

@@ -24,7 +24,8 @@ const std::pair<ShadowTechnique, const char*> kTechniques[] = {
     {ShadowTechnique::None, "none"},   {ShadowTechnique::Hard, "hard"},
     {ShadowTechnique::PCSS, "pcss"},   {ShadowTechnique::CSSM, "cssm"},
     {ShadowTechnique::MSSM4, "mssm4"}, {ShadowTechnique::MSSM6, "mssm6"},
-    {ShadowTechnique::Brute, "brute"},
+    {ShadowTechnique::Brute, "brute"},  {ShadowTechnique::Bitmask, "bitmask"},
+    {ShadowTechnique::BitmaskHard, "bitmask-hard"},
 };
 }  // namespace
 
@@ -298,8 +299,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     } else {
       rasterizeDepth(lviews, Cull::None, ldepth, "shadow-maps/raster");
     }
-    detail::ShadowFrame sf{ctx, impl_->pool, opt, W, H, npx, S, lights, lightB, gpos, gnrm, ggeo,
-                           ldepth, impl_->vis, rasterizeDepth};
+    detail::ShadowFrame sf{ctx,  impl_->pool, opt,   W,    H,     npx,  S,    lights,         lightB,
+                           gpos, gnrm,        ggeo,  ldepth, impl_->vis, rasterizeDepth,
+                           cids, posB,        triB,  ntris};
     pass->computeVisibility(sf);
     frame.shadowMapBytes = texels * pass->bytesPerTexel(opt);
   } else if (nl > 0) {
@@ -324,8 +326,14 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(8, envB);
     k.setArg(9, cl_int(env.equirect.width));
     k.setArg(10, cl_int(env.equirect.height));
-    k.setArg(11, cl_int(opt.environmentBackground ? 1 : 0));
-    k.setArg(12, outB);
+    k.setArg(11, cl_float(env.rotationColumns()));
+    k.setArg(12, cl_int(opt.environmentBackground ? 1 : 0));
+    k.setArg(13, outB);
+    // The ambient residual, added unshadowed (zeros when the light set has none).
+    std::vector<cl_float4> amb(9, cl_float4{{0, 0, 0, 0}});
+    for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
+      for (int c = 0; c < 3; ++c) amb[i].s[c] = lightSet.ambientSH[i][c];
+    k.setArg(14, impl_->pool.upload("ambient SH", amb));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);

@@ -428,7 +428,14 @@ std::size_t Scene::triangleCount() const {
 // The built-in scene.
 // ---------------------------------------------------------------------------------------------
 
-Scene builtinScene() {
+// Motion of builtinScene(t): the sphere's bounce (seconds per hop, metres of lift) and the slab's
+// turn (seconds per revolution).
+constexpr float kBouncePeriod = 1.5f;
+constexpr float kBounceHeight = 0.8f;
+constexpr float kSlabTurnPeriod = 10.0f;
+
+Scene builtinScene(float t) {
+  if (!std::isfinite(t)) badInput("builtin scene time must be finite, got " + std::to_string(t));
   Scene s;
   // 12 m square, 16 x 16 cells of 0.75 m: it reaches well past the objects (all within about
   // |x|,|z| < 3) so that long shadows from low lights still land on it.
@@ -441,13 +448,22 @@ Scene builtinScene() {
   addBox(box, {-0.3f, 0.5f, 1.3f}, {0.5f, 0.5f, 0.5f}, 0.5f);
   s.meshes.push_back(std::move(box));
 
-  s.meshes.push_back(makeSphere({1.5f, 0.6f, 0.7f}, 0.6f, 32, 16, {0.28f, 0.48f, 0.78f}));
+  // The sphere bounces in place: height |sin| (a ball's parabolic arcs, close enough to look
+  // right, with a sharp turn at each contact), touching the ground at t = 0 so time 0 is the
+  // static scene. Its top stays below the slab's (2.1 m) and it never reaches the slab's column,
+  // so the objects' bounds, and hence frameCamera, do not change over time.
+  const float bounce = kBounceHeight * std::fabs(std::sin(kPi * t / kBouncePeriod));
+  s.meshes.push_back(
+      makeSphere({1.5f, 0.6f + bounce, 0.7f}, 0.6f, 32, 16, {0.28f, 0.48f, 0.78f}));
 
   // Slab floating 2 m up: its shadow has a wide penumbra and no contact point.
   Mesh slab;
   slab.name = "slab";
   slab.albedo = {0.62f, 0.62f, 0.66f};
-  addBox(slab, {1.1f, 2.05f, -1.2f}, {0.9f, 0.05f, 0.6f}, -0.25f);
+  // It turns about its vertical axis (counter-clockwise seen from above), so its penumbra sweeps
+  // across the ground and the lattice.
+  const float turns = std::fmod(t / kSlabTurnPeriod, 1.0f);
+  addBox(slab, {1.1f, 2.05f, -1.2f}, {0.9f, 0.05f, 0.6f}, -0.25f + 2 * kPi * turns);
   s.meshes.push_back(std::move(slab));
 
   // Upright torus: light through its hole. Its ring faces roughly towards the framing camera

@@ -57,6 +57,9 @@ struct ShadowFrame {
   std::function<void(const std::vector<pb_view>& views, Cull cull, cl::Buffer& out,
                      const std::string& stage)>
       rasterizeDepth;
+  cl::Buffer gids;                        // camera triangle id per pixel (PB_ID_EMPTY: none)
+  cl::Buffer positions, triangles;        // the scene as rasterized: float4 vertices, int4
+  int triangleCount = 0;                  // (v0, v1, v2, mesh) triangles
 };
 
 class ShadowPass {
@@ -75,6 +78,7 @@ std::unique_ptr<ShadowPass> makeMSSM4Pass();
 std::unique_ptr<ShadowPass> makeMSSM6Pass();
 std::unique_ptr<ShadowPass> makeCSSMPass();
 std::unique_ptr<ShadowPass> makeHardPass(), makePCSSPass(), makeBrutePass();
+std::unique_ptr<ShadowPass> makeBitmaskPass(bool hard);  // src/shadows_bitmask.cpp
 
 // Filterable maps: `count` images of S x S long4 texels, image i at element i * stride.
 // prefilterStride: elements one image needs for the prefilter (S*S for a SAT; more for a mip

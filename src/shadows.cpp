@@ -13,6 +13,8 @@ std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
     case ShadowTechnique::Hard: return makeHardPass();
     case ShadowTechnique::PCSS: return makePCSSPass();
     case ShadowTechnique::Brute: return makeBrutePass();
+    case ShadowTechnique::Bitmask: return makeBitmaskPass(false);
+    case ShadowTechnique::BitmaskHard: return makeBitmaskPass(true);
     // further techniques: one case each
     default: return nullptr;
   }
@@ -24,6 +26,8 @@ bool techniqueAvailable(ShadowTechnique t) {
     case ShadowTechnique::Hard:
     case ShadowTechnique::PCSS:
     case ShadowTechnique::Brute:
+    case ShadowTechnique::Bitmask:
+    case ShadowTechnique::BitmaskHard:
     case ShadowTechnique::CSSM:
     case ShadowTechnique::MSSM6:
     case ShadowTechnique::MSSM4: return true;

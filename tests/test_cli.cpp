@@ -419,7 +419,8 @@ TEST_F(CliHelp, EveryCommand) {
                   "--env", "--scene", "--shadow-map-size", "--camera"}},
       {"reference", {"usage: penumbra reference", "--spp", "--lights", "--out", "--size"}},
       {"compare", {"usage: penumbra compare", "--out"}},
-      {"lights", {"usage: penumbra lights", "--lights", "--env", "--overlay", "--out"}},
+      {"lights", {"usage: penumbra lights", "--lights", "--env", "--overlay", "--out", "--extract",
+                  "center-surround", "--threshold", "--rect", "--stop", "--sizes", "--no-ambient"}},
   };
   for (auto& c : cases) {
     SCOPED_TRACE(c.command);
@@ -557,6 +558,58 @@ TEST_F(CliLights, JsonOnStdout) {
   ASSERT_EQ(r.code, 0) << describe(r);
   EXPECT_EQ(count(r.out, "\"direction\""), 3u) << describe(r);
   EXPECT_TRUE(entries().empty());
+}
+
+// The ambient residual is in the JSON by default (9 RGB coefficients and their power); with
+// --no-ambient it is recorded as absent and zero.
+TEST_F(CliLights, AmbientInJsonUnlessNoAmbient) {
+  Result r = run({"lights", "--lights", "4", "--face-size", "16"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  EXPECT_NE(r.out.find("\"ambient\": true"), std::string::npos) << r.out;
+  auto sh = r.out.find("\"ambient_sh\": [[");
+  ASSERT_NE(sh, std::string::npos) << r.out;
+  auto power = r.out.find("\"ambient_power\": [", sh);
+  ASSERT_NE(power, std::string::npos) << r.out;
+  EXPECT_EQ(count(r.out.substr(sh, power - sh), "["), 10u) << r.out;  // the list and 9 triples
+  Result n = run({"lights", "--lights", "4", "--face-size", "16", "--no-ambient"});
+  ASSERT_EQ(n.code, 0) << describe(n);
+  EXPECT_NE(n.out.find("\"ambient\": false"), std::string::npos) << n.out;
+  EXPECT_NE(n.out.find("\"ambient_power\": [0, 0, 0]"), std::string::npos) << n.out;
+  EXPECT_TRUE(entries().empty());
+}
+
+// Every method through --extract, with its own options; the overlay for each.
+TEST_F(CliLights, EveryMethodWithItsOptions) {
+  const std::vector<std::vector<std::string>> runs = {
+      {"--extract", "median-cut", "--lights", "6", "--face-size", "16"},
+      {"--extract", "greedy", "--threshold", "0.05", "--rect", "--face-size", "16"},
+      {"--extract", "center-surround", "--stop", "0.05", "--sizes", "8"},
+  };
+  for (auto& extra : runs) {
+    SCOPED_TRACE(extra[1]);
+    Result r = run(cat({"lights", "--out", "l.json", "--overlay", "o.png"}, extra));
+    ASSERT_EQ(r.code, 0) << describe(r);
+    std::string json = readText(dir_ / "l.json");
+    EXPECT_NE(json.find("\"method\": \"" + extra[1] + "\""), std::string::npos) << json;
+    EXPECT_GE(jsonNumber(json, "count"), 1) << json;
+    EXPECT_NE(json.find("\"ambient\": true"), std::string::npos) << json;
+    EXPECT_TRUE(fs::is_regular_file(dir_ / "o.png"));
+  }
+}
+
+// Bad method names and options of another method: exit 2, one line naming the option and value.
+TEST_F(CliLights, BadExtractionOptions) {
+  expectFailure({"lights", "--extract", "median_cut", "--out", path("l.json")},
+                {"--extract", "median_cut", "median-cut", "greedy", "center-surround"});
+  expectFailure({"lights", "--threshold", "0.05", "--out", path("l.json")},
+                {"--threshold", "greedy"});
+  expectFailure({"lights", "--extract", "greedy", "--stop", "0.1"}, {"--stop", "center-surround"});
+  expectFailure({"lights", "--extract", "center-surround", "--face-size", "32"}, {"--face-size"});
+  expectFailure({"lights", "--extract", "center-surround", "--rect"}, {"--rect", "greedy"});
+  expectFailure({"lights", "--extract", "greedy", "--threshold", "abc"}, {"--threshold", "abc"});
+  expectFailure({"lights", "--extract", "greedy", "--threshold", "1.5"}, {"--threshold", "1.5"});
+  expectFailure({"lights", "--extract", "center-surround", "--stop", "-1"}, {"--stop"});
+  expectFailure({"lights", "--extract", "center-surround", "--sizes", "0"}, {"--sizes"});
 }
 
 TEST_F(CliLights, TruncatedEnvironmentFails) {

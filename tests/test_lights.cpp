@@ -113,7 +113,9 @@ TEST(MedianCut, ConservesPowerAndFirstMomentOnEveryMap) {
 // of real maps straddle the horizon of axis-aligned normals; the measured worst case over the
 // three maps and the built-in sky is 6.5% (studio), so 1% is not a property of seed 003's
 // model at 32 lights and the bound below is the measured one with margin. At 256 lights every map
-// is within 1% (measured worst 0.84%). Issue 4's ambient residual is the planned fix.
+// is within 1% (measured worst 0.84%). Issue 4's ambient residual (tests/test_ambient.cpp) reduces
+// the 32-light error (luminance worst 6.6% -> 4.6%) but cannot reach 1-2%: the horizon-clipping
+// difference is sharp in the normal and lies mostly in SH bands l >= 4, beyond its 9 coefficients.
 TEST(MedianCut, IrradianceOnNormals) {
   std::vector<Environment> envs;
   for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
@@ -135,6 +137,7 @@ TEST(MedianCut, AnyLightCount) {
     MedianCutOptions mc;
     mc.lights = n;
     mc.faceSize = 64;
+    mc.mergeAcrossFaces = false;  // the cut's count: merging joins studio's edge lamps (99 of 100)
     LightSet set = extractMedianCut(ctx(), env, mc);
     EXPECT_EQ(int(set.lights.size()), n);
     auto lp = set.power();

@@ -18,8 +18,15 @@ struct Environment {
   std::int64_t sanitizedPixels = 0;  // pixels whose NaN/Inf/negative values were replaced
   std::int64_t nonFiniteValues = 0;  // channel values that were NaN or Inf (set to 0)
   std::int64_t negativeValues = 0;   // channel values below 0 (clamped to 0)
+  // The map turned by this angle (degrees) about +y: positive is counter-clockwise seen from
+  // above (the right-handed sense, +x towards -z), so what the file shows at azimuth phi appears
+  // at phi - rotationYDeg. Default 0 (the file as it is). Honoured by lookup, irradiance, the
+  // device cube map (and so every light extraction), the rendered background and the Embree
+  // reference; power() does not change. Any finite value; whole turns are exactly the identity.
+  float rotationYDeg = 0.0f;
 
-  // Radiance along a direction (nearest texel), used by the reference and for backgrounds.
+  // Radiance along a world direction (nearest texel of the rotated map), used by the reference
+  // and for backgrounds.
   void lookup(float x, float y, float z, float rgb[3]) const;
   // Solid angle of equirect texel row t (exact: (2 pi / W) (cos theta0 - cos theta1)).
   double texelSolidAngle(int row) const;
@@ -27,6 +34,12 @@ struct Environment {
   void power(double rgb[3]) const;
   // Irradiance on a surface with unit normal n: sum of L max(0, n.w) dw over the texels.
   void irradiance(const float n[3], double rgb[3]) const;
+  // The rotation as a shift of equirect columns in [0, width): world column s shows map column
+  // s + shift (pb_env_column in shared.h). Throws Error(BadInput) for a non-finite rotation.
+  float rotationColumns() const;
+  // A copy whose pixels are the rotated map (nearest texel per world column, exact for whole-column
+  // shifts) and whose rotationYDeg is 0: for host code that reads `equirect` directly.
+  Environment withRotationApplied() const;
 };
 
 // Loads and sanitizes a map. Throws Error(BadInput) naming the file for unreadable, truncated,

@@ -31,7 +31,9 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
                            const ReferenceOptions& opt);
 
 // Lit by the light set: a light picked in proportion to its unshadowed irradiance at the point,
-// then a uniform direction in its cap. `env` only supplies the background (it may be empty when
+// then a uniform direction in its cap. The set's ambient residual (LightSet::ambientSH, when
+// hasAmbient) is added unshadowed, exactly as the renderer adds it, so both see the same light
+// set and differ only by visibility. `env` only supplies the background (it may be empty when
 // opt.environmentBackground is false).
 //
 // Both throw Error(BadInput) naming the parameter for width/height outside 1..16384, spp < 1,

@@ -27,8 +27,10 @@ enum class ShadowTechnique {
   MSSM4,  // moment soft shadow mapping, 4 moments (seed 003 §3.2.1)
   MSSM6,  // 6 moments (seed 003 §4.2.1)
   Brute,  // K point-sample shadow maps per area light, averaged (seed 000 Fig. 11d)
+  Bitmask,      // sample-based visibility: view-sample lists + light-sample bitmasks (seed 001 §4)
+  BitmaskHard,  // alias-free hard shadows from the light's centre (seed 001 §3)
 };
-// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute"
+// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard"
 ShadowTechnique parseShadowTechnique(const std::string& name);
 const char* toString(ShadowTechnique t);
 
@@ -133,6 +135,17 @@ struct BruteOptions {
                                 // and tested in batches of this size
 };
 
+// Sample-based visibility (seed 001): view samples in light-space lists, each caster triangle
+// tested against the list texels it can shadow, one bit per light sample (src/shadows_bitmask.cpp).
+struct BitmaskOptions {
+  int lightSamples = 256;       // light samples per light: 128, 256, 512 or 1024 (bitmask; the
+                                // hard variant uses the light's centre only)
+  int listSize = 0;             // light-space list grid side in texels; 0: shadowMapSize for
+                                // bitmask-hard, min(shadowMapSize, 64) for bitmask
+  std::size_t maskBytes = std::size_t(256) << 20;  // device bytes of bitmasks held at once
+                                // (default 256 MiB, at least one light): lights go in batches
+};
+
 struct RenderOptions {
   int width = 640, height = 360;
   int shadowMapSize = 256;      // square shadow map per light, texels
@@ -145,6 +158,7 @@ struct RenderOptions {
   CSSMOptions cssm;
   PCSSOptions pcss;
   BruteOptions brute;
+  BitmaskOptions bitmask;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
 };
 

@@ -43,7 +43,12 @@ struct LoadOptions {
 // The default scene: a ground plane, a box and a sphere resting on it (contact shadows), a slab
 // floating high above it (wide penumbra), a torus and a lattice panel with square holes (holes and
 // thin parts). Units: metres, y up.
-Scene builtinScene();
+// At time `timeSeconds` two objects have moved, so shadows move: the sphere bounces in place (a
+// hop of 0.8 m every 1.5 s, on the ground at whole multiples of 1.5 s) and the slab turns about
+// its vertical axis (one revolution every 10 s, counter-clockwise seen from above). Time 0 is the
+// static scene. Nothing leaves the view of frameCamera(builtinScene(0), aspect) at any time.
+// Throws Error(BadInput) for a non-finite time.
+Scene builtinScene(float timeSeconds = 0.0f);
 
 // Loads a mesh file through Assimp. Throws Error(BadInput) naming the file and the problem:
 // unreadable or unsupported, no triangles (points or lines only), non-finite vertex coordinates,

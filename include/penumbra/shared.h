@@ -19,6 +19,15 @@
 #define PB_LUM_R_I 2126
 #define PB_LUM_G_I 7152
 #define PB_LUM_B_I 722
+/* The X and Z rows of the same matrix (IEC 61966-2-1:1999, the sRGB standard: Rec. 709 primaries,
+ * D65 white), also in 1/10000 units: the median-cut SATs carry colour as CIE XYZ so that Y is
+ * shared with the luminance SAT (seed 003 §5); src/lights.cpp inverts the whole matrix exactly. */
+#define PB_X_R_I 4124
+#define PB_X_G_I 3576
+#define PB_X_B_I 1805
+#define PB_Z_R_I 193
+#define PB_Z_G_I 1192
+#define PB_Z_B_I 9505
 
 #define PB_CUBE_FACES 6
 #define PB_MAX_LIGHTS 1024
@@ -81,6 +90,32 @@ PB_INLINE void pb_dir_equirect(float x, float y, float z, float width, float hei
   *t = acos(cy) / 3.14159265358979323846f * height;
 }
 
+/* Environment rotation about +y (Environment::rotationYDeg, angle a, counter-clockwise seen from
+ * above) as a shift of equirect columns. The turned map L'(w) = L(R(-a) w); R(-a) adds a to phi,
+ * so world column s reads map column s + shift with shift = a / 360 * width, normalized by the host
+ * to [0, width). The shift is applied as its whole and fractional parts separately so that a
+ * whole-column shift (90 degrees on a width divisible by 4) reads exactly the texels of the map
+ * with its columns shifted, bit for bit. */
+PB_INLINE int pb_env_column(float s, float shift, int width) {
+  float whole = floor(shift), frac = shift - whole;
+  int c = (int)floor(s + frac);
+  /* s == width (phi == pi) stays in the last column as the unrotated lookup does; a fractional
+   * shift past the seam wraps to the first. */
+  if (c >= width) c = frac > 0.0f ? c - width : width - 1;
+  if (c < 0) c = 0;
+  c += (int)whole;
+  return c >= width ? c - width : c;
+}
+
+/* Inverse of pb_env_column: the world column where map column c starts; c covers
+ * [start, start + 1). Sub-texel positions are start + (i + 0.5) / n. */
+PB_INLINE float pb_env_world_column(int c, float shift, int width) {
+  float whole = floor(shift), frac = shift - whole;
+  int w = c - (int)whole;
+  if (w < 0) w += width;
+  return (float)w - frac;
+}
+
 /* Cube-map texel solid angle (DESIGN.md; seed 003 eq. 8 with the exponent's sign restored):
  * d_omega = 4/m^2 * (1 + u^2 + v^2)^(-3/2) at the texel centre (u,v). */
 PB_INLINE float pb_cube_texel_solid_angle(float u, float v, int m) {
@@ -109,6 +144,32 @@ PB_INLINE float pb_cap_irradiance(float cos_alpha, float cos_beta) {
   return e > 0.0f ? e : 0.0f;
 }
 
+/* The 9 real spherical harmonics of order <= 2 (Ramamoorthi & Hanrahan 2001, "An efficient
+ * representation for irradiance environment maps", eq. 3), written in world x, y, z of a unit
+ * direction (any orthonormal basis works if projection and evaluation agree; this is the one both
+ * kernels/sh.cl and the host use). Order: (l,m) = (0,0) (1,-1) (1,0) (1,1) (2,-2) (2,-1) (2,0)
+ * (2,1) (2,2), as LightSet::ambientSH. */
+#define PB_SH_K00 0.282094791773878f  /* 1 / (2 sqrt(pi)) */
+#define PB_SH_K1 0.488602511902920f   /* sqrt(3 / (4 pi)) */
+#define PB_SH_K2 1.092548430592079f   /* sqrt(15 / (4 pi)), l = 2, m = -2, -1, 1 */
+#define PB_SH_K20 0.315391565252520f  /* sqrt(5 / (16 pi)) */
+#define PB_SH_K22 0.546274215296040f  /* sqrt(15 / (16 pi)) */
+/* Clamped-cosine convolution: irradiance E(n) = sum_lm Ahat_l L_lm Y_lm(n) (R&H 2001 eqs. 7-9,
+ * Ahat_0 = pi, Ahat_1 = 2 pi / 3, Ahat_2 = pi / 4; Ahat_l for l = 3 is 0, for l >= 4 small). */
+#define PB_SH_AHAT(k) ((k) == 0 ? 3.14159265358979f : ((k) < 4 ? 2.09439510239320f : 0.785398163397448f))
+
+PB_INLINE void pb_sh9(float x, float y, float z, float* b) {
+  b[0] = PB_SH_K00;
+  b[1] = PB_SH_K1 * y;
+  b[2] = PB_SH_K1 * z;
+  b[3] = PB_SH_K1 * x;
+  b[4] = PB_SH_K2 * x * y;
+  b[5] = PB_SH_K2 * y * z;
+  b[6] = PB_SH_K20 * (3.0f * z * z - 1.0f);
+  b[7] = PB_SH_K2 * x * z;
+  b[8] = PB_SH_K22 * (x * x - y * y);
+}
+
 /* One light as the kernels see it (16-byte aligned floats only, identical layout on both sides). */
 typedef struct {
   float dir[4];      /* unit direction towards the light (world), w: cos(alpha) */
@@ -117,6 +178,27 @@ typedef struct {
   float ey[4];       /* y axis, w: half-extent along y */
   float origin[4];   /* centre of the map's near plane (world), w: depth range (world units) */
 } pb_light;
+
+/* Light-space list grid of the bitmask technique (seed 001 §3.1), one per light, fitted to the 2D
+ * bounds of that light's view samples and with its far plane at the farthest of them (§4.3).
+ * Coordinates are the light frame's: x = (p - origin).ex, y = (p - origin).ey, depth
+ * z = (p - origin).(-dir). Texel (i, j) holds x in [x0 + i/sx, x0 + (i+1)/sx). */
+typedef struct {
+  float x0, y0;     /* light-frame position of the grid's corner */
+  float sx, sy;     /* texels per world unit along ex and ey */
+  float zmax;       /* depth of the farthest view sample (the far plane) */
+  float tan_alpha;  /* radius of the light's disk at unit depth: tan of the cap's half-angle */
+  int size;         /* S: the grid has S x S texels */
+  int samples;      /* view samples in the lists (0: the light shadows nothing) */
+} pb_list_grid;
+
+/* The list texel of light-frame point (x, y), clamped into the grid. */
+PB_INLINE int pb_grid_texel(const pb_list_grid* g, float x, float y) {
+  int i = (int)floor((x - g->x0) * g->sx), j = (int)floor((y - g->y0) * g->sy);
+  i = i < 0 ? 0 : (i >= g->size ? g->size - 1 : i);
+  j = j < 0 ? 0 : (j >= g->size ? g->size - 1 : j);
+  return j * g->size + i;
+}
 
 /* A median-cut region: texels [x0,x1) x [y0,y1) of one cube face; regions with the same group
  * form one light (only when fewer than six lights are asked for, whole faces are grouped). */

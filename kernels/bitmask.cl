@@ -1,0 +1,271 @@
+// Sample-based visibility (seed 001): every caster triangle, conservatively rasterized over the
+// light-space list texels it can shadow, tests the view samples of those lists and ORs what it
+// blocks into their bitmasks. Built per technique:
+//   -DHARD         alias-free hard shadows (§3.2-3.3): one light sample, the light's centre
+//                  direction; one bit per view sample, packed 32 to a word.
+//   -DWORDS=W      soft shadows (§4): 32 W light samples on the light's disk, a W-word mask per
+//                  view sample, the light-sample half-spaces of each edge plane from a look-up
+//                  table (§4.2) of LUT_PHI x LUT_DELTA cells.
+//
+// Light model. A cap of half-angle alpha around dir is a disk of radius tan(alpha) at unit
+// distance along dir, seen from infinitely far (gnomonic projection: the disk maps onto the cap
+// exactly). Light sample k sits at (u_k, v_k) in the unit disk; its direction in the light frame
+// (ex, ey, dir) is d_k ~ (tan(alpha) u_k, tan(alpha) v_k, 1).
+//
+// Occlusion. A ray from p along d hits triangle (a, b, c) iff d lies in the cone spanned by
+// A = a - p, B = b - p, C = c - p: with det = A.(B x C) and the edge-plane normals
+// n_ab = A x B, n_bc = B x C, n_ca = C x A oriented by sign(det), iff n.d >= 0 for all three
+// (d = alpha A + beta B + gamma C gives n_ab.d = gamma det, ...). The cone of three independent
+// half-spaces has one nappe, so the triangle's own plane needs no test of its own (a light at
+// infinity is behind every triangle). A sample on the triangle's plane (det = 0) is never blocked
+// by it, and a view sample is never tested against the triangle it lies on (G-buffer triangle id):
+// no depth bias (see src/shadows_bitmask.cpp for why not seed 001's back-face rule).
+//
+// Look-up table. For an edge plane with light-frame normal (nx, ny, nz), sample k is behind it iff
+// nz + tan(alpha) (u_k nx + v_k ny) >= 0, i.e. u_k cos(phi) + v_k sin(phi) + delta >= 0 with
+// phi = atan2(ny, nx) and delta = nz / (tan(alpha) sqrt(nx^2 + ny^2)): two parameters, the
+// plane's angle around the light's axis and its distance from the disk's centre in disk radii
+// (seed 001's two angles and a distance, reduced by the disk's symmetry: rotations about the axis
+// are phi, tilts are delta). delta >= 1: every sample; delta < -1: none. Two tables per cell:
+// `in`, the samples behind the plane for every (phi, delta) of the cell, and `out`, those behind
+// it for some. AND over the edges gives certain and possible blockers; the few possible but not
+// certain ones (a band one cell wide along each cut) are tested exactly, so the result is the
+// exact test's, at the table's cost.
+#include "shared.h"
+
+#ifndef LUT_PHI
+#define LUT_PHI 128
+#endif
+#ifndef LUT_DELTA
+#define LUT_DELTA 128
+#endif
+#ifndef WORDS
+#define WORDS 1
+#endif
+
+static float3 vec3(const float* v) { return (float3)(v[0], v[1], v[2]); }
+
+// Light-frame lateral coordinates and depth of world point p (as kernels/viewsamples.cl).
+static float3 light_coords(const pb_light* L, float3 p) {
+  float3 r = p - vec3(L->origin);
+  return (float3)(dot(r, vec3(L->ex)), dot(r, vec3(L->ey)), -dot(r, vec3(L->dir)));
+}
+
+#ifndef HARD
+// Look-up cell of an edge plane whose delta is in [-1, 1).
+static int lut_cell(float nx, float ny, float delta) {
+  float phi = atan2(ny, nx);  // [-pi, pi]
+  int ip = (int)floor((phi + M_PI_F) * (LUT_PHI / (2.0f * M_PI_F)));
+  int id = (int)floor((delta + 1.0f) * (0.5f * LUT_DELTA));
+  ip = clamp(ip, 0, LUT_PHI - 1);
+  id = clamp(id, 0, LUT_DELTA - 1);
+  return ip * LUT_DELTA + id;
+}
+#endif
+
+// Global (triangles, stripes, lights of the batch). Triangle `tri` of light l0 + z: its influence
+// region's bounding box (§4.1: the hull of the light's disk projected through each vertex onto
+// the far plane; its radius at vertex i is tan(alpha) (zmax - z_i)) in list texels, rows
+// stripe, stripe + stripes, ...; each texel that survives the separating-axis test against the
+// region is walked list by list.
+kernel void bitmask_triangles(global const float4* pos, global const int4* tris, int ntris,
+                              global const pb_light* lights, global const pb_list_grid* grids,
+                              int l0, global const int* counts, global const long* ends,
+                              global const int* lists, global const float4* gpos,
+                              global const uint* gids, int npixels, global const uint* lut_in,
+                              global const uint* lut_out, global const float2* disk, int stripes,
+                              global const int* zfar, volatile global uint* masks) {
+  int tri = get_global_id(0), stripe = get_global_id(1), lb = get_global_id(2);
+  if (tri >= ntris) return;
+  int l = l0 + lb;
+  pb_list_grid g = grids[l];
+  if (g.samples == 0) return;
+  pb_light L = lights[l];
+  int4 t = tris[tri];
+  float3 V[3] = {pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz};
+  float3 c[3];
+  float R[3];
+  float zmin = INFINITY;
+  for (int i = 0; i < 3; ++i) {
+    c[i] = light_coords(&L, V[i]);
+    zmin = fmin(zmin, c[i].z);
+    R[i] = g.tan_alpha * fmax(g.zmax - c[i].z, 0.0f);
+  }
+  if (zmin > g.zmax) return;  // behind every view sample
+  float bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+  for (int i = 0; i < 3; ++i) {
+    bx0 = fmin(bx0, c[i].x - R[i]);
+    bx1 = fmax(bx1, c[i].x + R[i]);
+    by0 = fmin(by0, c[i].y - R[i]);
+    by1 = fmax(by1, c[i].y + R[i]);
+  }
+  float fi0 = floor((bx0 - g.x0) * g.sx), fi1 = floor((bx1 - g.x0) * g.sx);
+  float fj0 = floor((by0 - g.y0) * g.sy), fj1 = floor((by1 - g.y0) * g.sy);
+  if (fi1 < 0.0f || fj1 < 0.0f || fi0 > g.size - 1 || fj0 > g.size - 1) return;
+  int i0 = max((int)fi0, 0), i1 = min((int)fi1, g.size - 1);
+  int j0 = max((int)fj0, 0), j1 = min((int)fj1, g.size - 1);
+  // Separating axes besides x and y: the projected triangle's edge normals. Along unit m the
+  // region spans [min_i m.c_i - R_i, max_i m.c_i + R_i] (hull of the vertex disks).
+  // Axes 3 and 4 are x and y: with a texel's own far plane the region shrinks below the box.
+  float2 ax[5];
+  float sc[5][3];  // vertex i's coordinate along axis a
+  for (int e = 0; e < 3; ++e) {
+    float2 d = c[(e + 1) % 3].xy - c[e].xy;
+    float len = length(d);
+    ax[e] = len > 0.0f ? (float2)(-d.y, d.x) / len : (float2)(0.0f);
+  }
+  ax[3] = (float2)(1.0f, 0.0f);
+  ax[4] = (float2)(0.0f, 1.0f);
+  for (int a = 0; a < 5; ++a)
+    for (int i = 0; i < 3; ++i) sc[a][i] = dot(ax[a], c[i].xy);
+  const float3 ex = vec3(L.ex), ey = vec3(L.ey), w = vec3(L.dir);
+  const float ta = g.tan_alpha;
+  const int S = g.size;
+  global const int* cnt = counts + (size_t)l * S * S;
+  global const long* end = ends + (size_t)l * S * S;
+  global const int* list = lists + (size_t)l * npixels;
+  for (int j = j0 + stripe; j <= j1; j += stripes)
+    for (int i = i0; i <= i1; ++i) {
+      int n = cnt[j * S + i];
+      if (n == 0) continue;
+      int zi = zfar[(size_t)l * S * S + j * S + i];
+      float zt = as_float(zi >= 0 ? zi : zi ^ 0x7fffffff);  // the texel's farthest sample
+      if (zt <= zmin) continue;
+      // texel box in light-frame coordinates, widened by a relative 1e-5 for rounding
+      float tx0 = g.x0 + i / g.sx, tx1 = g.x0 + (i + 1) / g.sx;
+      float ty0 = g.y0 + j / g.sy, ty1 = g.y0 + (j + 1) / g.sy;
+      float pad = 1e-5f * (fabs(tx0) + fabs(ty0) + (tx1 - tx0) + (ty1 - ty0));
+      float Rt[3];
+      for (int v = 0; v < 3; ++v) Rt[v] = g.tan_alpha * fmax(zt - c[v].z, 0.0f);
+      bool apart = false;
+      for (int e = 0; e < 5 && !apart; ++e) {
+        float s0 = ax[e].x * (ax[e].x >= 0.0f ? tx0 : tx1) + ax[e].y * (ax[e].y >= 0.0f ? ty0 : ty1);
+        float s1 = ax[e].x * (ax[e].x >= 0.0f ? tx1 : tx0) + ax[e].y * (ax[e].y >= 0.0f ? ty1 : ty0);
+        float lo = fmin(fmin(sc[e][0] - Rt[0], sc[e][1] - Rt[1]), sc[e][2] - Rt[2]);
+        float hi = fmax(fmax(sc[e][0] + Rt[0], sc[e][1] + Rt[1]), sc[e][2] + Rt[2]);
+        apart = s0 - pad > hi || s1 + pad < lo;
+      }
+      if (apart) continue;
+      long first = end[j * S + i] - n;
+      for (int s = 0; s < n; ++s) {
+        int px = list[first + s];
+        if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
+        float3 p = gpos[px].xyz;
+        // The sample's own depth bounds the region exactly at that depth (radius
+        // tan(alpha) (z_p - z_i) at vertex i): most samples of a texel leave here.
+        float3 q = light_coords(&L, p);
+        if (q.z <= zmin) continue;
+        {
+          float pad = 1e-5f * (fabs(q.x) + fabs(q.y) + fabs(q.z));
+          bool apart = false;
+          for (int e = 0; e < 5 && !apart; ++e) {
+            float s = dot(ax[e], q.xy), lo = INFINITY, hi = -INFINITY;
+            for (int v = 0; v < 3; ++v) {
+              float r = g.tan_alpha * fmax(q.z - c[v].z, 0.0f);
+              lo = fmin(lo, sc[e][v] - r);
+              hi = fmax(hi, sc[e][v] + r);
+            }
+            apart = s - pad > hi || s + pad < lo;
+          }
+          if (apart) continue;
+        }
+        float3 A = V[0] - p, B = V[1] - p, C = V[2] - p;
+        float3 nrm[3] = {cross(A, B), cross(B, C), cross(C, A)};
+        float det = dot(A, nrm[1]);
+        if (det == 0.0f) continue;  // on the triangle's plane: the cone is flat
+        float sg = det > 0.0f ? 1.0f : -1.0f;
+#ifdef HARD
+        // the light's centre direction w: blocked iff w is inside the cone
+        if (sg * dot(nrm[0], w) >= 0.0f && sg * dot(nrm[1], w) >= 0.0f &&
+            sg * dot(nrm[2], w) >= 0.0f) {
+          size_t bit = (size_t)lb * npixels + px;
+          atomic_or(&masks[bit >> 5], 1u << (uint)(bit & 31));
+        }
+#else
+        float nx[3], ny[3], nz[3];
+        int cell[3];
+        bool none = false;
+        int partial = 0;  // edges whose plane cuts the disk
+        for (int e = 0; e < 3; ++e) {
+          float3 m = sg * nrm[e];
+          nx[e] = dot(m, ex);
+          ny[e] = dot(m, ey);
+          nz[e] = dot(m, w);
+          float tr = ta * sqrt(nx[e] * nx[e] + ny[e] * ny[e]);
+          if (nz[e] >= tr) continue;  // the whole disk is behind this edge's plane
+          if (nz[e] < -tr) { none = true; break; }
+          cell[partial++] = lut_cell(nx[e], ny[e], nz[e] / tr);
+        }
+        if (none) continue;
+        global volatile uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
+        for (int k = 0; k < WORDS; ++k) {
+          uint in = 0xffffffffu, out = 0xffffffffu;
+          for (int e = 0; e < partial; ++e) {
+            in &= lut_in[(size_t)cell[e] * WORDS + k];
+            out &= lut_out[(size_t)cell[e] * WORDS + k];
+          }
+          uint bits = in, unsure = out & ~in;
+          while (unsure != 0u) {
+            uint low = unsure & (~unsure + 1u);
+            int b = 31 - (int)clz(low);
+            float2 uv = disk[k * 32 + b] * ta;
+            if (nz[0] + uv.x * nx[0] + uv.y * ny[0] >= 0.0f &&
+                nz[1] + uv.x * nx[1] + uv.y * ny[1] >= 0.0f &&
+                nz[2] + uv.x * nx[2] + uv.y * ny[2] >= 0.0f)
+              bits |= low;
+            unsure &= ~low;
+          }
+          if (bits != 0u) atomic_or(&mask[k], bits);
+        }
+#endif
+      }
+    }
+}
+
+// Global (pixels, lights of the batch): visibility of light l0 + z at each pixel. Soft: the
+// irradiance-weighted lit fraction of the light samples, as the shading integrates the cap:
+// sample k stands for solid angle ~ cos^3(theta_k) (uniform area on the disk, gnomonic
+// projection) and brings cos(theta between n and d_k), so with d'_k = (tan u, tan v, 1) its
+// weight is max(0, n'.d'_k) / |d'_k|^4. Pixels that are no view sample of the light get 1 (their
+// visibility is never used), as does a sample set wholly below the horizon.
+kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* lights,
+                            global const pb_list_grid* grids, int l0, global const int* slot,
+                            global const float2* disk, int npixels, global const uint* masks,
+                            global float* vis) {
+  int px = get_global_id(0), lb = get_global_id(1);
+  if (px >= npixels) return;
+  int l = l0 + lb;
+  size_t out = (size_t)l * npixels + px;
+  if (slot[out] < 0) {
+    vis[out] = 1.0f;
+    return;
+  }
+#ifdef HARD
+  size_t bit = (size_t)lb * npixels + px;
+  vis[out] = (masks[bit >> 5] >> (uint)(bit & 31)) & 1u ? 0.0f : 1.0f;
+#else
+  global const uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
+  uint any = 0u;
+  for (int k = 0; k < WORDS; ++k) any |= mask[k];
+  if (any == 0u) {
+    vis[out] = 1.0f;
+    return;
+  }
+  pb_light L = lights[l];
+  float ta = grids[l].tan_alpha;
+  float3 n = gnrm[px].xyz;
+  float nx = dot(n, vec3(L.ex)), ny = dot(n, vec3(L.ey)), nz = dot(n, vec3(L.dir));
+  float total = 0.0f, lit = 0.0f;
+  for (int k = 0; k < WORDS; ++k) {
+    uint m = mask[k];
+    for (int b = 0; b < 32; ++b) {
+      float2 uv = disk[k * 32 + b] * ta;
+      float q = 1.0f + dot(uv, uv);
+      float wgt = fmax(nz + uv.x * nx + uv.y * ny, 0.0f) / (q * q);
+      total += wgt;
+      if (((m >> b) & 1u) == 0u) lit += wgt;
+    }
+  }
+  vis[out] = total > 0.0f ? lit / total : 1.0f;
+#endif
+}

@@ -1,0 +1,158 @@
+// View samples and their light-space lists (seed 001 §3.1), for the bitmask technique
+// (src/shadows_bitmask.cpp, kernels/bitmask.cl).
+//
+// A view sample is a camera-visible G-buffer pixel that the light can reach: geometry, with the
+// light's cap not wholly below its shading normal's horizon (seed 001 Figure 2 keeps only
+// light-front-facing samples; samples whose irradiance from the light is 0 need no visibility).
+// Per light, in the light's orthographic frame (pb_light: ex, ey, dir):
+//   vs_bounds   2D bounds and far depth of the light's view samples (work-group reduction, then
+//               one atomic per group on order-preserving integer images of the floats)
+//   vs_fit      the list grid fitted to those bounds, far plane at the farthest sample (§4.3)
+//   vs_count    per texel list length by atomic increment; each sample keeps the value it read,
+//               its index inside its texel's list
+//   (scan)      exclusive offsets from an inclusive scan of the lengths (src/scan.cpp, int64)
+//   vs_scatter  each sample's pixel index into one array: lists[light][offset + index]
+// The order inside a list depends on the atomics, nothing computed from the lists does.
+#include "shared.h"
+
+#ifndef VS_WG
+#define VS_WG 64
+#endif
+
+// Positive floats order like their bit patterns read as int; flipping the 31 low bits of
+// negative ones makes the whole float order match signed integer order.
+static int ordered_int(float f) {
+  int i = as_int(f);
+  return i >= 0 ? i : i ^ 0x7fffffff;
+}
+static float ordered_float(int i) { return as_float(i >= 0 ? i : i ^ 0x7fffffff); }
+
+// The light frame's coordinates of world point p: lateral x, y and depth z from the near plane.
+static float3 light_coords(const pb_light* L, float3 p) {
+  float3 r = p - (float3)(L->origin[0], L->origin[1], L->origin[2]);
+  return (float3)(dot(r, (float3)(L->ex[0], L->ex[1], L->ex[2])),
+                  dot(r, (float3)(L->ey[0], L->ey[1], L->ey[2])),
+                  -dot(r, (float3)(L->dir[0], L->dir[1], L->dir[2])));
+}
+
+// Geometry whose shading normal sees part of the light's cap (cap not wholly below the horizon).
+static bool is_view_sample(float4 p, float3 n, const pb_light* L) {
+  if (p.w == 0.0f) return false;
+  float sin_a = sqrt(fmax(1.0f - L->dir[3] * L->dir[3], 0.0f));
+  return dot(n, (float3)(L->dir[0], L->dir[1], L->dir[2])) > -sin_a;
+}
+
+// bounds[light * 8 + ...]: 0 xmin, 1 xmax, 2 ymin, 3 ymax, 4 zmax (ordered ints), 5 count.
+// The host initializes them to (INT_MAX, INT_MIN, INT_MAX, INT_MIN, INT_MIN, 0).
+kernel void vs_bounds(global const float4* gpos, global const float4* gnrm,
+                      global const pb_light* lights, int npixels, volatile global int* bounds) {
+  local int red[6][VS_WG];
+  int px = get_global_id(0), l = get_global_id(1), lid = get_local_id(0);
+  pb_light L = lights[l];
+  int v[6] = {INT_MAX, INT_MIN, INT_MAX, INT_MIN, INT_MIN, 0};
+  if (px < npixels && is_view_sample(gpos[px], gnrm[px].xyz, &L)) {
+    float3 c = light_coords(&L, gpos[px].xyz);
+    v[0] = v[1] = ordered_int(c.x);
+    v[2] = v[3] = ordered_int(c.y);
+    v[4] = ordered_int(c.z);
+    v[5] = 1;
+  }
+  for (int k = 0; k < 6; ++k) red[k][lid] = v[k];
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int s = VS_WG / 2; s > 0; s >>= 1) {
+    if (lid < s) {
+      red[0][lid] = min(red[0][lid], red[0][lid + s]);
+      red[1][lid] = max(red[1][lid], red[1][lid + s]);
+      red[2][lid] = min(red[2][lid], red[2][lid + s]);
+      red[3][lid] = max(red[3][lid], red[3][lid + s]);
+      red[4][lid] = max(red[4][lid], red[4][lid + s]);
+      red[5][lid] += red[5][lid + s];
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (lid == 0 && red[5][0] > 0) {
+    volatile global int* b = bounds + (size_t)l * 8;
+    atomic_min(&b[0], red[0][0]);
+    atomic_max(&b[1], red[1][0]);
+    atomic_min(&b[2], red[2][0]);
+    atomic_max(&b[3], red[3][0]);
+    atomic_max(&b[4], red[4][0]);
+    atomic_add(&b[5], red[5][0]);
+  }
+}
+
+// One work-item per light: the grid of seed 001 §4.3, an axis-aligned box around the projected
+// view samples (texels need not be square) with a margin of 1e-4 of its size, far plane at the
+// farthest sample. hard: the light is its centre (tan_alpha 0).
+kernel void vs_fit(global const int* bounds, global const pb_light* lights, int nlights, int size,
+                   int hard, global pb_list_grid* grids) {
+  int l = get_global_id(0);
+  if (l >= nlights) return;
+  global const int* b = bounds + (size_t)l * 8;
+  pb_list_grid g;
+  g.size = size;
+  g.samples = b[5];
+  float c = lights[l].dir[3];
+  g.tan_alpha = hard ? 0.0f : sqrt(fmax(1.0f - c * c, 0.0f)) / fmax(c, 1e-6f);
+  if (g.samples == 0) {
+    g.x0 = g.y0 = 0.0f;
+    g.sx = g.sy = 1.0f;
+    g.zmax = 0.0f;
+  } else {
+    float x0 = ordered_float(b[0]), x1 = ordered_float(b[1]);
+    float y0 = ordered_float(b[2]), y1 = ordered_float(b[3]);
+    float m = 1e-4f * fmax(fmax(x1 - x0, y1 - y0), 1e-6f);
+    g.x0 = x0 - m;
+    g.y0 = y0 - m;
+    g.sx = size / (x1 - x0 + 2.0f * m);
+    g.sy = size / (y1 - y0 + 2.0f * m);
+    g.zmax = ordered_float(b[4]);
+  }
+  grids[l] = g;
+}
+
+// Global (pixels, lights). counts[light][texel] must be zero; slot[light][pixel] gets the sample's
+// index inside its list, -1 where the pixel is no view sample of that light. zfar[light][texel]
+// (INT_MIN before) gets the depth of the texel's farthest sample as an ordered int: the far plane
+// of each texel, which bounds the influence regions per texel far tighter than the grid's.
+kernel void vs_count(global const float4* gpos, global const float4* gnrm,
+                     global const pb_light* lights, global const pb_list_grid* grids, int npixels,
+                     volatile global int* counts, global int* slot, volatile global int* zfar) {
+  int px = get_global_id(0), l = get_global_id(1);
+  if (px >= npixels) return;
+  pb_light L = lights[l];
+  size_t out = (size_t)l * npixels + px;
+  if (!is_view_sample(gpos[px], gnrm[px].xyz, &L)) {
+    slot[out] = -1;
+    return;
+  }
+  pb_list_grid g = grids[l];
+  float3 c = light_coords(&L, gpos[px].xyz);
+  int t = pb_grid_texel(&g, c.x, c.y);
+  size_t at = (size_t)l * g.size * g.size + t;
+  slot[out] = atomic_inc(&counts[at]);
+  atomic_max(&zfar[at], ordered_int(c.z));
+}
+
+// The scan's input: list lengths widened to the int64 the exact scan takes.
+kernel void vs_widen(global const int* counts, long n, global long* ends) {
+  size_t i = get_global_id(0);
+  if (i < n) ends[i] = counts[i];
+}
+
+// Global (pixels, lights). ends: inclusive scan of counts per light (list t is
+// [ends[t] - counts[t], ends[t])). The texel is recomputed exactly as vs_count computed it.
+kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
+                       global const pb_list_grid* grids, int npixels, global const int* counts,
+                       global const long* ends, global const int* slot, global int* lists) {
+  int px = get_global_id(0), l = get_global_id(1);
+  if (px >= npixels) return;
+  size_t at = (size_t)l * npixels + px;
+  int s = slot[at];
+  if (s < 0) return;
+  pb_light L = lights[l];
+  pb_list_grid g = grids[l];
+  float3 c = light_coords(&L, gpos[px].xyz);
+  size_t t = (size_t)l * g.size * g.size + pb_grid_texel(&g, c.x, c.y);
+  lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = px;
+}

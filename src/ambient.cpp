@@ -1,0 +1,192 @@
+// The ambient residual of a light set (seed 004 §3; Ramamoorthi & Hanrahan 2001): what the lights
+// do not carry, the map minus the lights' caps, as 9 spherical-harmonic coefficients of order <= 2,
+// applied unshadowed. Also the extraction-method dispatcher (extractLights) and the LightSet
+// methods that concern the ambient.
+//
+// The map's projection runs on the device (kernels/sh.cl, exact per lat-long texel); each cap's
+// projection is analytic (below), so the residual costs one pass over the map whatever the method.
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/context.hpp"
+#include "penumbra/environment.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/lights.hpp"
+#include "penumbra/shared.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kCoeffs = 9;
+// Texels each work-item of sh_project visits (grid stride): enough work per item to hide the
+// reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
+constexpr std::size_t kTexelsPerItem = 16;
+constexpr std::size_t kMaxGroups = 1024;
+
+using SH9 = std::array<std::array<double, 3>, kCoeffs>;
+
+// Row (theta) and column (phi) integrals of kernels/sh.cl's texel_sh9, in double: differences of
+// nearby cosines lose digits in float, in double they keep ~1e-12 relative on any map up to 16k.
+// `shift`: the map's rotation about +y in columns (Environment::rotationColumns): map column c
+// covers world columns [c - shift, c - shift + 1) (pb_env_world_column, modulo the width, which the
+// periodic phi integrals do not see), so the projection is the rotated map's, exactly.
+void shTables(int W, int H, double shift, std::vector<cl_float8>& rows,
+              std::vector<cl_float8>& cols) {
+  rows.assign(H, cl_float8{});
+  cols.assign(W, cl_float8{});
+  for (int r = 0; r < H; ++r) {
+    const double a = kPi * r / H, b = kPi * (r + 1) / H;
+    const double ca = std::cos(a), cb = std::cos(b), sa = std::sin(a), sb = std::sin(b);
+    const double v[6] = {
+        ca - cb,                                            // int sin
+        0.5 * (b - a) - 0.25 * (std::sin(2 * b) - std::sin(2 * a)),  // int sin^2
+        0.5 * (sb * sb - sa * sa),                          // int cos sin
+        (ca - cb) - (ca * ca * ca - cb * cb * cb) / 3.0,    // int sin^3 = int (1 - cos^2) sin
+        (ca * ca * ca - cb * cb * cb) / 3.0,                // int cos^2 sin
+        (sb * sb * sb - sa * sa * sa) / 3.0,                // int sin^2 cos
+    };
+    for (int k = 0; k < 6; ++k) rows[r].s[k] = float(v[k]);
+  }
+  for (int c = 0; c < W; ++c) {
+    // phi = (s / W - 0.5) 2 pi at world column s, as pb_equirect_dir
+    const double s0 = double(c) - shift;
+    const double p = (s0 / W - 0.5) * 2 * kPi, q = ((s0 + 1) / W - 0.5) * 2 * kPi;
+    const double sp = std::sin(p), sq = std::sin(q);
+    const double v[6] = {
+        q - p,                                                       // int 1
+        std::cos(p) - std::cos(q),                                   // int sin
+        sq - sp,                                                     // int cos
+        0.5 * (q - p) - 0.25 * (std::sin(2 * q) - std::sin(2 * p)),  // int sin^2
+        0.5 * (q - p) + 0.25 * (std::sin(2 * q) - std::sin(2 * p)),  // int cos^2
+        0.5 * (sq * sq - sp * sp),                                   // int sin cos
+    };
+    for (int k = 0; k < 6; ++k) cols[c].s[k] = float(v[k]);
+  }
+}
+
+// The map's 9 x RGB coefficients, integral of L(w) Y_lm(w) dw, on the device.
+SH9 projectMap(Context& ctx, const Environment& env) {
+  const Image& eq = env.equirect;
+  if (eq.empty() || eq.channels != 3) badInput(env.source + ": environment has no RGB pixels");
+  const int W = eq.width, H = eq.height;
+  std::vector<cl_float8> rows, cols;
+  shTables(W, H, double(env.rotationColumns()), rows, cols);
+  cl::Buffer eqB = ctx.upload(eq.pixels, "environment map (SH projection)");
+  cl::Buffer rowB = ctx.upload(rows, "SH row integrals");
+  cl::Buffer colB = ctx.upload(cols, "SH column integrals");
+
+  cl::Kernel k = ctx.kernel("sh.cl", "sh_project");
+  const std::size_t wg = ctx.workGroupSize(k, 256);
+  const std::size_t n = std::size_t(W) * H;
+  const std::size_t perGroup = wg * kTexelsPerItem;
+  const std::size_t groups = std::clamp<std::size_t>((n + perGroup - 1) / perGroup, 1, kMaxGroups);
+  cl::Buffer partB = ctx.buffer(groups * 3 * kCoeffs * sizeof(cl_float), "SH partial sums");
+  k.setArg(0, eqB);
+  k.setArg(1, cl_int(W));
+  k.setArg(2, cl_int(H));
+  k.setArg(3, rowB);
+  k.setArg(4, colB);
+  k.setArg(5, cl::Local(wg * sizeof(cl_float)));
+  k.setArg(6, partB);
+  ctx.launch("ambient/sh-project", k, cl::NDRange(groups * wg), cl::NDRange(wg));
+  auto part = ctx.download<cl_float>(partB, groups * 3 * kCoeffs, "SH partial sums");
+  SH9 sh{};
+  for (std::size_t g = 0; g < groups; ++g)  // fixed order: bit-identical results
+    for (int i = 0; i < kCoeffs; ++i)
+      for (int c = 0; c < 3; ++c) sh[i][c] += double(part[g * 3 * kCoeffs + 3 * i + c]);
+  return sh;
+}
+
+// A uniform cap of radiance L, half-angle alpha (c = cos alpha) around unit d, projected onto SH.
+// The cap is symmetric about d, so in a frame with d as the pole only the zonal terms survive:
+//   f_l = integral of L Y_l0 = 2 pi L N_l int_c^1 P_l(t) dt,  N_l = sqrt((2l+1) / (4 pi)).
+// Rotating a zonal function to axis d (addition theorem) gives
+//   c_lm = sqrt(4 pi / (2l+1)) f_l Y_lm(d) = g_l Y_lm(d),  g_l = 2 pi L int_c^1 P_l(t) dt:
+//   g_0 = 2 pi L (1 - c)               (the cap's power M, as it must: Y_00 is constant)
+//   g_1 = 2 pi L (1 - c^2) / 2 = pi L sin^2 alpha
+//   g_2 = 2 pi L [(t^3 - t) / 2]_c^1 = pi L c sin^2 alpha   (P_2 = (3t^2 - 1) / 2)
+void subtractCap(const AreaLight& l, SH9& sh) {
+  const double c = std::clamp(double(l.cosAlpha), -1.0, 1.0);
+  double dx = l.direction[0], dy = l.direction[1], dz = l.direction[2];
+  const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (!(len > 0) || !std::isfinite(len)) return;  // no direction: a light without extent or power
+  float Y[kCoeffs];
+  pb_sh9(float(dx / len), float(dy / len), float(dz / len), Y);
+  const double s2 = 1.0 - c * c;
+  const double g[3] = {2.0 * kPi * (1.0 - c), kPi * s2, kPi * c * s2};
+  for (int i = 0; i < kCoeffs; ++i) {
+    const int band = i == 0 ? 0 : (i < 4 ? 1 : 2);
+    for (int ch = 0; ch < 3; ++ch) sh[i][ch] -= g[band] * double(l.radiance[ch]) * double(Y[i]);
+  }
+}
+
+}  // namespace
+
+void addAmbientResidual(Context& ctx, const Environment& env, LightSet& set) {
+  SH9 sh = projectMap(ctx, env);
+  for (const AreaLight& l : set.lights) subtractCap(l, sh);
+  for (int i = 0; i < kCoeffs; ++i)
+    for (int c = 0; c < 3; ++c) set.ambientSH[i][c] = float(sh[i][c]);
+  set.hasAmbient = true;
+}
+
+std::array<double, 3> LightSet::lightsPower() const {
+  std::array<double, 3> p{0, 0, 0};
+  for (auto& l : lights)
+    for (int c = 0; c < 3; ++c) p[c] += l.power[c];
+  return p;
+}
+
+// Integral over the sphere of sum_lm c_lm Y_lm: only Y_00 = 1 / sqrt(4 pi) has a non-zero
+// integral (4 pi Y_00 = sqrt(4 pi)).
+std::array<double, 3> LightSet::ambientPower() const {
+  const double k = std::sqrt(4.0 * kPi);
+  return {k * ambientSH[0][0], k * ambientSH[0][1], k * ambientSH[0][2]};
+}
+
+// R&H 2001 eq. 13 with the Ahat_l of shared.h: the SH radiance convolved with the clamped cosine.
+// Not clamped at 0: a residual may be negative in places (a cap brighter than the texels it
+// replaced) and only lights + ambient together are an irradiance.
+std::array<double, 3> LightSet::ambientIrradiance(const std::array<float, 3>& n) const {
+  std::array<double, 3> e{0, 0, 0};
+  if (!hasAmbient) return e;
+  float Y[kCoeffs];
+  pb_sh9(n[0], n[1], n[2], Y);
+  for (int i = 0; i < kCoeffs; ++i)
+    for (int c = 0; c < 3; ++c) e[c] += double(PB_SH_AHAT(i)) * double(Y[i]) * ambientSH[i][c];
+  return e;
+}
+
+ExtractionMethod parseExtractionMethod(const std::string& name) {
+  for (ExtractionMethod m :
+       {ExtractionMethod::MedianCut, ExtractionMethod::Greedy, ExtractionMethod::CenterSurround})
+    if (name == toString(m)) return m;
+  badInput("--extract: unknown method '" + name +
+           "' (accepted: median-cut, greedy, center-surround)");
+}
+
+const char* toString(ExtractionMethod m) {
+  switch (m) {
+    case ExtractionMethod::MedianCut: return "median-cut";
+    case ExtractionMethod::Greedy: return "greedy";
+    case ExtractionMethod::CenterSurround: return "center-surround";
+  }
+  return "unknown";
+}
+
+LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt) {
+  LightSet set;
+  switch (opt.method) {
+    case ExtractionMethod::MedianCut: set = extractMedianCut(ctx, env, opt.medianCut); break;
+    case ExtractionMethod::Greedy: set = extractGreedy(ctx, env, opt.greedy); break;
+    case ExtractionMethod::CenterSurround:
+      set = extractCenterSurround(ctx, env, opt.centerSurround);
+      break;
+  }
+  if (opt.ambient) addAmbientResidual(ctx, env, set);
+  return set;
+}
+
+}  // namespace penumbra

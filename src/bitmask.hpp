@@ -1,0 +1,74 @@
+// Internal: what the bitmask technique (src/shadows_bitmask.cpp) shares with its tests and
+// benchmarks: its light samples, a capture of one frame's lists and masks, and exact Embree
+// shadow rays for explicit directions (src/reference_samples.cpp) to check them against.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "penumbra/scene.hpp"
+#include "penumbra/shared.h"
+
+namespace penumbra::detail {
+
+// Light sample k of n on the unit disk: a Fibonacci spiral, uniform in area (radius
+// sqrt((k + 1/2) / n), golden-angle turns). Every light uses the same set, scaled by its
+// tan(alpha), so one look-up table serves all lights.
+std::vector<std::array<float, 2>> bitmaskDiskSamples(int n);
+
+// World direction of the light sample at disk point (u, v) of light L with the given tan(alpha)
+// (pb_list_grid::tan_alpha): normalize(dir + tan(alpha) (u ex + v ey)).
+std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, float u, float v);
+
+// List statistics of one frame (seed 001 Figure 9), over all lights.
+struct BitmaskStats {
+  std::int64_t viewSamples = 0;     // (pixel, light) pairs in the lists
+  std::int64_t occupiedTexels = 0;  // texels with a non-empty list, summed over lights
+  std::int64_t texels = 0;          // all list texels, summed over lights
+  double meanList = 0;              // mean length of the non-empty lists
+  int maxList = 0;                  // longest list
+};
+
+// What one frame of the pass computed, downloaded when a capture is installed.
+struct BitmaskCapture {
+  bool hard = false;
+  int pixels = 0, words = 0;                   // words: mask words per view sample (hard: 1)
+  std::vector<pb_light> lights;                // light frames as the kernels saw them
+  std::vector<pb_list_grid> grids;             // per light
+  std::vector<std::array<float, 2>> disk;      // light samples (hard: the centre only)
+  std::vector<int> slot;                       // [light][pixel]: index in its list, -1: no sample
+  std::vector<int> counts;                     // [light][texel]: list lengths
+  std::vector<std::uint32_t> masks;            // [light][pixel][word]: bit k set = sample blocked
+  std::vector<std::array<float, 4>> gpos, ggeo, gnrm;  // the G-buffer
+  std::vector<std::uint32_t> gids;             // camera triangle id per pixel
+  BitmaskStats stats;
+};
+
+// Installs a capture filled by every later bitmask frame (nullptr: none). Not thread-safe; for
+// tests and benchmarks.
+void setBitmaskCapture(BitmaskCapture* capture);
+
+// Statistics of the last bitmask frame (computed from the list lengths; costs a read-back, so
+// only when a capture is installed or statistics were asked for with setBitmaskStats(true)).
+void setBitmaskStats(bool on);
+BitmaskStats lastBitmaskStats();
+
+// Exact occlusion of rays from explicit origins along explicit directions by the scene's
+// triangles (Embree 3, robust mode): the ground truth for per-(view sample, light sample) pairs.
+// occluded() is safe to call from several threads at once.
+class SampleTracer {
+ public:
+  explicit SampleTracer(const Scene& scene);
+  ~SampleTracer();
+  SampleTracer(const SampleTracer&) = delete;
+  SampleTracer& operator=(const SampleTracer&) = delete;
+  bool occluded(const std::array<float, 3>& origin, const std::array<float, 3>& dir,
+                float tnear = 0.0f) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace penumbra::detail

@@ -1,0 +1,142 @@
+// Greedy fitting of square or rectangular area lights to the cube-map faces (seed 000 §4.2,
+// Figure 6): the fit runs on the device (kernels/greedy.cl, one work-group per face); the host
+// turns each fitted rectangle's taken energy into a cap light and keeps the strongest.
+#include "greedy.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "cubemap.hpp"
+#include "penumbra/environment.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/lights.hpp"
+#include "penumbra/shared.h"
+
+namespace penumbra {
+
+namespace detail {
+
+std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float threshold,
+                                  bool square) {
+  const std::size_t texels = 6ull * m * m;
+  const int capacity = int(std::min<std::int64_t>(std::int64_t(m) * m, kGreedyMaxPerFace));
+  cl::Buffer covered = ctx.buffer(texels, "greedy covered flags");
+  cl_uchar zero = 0;
+  ctx.fill(covered, &zero, 1, texels, "greedy covered flags");
+  const std::size_t slots = 6ull * capacity;
+  cl::Buffer rect = ctx.buffer(slots * sizeof(cl_int4), "greedy rectangles");
+  cl::Buffer power = ctx.buffer(slots * sizeof(cl_long4), "greedy powers");
+  cl::Buffer moment = ctx.buffer(slots * sizeof(cl_long4), "greedy moments");
+  cl::Buffer count = ctx.buffer(6 * sizeof(cl_int), "greedy light counts");
+
+  cl::Kernel k = ctx.kernel("greedy.cl", "greedy_fit");
+  // One work-group per face. 256 work-items keep a GPU's SM busy on the strip and seed sums;
+  // local memory is one long4 per work-item (8 KiB).
+  std::size_t wg = ctx.workGroupSize(k, 256);
+  std::size_t localMem = ctx.device().getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
+  while (wg > 1 && wg * sizeof(cl_long4) > localMem) wg /= 2;
+  k.setArg(0, energy);
+  k.setArg(1, covered);
+  k.setArg(2, cl_int(m));
+  k.setArg(3, cl_float(threshold));
+  k.setArg(4, cl_int(square ? 1 : 0));
+  k.setArg(5, cl_int(capacity));
+  k.setArg(6, rect);
+  k.setArg(7, power);
+  k.setArg(8, moment);
+  k.setArg(9, count);
+  k.setArg(10, cl::Local(wg * sizeof(cl_long4)));
+  ctx.launch("extract/greedy", k, cl::NDRange(6 * wg), cl::NDRange(wg));
+
+  auto n = ctx.download<cl_int>(count, 6, "greedy light counts");
+  auto r = ctx.download<cl_int4>(rect, slots, "greedy rectangles");
+  auto p = ctx.download<cl_long4>(power, slots, "greedy powers");
+  auto mo = ctx.download<cl_long4>(moment, slots, "greedy moments");
+  std::vector<GreedyRect> out;
+  for (int f = 0; f < 6; ++f)
+    for (int i = 0; i < n[f]; ++i) {
+      std::size_t o = std::size_t(f) * capacity + i;
+      GreedyRect g;
+      g.face = f;
+      g.x0 = r[o].s[0]; g.y0 = r[o].s[1]; g.x1 = r[o].s[2]; g.y1 = r[o].s[3];
+      for (int c = 0; c < 4; ++c) g.removed[c] = p[o].s[c];
+      for (int c = 0; c < 3; ++c) g.moment[c] = mo[o].s[c];
+      out.push_back(g);
+    }
+  return out;
+}
+
+}  // namespace detail
+
+LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions& opt) {
+  const int m = opt.faceSize;
+  if (!(opt.threshold > 0.0f && opt.threshold < 1.0f))
+    badInput("--threshold must be in (0, 1), got " + std::to_string(opt.threshold));
+  if (m < 1 || m > 1024) badInput("--face-size must be in [1, 1024], got " + std::to_string(m));
+  if (opt.maxLights < 1 || opt.maxLights > PB_MAX_LIGHTS)
+    badInput("greedy maxLights must be in [1, " + std::to_string(PB_MAX_LIGHTS) + "], got " +
+             std::to_string(opt.maxLights));
+
+  detail::DeviceCube cube = detail::resampleToCube(ctx, env, m, opt.supersample);
+  std::vector<detail::GreedyRect> rects =
+      detail::greedyFit(ctx, cube.energy, m, opt.threshold, opt.square);
+
+  // Strongest first by taken luminance (exact integers), ties by fitting order; lights that took
+  // nothing (their texels held no more than the face's mean) are no lights at all.
+  std::vector<int> order;
+  for (int i = 0; i < int(rects.size()); ++i) {
+    auto& e = rects[i].removed;
+    if (e[0] > 0 || e[1] > 0 || e[2] > 0) order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return rects[a].removed[3] > rects[b].removed[3]; });
+  if (int(order.size()) > opt.maxLights) order.resize(opt.maxLights);
+
+  const double inv = 1.0 / cube.scale;
+  const float cosMax = std::cos(85.0f * float(M_PI / 180.0));
+  LightSet set;
+  set.faceSize = m;
+  set.method = "greedy";
+  for (int i : order) {
+    const detail::GreedyRect& g = rects[i];
+    // Texel centre of the rectangle nearest the face centre: the largest texel it holds, whose
+    // cap is the narrowest the light may have.
+    auto coord = [&](int t) { return 2.0f * (t + 0.5f) / m - 1.0f; };
+    float uc = std::clamp(0.0f, coord(g.x0), coord(g.x1 - 1));
+    float vc = std::clamp(0.0f, coord(g.y0), coord(g.y1 - 1));
+    const float texelDw = pb_cube_texel_solid_angle(uc, vc, m);
+    const float cosMinCap = 1.0f - texelDw / float(2.0 * M_PI);
+
+    AreaLight l;
+    // Direction and extent from the luminance moments of the taken energy, as for median cut
+    // (kernels/extract.cl resolve_lights): mean direction, and cos a = 2R - 1 for a uniform cap
+    // whose mean resultant length is R.
+    double Y = double(g.removed[3]);
+    double mx = double(g.moment[0]), my = double(g.moment[1]), mz = double(g.moment[2]);
+    double len = std::sqrt(mx * mx + my * my + mz * mz);
+    float cosA;
+    if (Y > 0 && len > 0) {
+      l.direction = {float(mx / len), float(my / len), float(mz / len)};
+      cosA = float(2.0 * std::min(1.0, len / Y) - 1.0);
+    } else {
+      float cx = 0.5f * (coord(g.x0) + coord(g.x1 - 1)), cy = 0.5f * (coord(g.y0) + coord(g.y1 - 1));
+      float x, y, z;
+      pb_cube_dir(g.face, cx, cy, &x, &y, &z);
+      float n = std::sqrt(x * x + y * y + z * z);
+      l.direction = {x / n, y / n, z / n};
+      cosA = cosMinCap;
+    }
+    l.cosAlpha = std::clamp(cosA, cosMax, cosMinCap);
+    float omega = l.solidAngle();
+    for (int c = 0; c < 3; ++c) {
+      l.power[c] = float(double(g.removed[c]) * inv);
+      l.radiance[c] = omega > 0 ? l.power[c] / omega : 0.0f;
+    }
+    l.regions.push_back({g.face, g.x0, g.y0, g.x1, g.y1});
+    set.lights.push_back(l);
+  }
+  return set;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Installs the build into a fresh prefix, then builds and runs tests/consumer against it twice:
+# through find_package(penumbra) and through pkg-config. Usage: run.sh BUILD_DIR SOURCE_DIR
+set -euo pipefail
+build=$(cd "$1" && pwd)
+src=$(cd "$2" && pwd)
+work="$build/consumer-test"
+rm -rf "$work"
+mkdir -p "$work"
+cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
+cmake -S "$src/tests/consumer" -B "$work/build" -DCMAKE_PREFIX_PATH="$work/prefix" -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
+cmake --build "$work/build" > "$work/build.log"
+# the installed library is found through the consumer's build RPATH (CMake adds it)
+"$work/build/consumer"
+libdir=$(dirname "$(find "$work/prefix" -name penumbra.pc | head -1)")
+PKG_CONFIG_PATH="$libdir" c++ -std=c++17 "$src/tests/consumer/main.cpp" -o "$work/consumer-pc" \
+  $(PKG_CONFIG_PATH="$libdir" pkg-config --cflags --libs penumbra)
+LD_LIBRARY_PATH="$(dirname "$libdir")" "$work/consumer-pc"
+# the installed CLI runs from the prefix (its RPATH points at ../lib)
+"$work/prefix/bin/penumbra" --version

@@ -1,0 +1,646 @@
+// Animation (issue 4): the environment's rotation about +y wherever the map is read (host lookups
+// and integrals, the device cube map and so every extraction, the rendered background, the Embree
+// reference), the built-in scene's moving objects, temporal stability of the rendered frame under
+// a turning map, and the `render --frames` command line.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common.hpp"
+
+using namespace penumbra;
+using namespace penumbra::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// The map with its columns shifted so that it shows what a 90-degree turn shows: world column s
+// reads map column s + W/4 (shared.h pb_env_column), exact for W divisible by 4.
+Environment shiftedQuarter(const Environment& env) {
+  Environment out = env;
+  const int W = env.equirect.width;
+  for (int t = 0; t < env.equirect.height; ++t)
+    for (int s = 0; s < W; ++s)
+      for (int c = 0; c < 3; ++c) out.equirect.at(s, t, c) = env.equirect.at((s + W / 4) % W, t, c);
+  return out;
+}
+
+// R_y(a): counter-clockwise seen from above (+x towards -z).
+std::array<float, 3> rotY(const std::array<float, 3>& v, double deg) {
+  const double c = std::cos(deg * kDeg), s = std::sin(deg * kDeg);
+  return {float(c * v[0] + s * v[2]), v[1], float(-s * v[0] + c * v[2])};
+}
+
+double angleDeg(const std::array<float, 3>& a, const std::array<float, 3>& b) {
+  double d = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
+  double la = std::sqrt(double(a[0]) * a[0] + double(a[1]) * a[1] + double(a[2]) * a[2]);
+  double lb = std::sqrt(double(b[0]) * b[0] + double(b[1]) * b[1] + double(b[2]) * b[2]);
+  return std::acos(std::clamp(d / (la * lb), -1.0, 1.0)) / kDeg;
+}
+
+double lum(const std::array<float, 3>& p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2]; }
+
+std::vector<Environment> testMaps() {
+  std::vector<Environment> maps;
+  for (const char* m : kMaps) maps.push_back(loadEnvironment(data(m)));
+  maps.push_back(builtinEnvironment(256));
+  return maps;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Environment rotation.
+
+TEST(EnvRotation, ShiftIsNormalizedAndWholeTurnsAreZero) {
+  Environment env = builtinEnvironment(64);
+  for (float deg : {0.0f, 360.0f, -360.0f, 720.0f}) {
+    env.rotationYDeg = deg;
+    EXPECT_EQ(env.rotationColumns(), 0.0f) << deg;
+  }
+  env.rotationYDeg = 90.0f;
+  EXPECT_EQ(env.rotationColumns(), 16.0f);
+  env.rotationYDeg = -90.0f;
+  EXPECT_EQ(env.rotationColumns(), 48.0f);
+  env.rotationYDeg = 1.0f;
+  EXPECT_NEAR(env.rotationColumns(), 64.0 / 360.0, 1e-6);
+  env.rotationYDeg = std::nanf("");
+  EXPECT_THROW(env.rotationColumns(), Error);
+}
+
+// The sun of the built-in sky (azimuth 35 degrees towards +x from -z) turned 90 degrees
+// counter-clockwise seen from above ends at azimuth -55 degrees: the documented sense.
+TEST(EnvRotation, SenseIsCounterClockwiseFromAbove) {
+  Environment env = builtinEnvironment(512);
+  const double el = 50 * kDeg, az = 35 * kDeg;
+  const std::array<float, 3> sun{float(std::cos(el) * std::sin(az)), float(std::sin(el)),
+                                 float(-std::cos(el) * std::cos(az))};
+  const std::array<float, 3> turned = rotY(sun, 90);
+  float rgb[3];
+  env.lookup(sun[0], sun[1], sun[2], rgb);
+  EXPECT_GT(rgb[0], 100.0f);
+  env.rotationYDeg = 90.0f;
+  env.lookup(turned[0], turned[1], turned[2], rgb);
+  EXPECT_GT(rgb[0], 100.0f);  // the sun moved with the turn
+  env.lookup(sun[0], sun[1], sun[2], rgb);
+  EXPECT_LT(rgb[0], 10.0f);   // and is no longer where it was
+}
+
+TEST(EnvRotation, HostLookupPowerIrradianceAndBaking) {
+  for (const Environment& env : testMaps()) {
+    SCOPED_TRACE(env.source);
+    Environment rot = env;
+    rot.rotationYDeg = 90.0f;
+    const Environment shifted = shiftedQuarter(env);
+    // Baking the rotation reproduces the column shift exactly.
+    const Environment baked = rot.withRotationApplied();
+    EXPECT_EQ(baked.rotationYDeg, 0.0f);
+    EXPECT_TRUE(baked.equirect.pixels == shifted.equirect.pixels);
+    // Lookups at texel centres read the same texel.
+    const int W = env.equirect.width, H = env.equirect.height;
+    int mismatches = 0;
+    for (int t = 0; t < H; t += 3)
+      for (int s = 0; s < W; s += 5) {
+        float x, y, z, a[3], b[3];
+        pb_equirect_dir(s + 0.5f, t + 0.5f, float(W), float(H), &x, &y, &z);
+        rot.lookup(x, y, z, a);
+        shifted.lookup(x, y, z, b);
+        mismatches += a[0] != b[0] || a[1] != b[1] || a[2] != b[2];
+      }
+    EXPECT_EQ(mismatches, 0);
+    // Power does not change; irradiance turns with the map. The sub-sample positions of the two
+    // sums are the same up to float rounding of the column, so 1e-4 relative.
+    double p0[3], p1[3];
+    env.power(p0);
+    rot.power(p1);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(p0[c], p1[c]);
+    for (const std::array<float, 3>& n : {std::array<float, 3>{1, 0, 0}, {0, 0, -1},
+                                         {0.577f, 0.577f, -0.577f}, {0, 1, 0}}) {
+      double a[3], b[3];
+      rot.irradiance(n.data(), a);
+      shifted.irradiance(n.data(), b);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], 1e-4 * std::max(1e-6, b[c]));
+    }
+  }
+}
+
+// The cube of the rotated map is the cube of the column-shifted map. Splatting (cube coarser than
+// the map) does the same float operations in the same order on both, and the fixed-point adds are
+// associative, so the energies are bit-identical. Gathering (cube finer) adds the whole shift after
+// the float column, so a sample a float rounding away from a column edge may pick the neighbour:
+// there at most 0.1% of the texels may differ, and the total by 1e-4.
+TEST(EnvRotation, CubeOfQuarterTurnIsCubeOfShiftedMap) {
+  for (const Environment& env : testMaps()) {
+    SCOPED_TRACE(env.source);
+    Environment rot = env;
+    rot.rotationYDeg = 90.0f;
+    const Environment shifted = shiftedQuarter(env);
+    const int W = env.equirect.width;
+    const int splatFace = std::max(1, W / 8), gatherFace = W;  // W >= 4m splats, else gathers
+    Image a = cubeMapEnergy(ctx(), rot, splatFace), b = cubeMapEnergy(ctx(), shifted, splatFace);
+    EXPECT_TRUE(a.pixels == b.pixels) << "splat, face " << splatFace;
+    a = cubeMapEnergy(ctx(), rot, gatherFace);
+    b = cubeMapEnergy(ctx(), shifted, gatherFace);
+    std::size_t differ = 0;
+    double ta = 0, tb = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+      differ += a.pixels[i] != b.pixels[i];
+      ta += a.pixels[i];
+      tb += b.pixels[i];
+    }
+    EXPECT_LE(differ, a.pixels.size() / 1000) << "gather, face " << gatherFace;
+    EXPECT_NEAR(ta, tb, 1e-4 * tb);
+  }
+}
+
+TEST(EnvRotation, WholeTurnIsTheIdentity) {
+  Environment env = loadEnvironment(data("envmaps/courtyard.exr"));
+  const Image base = cubeMapEnergy(ctx(), env, 32);
+  const Image baseGather = cubeMapEnergy(ctx(), env, env.equirect.width);
+  for (float deg : {360.0f, -360.0f, 1080.0f}) {
+    env.rotationYDeg = deg;
+    EXPECT_TRUE(cubeMapEnergy(ctx(), env, 32).pixels == base.pixels) << deg;
+    EXPECT_TRUE(cubeMapEnergy(ctx(), env, env.equirect.width).pixels == baseGather.pixels) << deg;
+  }
+}
+
+// Median-cut lights of the map turned 90 degrees are bit for bit the lights of the column-shifted
+// map (same cube), carry the same power, and light the turned normals as the original lights
+// light the original ones. The turn permutes the four side faces of the cube but spins the top and
+// bottom ones, and median cut splits a square region along x (kernels/extract.cl, `w >= h`), so
+// the individual cuts there need not turn with the map: that is measured and printed.
+TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
+  for (const Environment& env : testMaps()) {
+    SCOPED_TRACE(env.source);
+    MedianCutOptions mo;
+    mo.lights = 16;
+    mo.faceSize = 64;
+    const LightSet base = extractMedianCut(ctx(), env, mo);
+    Environment rot = env;
+    rot.rotationYDeg = 90.0f;
+    const LightSet turned = extractMedianCut(ctx(), rot, mo);
+    const LightSet shifted = extractMedianCut(ctx(), shiftedQuarter(env), mo);
+    ASSERT_EQ(turned.lights.size(), shifted.lights.size());
+    for (std::size_t i = 0; i < turned.lights.size(); ++i) {
+      EXPECT_EQ(turned.lights[i].direction, shifted.lights[i].direction);
+      EXPECT_EQ(turned.lights[i].power, shifted.lights[i].power);
+    }
+    // Turning moves energy, it does not create or lose any.
+    const auto pb = base.power(), pt = turned.power();
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(pt[c], pb[c], 1e-5 * pb[c]);
+    // The cuts turn with the map (issue 4: directions within 1 degree, powers within 1%): square
+    // regions choose their cut axis by a rotation-consistent rule (kernels/extract.cl).
+    double total = 0;
+    for (auto& l : base.lights) total += lum(l.power);
+    double worstDeg = 0, worstPow = 0;
+    for (auto& l : base.lights) {
+      const auto want = rotY(l.direction, 90);
+      const AreaLight* best = nullptr;
+      double bestDeg = 1e9;
+      for (auto& m : turned.lights) {
+        double d = angleDeg(want, m.direction);
+        if (d < bestDeg) bestDeg = d, best = &m;
+      }
+      worstDeg = std::max(worstDeg, bestDeg);
+      double rel = std::fabs(lum(best->power) - lum(l.power)) / std::max(lum(l.power), 1e-3 * total);
+      worstPow = std::max(worstPow, rel);
+    }
+    // Irradiance of the light sets on the 26 cube directions, turned: within 2% (issue 4's
+    // irradiance tolerance) of the sum over all normals' irradiance scale.
+    double worstE = 0, scale = 0;
+    std::vector<std::array<float, 3>> normals;
+    for (int x = -1; x <= 1; ++x)
+      for (int y = -1; y <= 1; ++y)
+        for (int z = -1; z <= 1; ++z)
+          if (x || y || z) {
+            float len = std::sqrt(float(x * x + y * y + z * z));
+            normals.push_back({x / len, y / len, z / len});
+          }
+    for (auto& n : normals) {
+      const auto eb = base.irradiance(n), et = turned.irradiance(rotY(n, 90));
+      const double lb = PB_LUM_R * eb[0] + PB_LUM_G * eb[1] + PB_LUM_B * eb[2];
+      const double lt = PB_LUM_R * et[0] + PB_LUM_G * et[1] + PB_LUM_B * et[2];
+      scale = std::max(scale, lb);
+      worstE = std::max(worstE, std::fabs(lt - lb));
+    }
+    EXPECT_LT(worstE, 0.02 * scale);
+    // The built-in sky's zenith face is symmetric under a quarter turn (the sky is a function of
+    // elevation there, exactly, in fixed point): the turned map's face is the same face, so any
+    // deterministic cut gives the same lights for both, and a two-way cut of a square is not
+    // itself symmetric under a quarter turn. No cutting rule can turn those lights; the issue's
+    // test is on the maps in ../shared/data/envmaps, which are asserted.
+    if (env.source != "builtin") {
+      EXPECT_LT(worstDeg, 1.0);
+      EXPECT_LT(worstPow, 0.01);
+    }
+    std::printf("[ rotation ] %s: median cut 90 deg: worst light direction %.3f deg, power %.4f, "
+                "irradiance %.4f of max\n",
+                env.source.c_str(), worstDeg, worstPow, worstE / scale);
+  }
+}
+
+// The rendered background follows the turn: a frame of the turned map equals the frame of the
+// column-shifted map (same cube, same lights, same background texels).
+TEST(EnvRotation, RenderedFrameOfQuarterTurnIsFrameOfShiftedMap) {
+  Environment env = loadEnvironment(data("envmaps/studio.exr"));
+  Environment rot = env;
+  rot.rotationYDeg = 90.0f;
+  const Environment shifted = shiftedQuarter(env);
+  Scene scene = builtinScene();
+  Camera cam = frameCamera(scene, 2.0f);
+  RenderOptions ro;
+  ro.width = 96;
+  ro.height = 48;
+  ro.shadowMapSize = 64;
+  ExtractOptions eo;
+  eo.medianCut.lights = 8;
+  eo.medianCut.faceSize = 32;
+  Renderer r(ctx());
+  Frame a = r.render(scene, cam, extractLights(ctx(), rot, eo), rot, ro);
+  Frame b = r.render(scene, cam, extractLights(ctx(), shifted, eo), shifted, ro);
+  EXPECT_TRUE(a.image.pixels == b.image.pixels);
+  // ... and differs from the unturned map's background.
+  Frame c = r.render(scene, cam, extractLights(ctx(), env, eo), env, ro);
+  EXPECT_FALSE(a.image.pixels == c.image.pixels);
+}
+
+// The Embree reference reads the turned map: its background equals the shifted map's exactly, and
+// its lit pixels agree on average (different sampling noise: the CDFs are the same texels in a
+// different order) within 5%, well inside the difference the turn itself makes on this map.
+TEST(EnvRotation, ReferenceSeesTheTurnedMap) {
+  Environment env = builtinEnvironment(256);
+  Environment rot = env;
+  rot.rotationYDeg = 90.0f;
+  const Environment shifted = shiftedQuarter(env);
+  Scene scene = builtinScene();
+  Camera cam = frameCamera(scene, 2.0f);
+  ReferenceOptions ro;
+  ro.width = 48;
+  ro.height = 24;
+  ro.spp = 64;
+  const Image a = referenceEnvironment(scene, cam, rot, ro);
+  const Image b = referenceEnvironment(scene, cam, shifted, ro);
+  const Image c = referenceEnvironment(scene, cam, env, ro);
+  double ma = 0, mb = 0, mc = 0;
+  int n = 0;
+  for (int i = 0; i < a.width * a.height; ++i) {
+    if (b.pixels[4 * i + 3] == 0.0f) {
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(a.pixels[4 * i + k], b.pixels[4 * i + k]);
+      continue;
+    }
+    ma += a.pixels[4 * i + 1];
+    mb += b.pixels[4 * i + 1];
+    mc += c.pixels[4 * i + 1];
+    ++n;
+  }
+  ASSERT_GT(n, 0);
+  EXPECT_NEAR(ma / mb, 1.0, 0.05);
+  std::printf("[ rotation ] reference lit mean: turned %.4f shifted %.4f unturned %.4f\n", ma / n,
+              mb / n, mc / n);
+}
+
+// Both resampling kernels with a fractional turn on a tiny map whose radiance depends on the row
+// only (so the turn must not change it): splatting conserves the map's power up to fixed-point
+// rounding, gathering reads the same row values whatever the column, so its cube is the unturned
+// one exactly.
+TEST(OclgrindEnvRotation, SplatAndGatherWithFractionalTurn) {
+  Environment env;
+  env.source = "rows";
+  env.equirect = Image(16, 8, 3);
+  for (int t = 0; t < 8; ++t)
+    for (int s = 0; s < 16; ++s)
+      for (int c = 0; c < 3; ++c) env.equirect.at(s, t, c) = 1.0f + t + 0.5f * c;
+  double p[3];
+  env.power(p);
+  Environment rot = env;
+  rot.rotationYDeg = 37.5f;
+  const Image splat = cubeMapEnergy(ctx(), rot, 2, 2);  // 16 >= 4*2: splat
+  double sum = 0;
+  for (std::size_t i = 1; i < splat.pixels.size(); i += 3) sum += splat.pixels[i];
+  EXPECT_NEAR(sum, p[1], 1e-4 * p[1]);
+  // 16 < 4*8: gather
+  EXPECT_TRUE(cubeMapEnergy(ctx(), rot, 8, 2).pixels == cubeMapEnergy(ctx(), env, 8, 2).pixels);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The moving built-in scene.
+
+namespace {
+const Mesh* meshNamed(const Scene& s, const std::string& name) {
+  for (auto& m : s.meshes)
+    if (m.name == name) return &m;
+  return nullptr;
+}
+}  // namespace
+
+TEST(AnimatedScene, TimeZeroIsTheStaticScene) {
+  const Scene a = builtinScene(), b = builtinScene(0.0f);
+  ASSERT_EQ(a.meshes.size(), b.meshes.size());
+  for (std::size_t i = 0; i < a.meshes.size(); ++i)
+    EXPECT_TRUE(a.meshes[i].positions == b.meshes[i].positions) << a.meshes[i].name;
+  EXPECT_THROW(builtinScene(std::nanf("")), Error);
+}
+
+TEST(AnimatedScene, SphereBouncesAndSlabTurns) {
+  const Scene s0 = builtinScene(0.0f), hop = builtinScene(0.75f), quarter = builtinScene(2.5f);
+  auto lowest = [](const Mesh* m) {
+    float y = 1e9f;
+    for (auto& p : m->positions) y = std::min(y, p[1]);
+    return y;
+  };
+  // Mid-hop (half the 1.5 s period) the sphere is 0.8 m up; on the ground at whole periods.
+  EXPECT_NEAR(lowest(meshNamed(hop, "sphere")) - lowest(meshNamed(s0, "sphere")), 0.8f, 1e-4f);
+  EXPECT_NEAR(lowest(meshNamed(builtinScene(3.0f), "sphere")), lowest(meshNamed(s0, "sphere")),
+              1e-4f);
+  // A quarter of the slab's 10 s turn: every vertex turned 90 degrees about the slab's centre.
+  const Mesh* a = meshNamed(s0, "slab");
+  const Mesh* b = meshNamed(quarter, "slab");
+  ASSERT_EQ(a->positions.size(), b->positions.size());
+  for (std::size_t i = 0; i < a->positions.size(); ++i) {
+    std::array<float, 3> rel{a->positions[i][0] - 1.1f, a->positions[i][1],
+                             a->positions[i][2] + 1.2f};
+    auto want = rotY(rel, 90);
+    EXPECT_NEAR(b->positions[i][0], want[0] + 1.1f, 1e-4f);
+    EXPECT_NEAR(b->positions[i][1], want[1], 1e-6f);
+    EXPECT_NEAR(b->positions[i][2], want[2] - 1.2f, 1e-4f);
+  }
+  // Other objects stand still.
+  EXPECT_TRUE(meshNamed(s0, "box")->positions == meshNamed(hop, "box")->positions);
+}
+
+// The camera framed on the scene at time 0 sees every object vertex at every time of the motion's
+// common period (lcm of 1.5 s and 10 s = 30 s), sampled at 24 frames per second.
+TEST(AnimatedScene, EverythingStaysInViewOfTheTimeZeroCamera) {
+  for (float aspect : {16.0f / 9.0f, 1.0f, 0.5f}) {
+    const Camera cam = frameCamera(builtinScene(0.0f), aspect);
+    const int W = 1000, H = int(std::lround(1000 / aspect));
+    const CameraBasis b = cameraBasis(cam, W, H);
+    double worst = 0;
+    for (int f = 0; f <= 30 * 24; ++f) {
+      const Scene s = builtinScene(f / 24.0f);
+      for (auto& m : s.meshes) {
+        if (m.name == "ground") continue;
+        for (auto& p : m.positions) {
+          const Vec3 d{p[0] - b.eye[0], p[1] - b.eye[1], p[2] - b.eye[2]};
+          const double z = d[0] * b.forward[0] + d[1] * b.forward[1] + d[2] * b.forward[2];
+          ASSERT_GT(z, 0);
+          const double x = (d[0] * b.right[0] + d[1] * b.right[1] + d[2] * b.right[2]) / (z * b.tanHalfX);
+          const double y = (d[0] * b.up[0] + d[1] * b.up[1] + d[2] * b.up[2]) / (z * b.tanHalfY);
+          worst = std::max({worst, std::fabs(x), std::fabs(y)});
+        }
+      }
+    }
+    EXPECT_LT(worst, 1.0) << "aspect " << aspect;
+  }
+}
+
+// Moving objects move their shadows: the ground around them changes between two times.
+TEST(AnimatedScene, ShadowsMove) {
+  Environment env = builtinEnvironment(256);
+  const Camera cam = frameCamera(builtinScene(0.0f), 2.0f);
+  RenderOptions ro;
+  ro.width = 96;
+  ro.height = 48;
+  ro.shadowMapSize = 128;
+  ExtractOptions eo;
+  eo.medianCut.lights = 8;
+  eo.medianCut.faceSize = 32;
+  eo.ambient = false;
+  const LightSet lights = extractLights(ctx(), env, eo);
+  Renderer r(ctx());
+  const Frame a = r.render(builtinScene(0.0f), cam, lights, env, ro);
+  const Frame b = r.render(builtinScene(0.75f), cam, lights, env, ro);
+  // Pixels that are ground in both frames (same G-buffer is not checked here: the lit ground is
+  // ~0.2..2 in these units) and changed by more than 10%.
+  int changed = 0;
+  for (int i = 0; i < ro.width * ro.height; ++i)
+    if (a.image.pixels[4 * i + 3] > 0 && b.image.pixels[4 * i + 3] > 0 &&
+        std::fabs(a.image.pixels[4 * i + 1] - b.image.pixels[4 * i + 1]) >
+            0.1f * std::max(a.image.pixels[4 * i + 1], 1e-3f))
+      ++changed;
+  EXPECT_GT(changed, 20);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Temporal stability (issue 4, "Done when"): turning the map 1 degree per frame changes the
+// rendered default scene's mean radiance (over geometry pixels; the background is the map itself)
+// by less than 2% per frame. The full default pipeline: 32 lights on a 256 cube plus the ambient.
+
+class TemporalStability : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(TemporalStability, OneDegreePerFrameChangesMeanRadianceBelowTwoPercent) {
+  ExtractOptions eo;
+  eo.method = parseExtractionMethod(GetParam());
+  const Scene scene = builtinScene();
+  const Camera cam = frameCamera(scene, 2.0f);
+  RenderOptions ro;
+  // Small frames: the mean over ~1000 geometry pixels is what is measured, and the extraction at
+  // its default sizes is what is exercised.
+  ro.width = 64;
+  ro.height = 32;
+  ro.shadowMapSize = 64;
+  Renderer r(ctx());
+  // The default scene under the default sky (its small bright sun is the hardest case: one light
+  // carries most of the power); other maps: `penumbra render --frames 91 --env MAP --report`.
+  for (const char* map : {"builtin"}) {
+    Environment env = std::string(map) == "builtin" ? builtinEnvironment() : loadEnvironment(data(map));
+    // 0..90 degrees in 1-degree steps: a quarter turn is a full cycle of the cube's faces, so every
+    // way a feature can cross a face edge happens in it.
+    double prev = -1, worst = 0;
+    int worstFrame = -1;
+    std::size_t minLights = 1u << 30, maxLights = 0;
+    std::array<float, 3> centroid0{}, centroid90{};
+    for (int f = 0; f <= 90; ++f) {
+      env.rotationYDeg = float(f);
+      const LightSet lights = extractLights(ctx(), env, eo);
+      // The lights' power-weighted mean direction, to check that they turn with the map (a
+      // method that ignored the rotation would pass the stability bound trivially).
+      std::array<float, 3> c{0, 0, 0};
+      for (auto& l : lights.lights)
+        for (int k = 0; k < 3; ++k) c[k] += float(lum(l.power)) * l.direction[k];
+      if (f == 0) centroid0 = c;
+      if (f == 90) centroid90 = c;
+      minLights = std::min(minLights, lights.lights.size());
+      maxLights = std::max(maxLights, lights.lights.size());
+      const Frame fr = r.render(scene, cam, lights, env, ro);
+      double sum = 0;
+      int n = 0;
+      for (int i = 0; i < ro.width * ro.height; ++i)
+        if (fr.image.pixels[4 * i + 3] > 0) {
+          const float* p = &fr.image.pixels[4 * i];
+          sum += PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2];
+          ++n;
+        }
+      ASSERT_GT(n, 0);
+      const double mean = sum / n;
+      if (prev > 0) {
+        const double change = std::fabs(mean - prev) / prev;
+        if (change > worst) worst = change, worstFrame = f;
+      }
+      prev = mean;
+    }
+    std::printf("[ stability ] %s on %s: max per-frame change of mean radiance %.3f%% (frame %d), "
+                "%zu..%zu lights\n",
+                GetParam(), map, 100 * worst, worstFrame, minLights, maxLights);
+    EXPECT_GT(minLights, 0u);
+    // 3 degrees: the cuts themselves may differ after a quarter turn (see
+    // EnvRotation.MedianCutLightsTurnWithTheMap), the energy-weighted mean direction barely.
+    const double turnErr = angleDeg(rotY(centroid0, 90), centroid90);
+    std::printf("[ stability ] %s on %s: lights' mean direction after 90 frames off the turned "
+                "one by %.3f deg\n", GetParam(), map, turnErr);
+    EXPECT_LT(turnErr, 3.0) << map;
+    EXPECT_LT(worst, 0.02) << map;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Methods, TemporalStability,
+                         ::testing::Values("median-cut", "center-surround"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           n.erase(std::remove(n.begin(), n.end(), '-'), n.end());
+                           return n;
+                         });
+
+// ---------------------------------------------------------------------------------------------
+// `penumbra render --frames` through the command line.
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Runs the CLI in `dir` through the shell (arguments single-quoted), default device.
+CliRun cli(const fs::path& dir, const std::vector<std::string>& args) {
+  std::string cmd = "cd '" + dir.string() + "' && env -u PENUMBRA_DEVICE '" + PENUMBRA_CLI + "'";
+  for (auto& a : args) cmd += " '" + a + "'";
+  cmd += " > stdout.txt 2> stderr.txt";
+  CliRun r;
+  int st = std::system(cmd.c_str());
+  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.out = slurp(dir / "stdout.txt");
+  r.err = slurp(dir / "stderr.txt");
+  fs::remove(dir / "stdout.txt");
+  fs::remove(dir / "stderr.txt");
+  return r;
+}
+
+fs::path freshDir(const std::string& name) {
+  fs::path d = fs::path(::testing::TempDir()) / ("penumbra_anim_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::vector<std::string> filesIn(const fs::path& d) {
+  std::vector<std::string> names;
+  for (auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+}  // namespace
+
+TEST(CliAnimation, FramesAreNumberedAndReported) {
+  const fs::path d = freshDir("frames");
+  fs::create_directories(d / "anim");
+  CliRun r = cli(d, {"render", "--frames", "3", "--size", "48x27", "--lights", "4", "--face-size",
+                     "16", "--shadow-map-size", "32", "--env-rotate", "10", "--rotate-step", "5",
+                     "--frame-time", "0.5", "--out", "anim/f.png", "--report", "anim/r.json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(filesIn(d / "anim"),
+            (std::vector<std::string>{"f_0000.png", "f_0001.png", "f_0002.png", "r.json"}));
+  Image a = readImage((d / "anim/f_0000.png").string()), b = readImage((d / "anim/f_0002.png").string());
+  EXPECT_EQ(a.width, 48);
+  EXPECT_FALSE(a.pixels == b.pixels);  // the sky turned and the sphere rose
+  const std::string json = slurp(d / "anim/r.json");
+  EXPECT_EQ(json.front(), '[');
+  std::size_t frames = 0;
+  for (std::size_t p = json.find("\"frame\":"); p != std::string::npos; p = json.find("\"frame\":", p + 1))
+    ++frames;
+  EXPECT_EQ(frames, 3u);
+  EXPECT_NE(json.find("\"time_s\": 1,"), std::string::npos) << json.substr(0, 400);
+  EXPECT_NE(json.find("\"env_rotation_deg\": 20,"), std::string::npos);
+  EXPECT_NE(json.find("\"out\": \"f_0001.png\""), std::string::npos);
+  EXPECT_NE(json.find("\"lights\": 4"), std::string::npos);
+  EXPECT_NE(json.find("extract/"), std::string::npos);  // extraction stage times, every frame
+}
+
+TEST(CliAnimation, MapListCycles) {
+  const fs::path d = freshDir("maps");
+  const std::string list = data("envmaps/studio.exr") + "," + data("envmaps/courtyard.exr");
+  CliRun r = cli(d, {"render", "--frames", "3", "--env", list, "--size", "32x18", "--lights", "2",
+                     "--face-size", "8", "--shadows", "none", "--out", "m.exr", "--report",
+                     "r.json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string json = slurp(d / "r.json");
+  const std::size_t f1 = json.find("\"frame\": 1"), f2 = json.find("\"frame\": 2");
+  ASSERT_NE(f2, std::string::npos);
+  EXPECT_NE(json.substr(0, f1).find("studio.exr"), std::string::npos);
+  EXPECT_NE(json.substr(f1, f2 - f1).find("courtyard.exr"), std::string::npos);
+  EXPECT_NE(json.substr(f2).find("studio.exr"), std::string::npos);
+  // With a list the default step is 0: the maps animate, not the rotation.
+  EXPECT_EQ(json.find("\"env_rotation_deg\": 1,"), std::string::npos);
+}
+
+TEST(CliAnimation, SingleFrameKeepsItsNameAndTurns) {
+  const fs::path d = freshDir("single");
+  CliRun r = cli(d, {"render", "--size", "32x18", "--lights", "2", "--face-size", "8",
+                     "--shadows", "none", "--env-rotate", "-45", "--out", "one.png"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(d / "one.png"));
+}
+
+TEST(CliAnimation, BadValuesExitTwoAndWriteNothing) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--frames", "0"}, "--frames"},
+      {{"--frames", "x"}, "--frames"},
+      {{"--frames", "2", "--frame-time", "-1"}, "--frame-time"},
+      {{"--frames", "2", "--frame-time", "inf"}, "--frame-time"},
+      {{"--frames", "2", "--rotate-step", "nan"}, "--rotate-step"},
+      {{"--env-rotate", "1e40"}, "--env-rotate"},
+      {{"--rotate-step", "1"}, "--rotate-step"},
+      {{"--env", "builtin,,builtin"}, "--env"},
+      {{"--extract", "bogus"}, "--extract"},
+      {{"--frames", "2", "--env", "builtin,missing.exr"}, "missing.exr"},
+  };
+  for (auto& [extra, needle] : cases) {
+    const fs::path d = freshDir("bad");
+    std::vector<std::string> args{"render", "--size", "16x9", "--out", "f.png", "--report", "r.json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    CliRun r = cli(d, args);
+    EXPECT_EQ(r.code, 2) << needle;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_TRUE(filesIn(d).empty()) << needle;
+  }
+}
+
+TEST(CliAnimation, HelpStatesTheNumberingRule) {
+  const fs::path d = freshDir("help");
+  CliRun r = cli(d, {"render", "--help"});
+  ASSERT_EQ(r.code, 0);
+  for (const char* s : {"--frames", "--frame-time", "--rotate-step", "--env-rotate", "_0000",
+                        "center-surround"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+}

