@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the build into a fresh prefix, then builds and runs tests/consumer against it twice:
-# through find_package(penumbra) and through pkg-config. Usage: run.sh BUILD_DIR SOURCE_DIR
+# through find_package(penumbra) and through pkg-config; runs the installed CLI, and imports the
+# installed Python module from outside the source tree. Usage: run.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build=$(cd "$1" && pwd)
 src=$(cd "$2" && pwd)
@@ -18,3 +19,12 @@ PKG_CONFIG_PATH="$libdir" c++ -std=c++17 "$src/tests/consumer/main.cpp" -o "$wor
 LD_LIBRARY_PATH="$(dirname "$libdir")" "$work/consumer-pc"
 # the installed CLI runs from the prefix (its RPATH points at ../lib)
 "$work/prefix/bin/penumbra" --version
+# the installed Python module imports from outside the source tree and renders a frame
+mod=$(find "$work/prefix" -name 'penumbra*.so' -path '*python*' | head -1)
+if [ -z "$mod" ]; then echo "run.sh: no installed Python module under $work/prefix" >&2; exit 1; fi
+(cd "$work" && PYTHONPATH="$(dirname "$mod")" /usr/bin/python3 -c "
+import penumbra
+assert penumbra.__file__.startswith('$work/prefix'), penumbra.__file__
+env = penumbra.builtin_environment(64)
+print('python module', penumbra.__file__, 'version', getattr(penumbra, '__version__', '?'))
+")

@@ -1,0 +1,780 @@
+// The `penumbra` Python module: the public C++ API (include/penumbra/*.hpp) through pybind11.
+//
+// Images cross as NumPy float32 arrays of shape (H, W, C). Going out, an array is a view of the
+// C++ pixels, not a copy: Frame.image and Environment.equirect keep their owner alive as the
+// array's base, and functions that return a fresh Image (read_image, the references) move it into
+// a capsule that the array owns. Coming in, an array is copied once into an Image (the C++ API
+// takes Image by const reference and owns its pixels). penumbra::Error surfaces as penumbra.Error
+// or one of its subclasses, by kind, with the C++ message unchanged. The low-level pieces that
+// need raw OpenCL objects (scan.hpp's summedAreaTable, Context::kernel/launch) are not bound.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+#include <string>
+#include <utility>
+
+#include "penumbra/penumbra.hpp"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+using namespace penumbra;
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+// A view of img's pixels as (H, W, C) float32, kept alive by `owner`.
+py::array imageView(const Image& img, py::handle owner) {
+  const py::ssize_t h = img.height, w = img.width, c = img.channels;
+  const py::ssize_t f = sizeof(float);
+  return py::array_t<float>({h, w, c}, {w * c * f, c * f, f},
+                            const_cast<float*>(img.pixels.data()), owner);
+}
+
+// Moves img into a capsule owned by the returned array: no pixel copy.
+py::array imageToArray(Image&& img) {
+  auto* owned = new Image(std::move(img));
+  py::capsule base(owned, [](void* p) { delete static_cast<Image*>(p); });
+  return imageView(*owned, base);
+}
+
+// One copy of a (H, W), (H, W, C) float array (any dtype NumPy can cast to float32) into an Image.
+Image arrayToImage(const FloatArray& a, const char* what) {
+  if (a.ndim() != 2 && a.ndim() != 3)
+    badInput(std::string(what) + ": expected an array of shape (H, W) or (H, W, C), got " +
+             std::to_string(a.ndim()) + " dimensions");
+  const py::ssize_t h = a.shape(0), w = a.shape(1), c = a.ndim() == 3 ? a.shape(2) : 1;
+  if (h < 1 || w < 1 || c < 1)
+    badInput(std::string(what) + ": empty image (" + std::to_string(h) + "x" + std::to_string(w) +
+             "x" + std::to_string(c) + ")");
+  Image img{int(w), int(h), int(c)};
+  std::memcpy(img.pixels.data(), a.data(), img.pixels.size() * sizeof(float));
+  return img;
+}
+
+// (N, 3) float32 array from N 3-vectors picked out of each element.
+template <class Seq, class Get>
+py::array_t<float> rows3(const Seq& seq, Get get) {
+  py::array_t<float> out({py::ssize_t(seq.size()), py::ssize_t(3)});
+  auto r = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < seq.size(); ++i) {
+    const auto& v = get(seq[i]);
+    for (int k = 0; k < 3; ++k) r(i, k) = float(v[k]);
+  }
+  return out;
+}
+
+std::vector<Vec3> arrayToVec3(const FloatArray& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    badInput(std::string(what) + ": expected an array of shape (N, 3)");
+  std::vector<Vec3> v(std::size_t(a.shape(0)));
+  if (!v.empty()) std::memcpy(v.data(), a.data(), v.size() * sizeof(Vec3));
+  return v;
+}
+
+py::dict timingsDict(const std::vector<std::pair<std::string, double>>& t) {
+  py::dict d;
+  for (const auto& [name, ms] : t) d[py::str(name)] = ms;
+  return d;
+}
+
+ShadowTechnique toTechnique(const py::object& o) {
+  if (py::isinstance<py::str>(o)) return parseShadowTechnique(o.cast<std::string>());
+  return o.cast<ShadowTechnique>();
+}
+Prefilter toPrefilter(const py::object& o) {
+  if (py::isinstance<py::str>(o)) return parsePrefilter(o.cast<std::string>());
+  return o.cast<Prefilter>();
+}
+ExtractionMethod toMethod(const py::object& o) {
+  if (py::isinstance<py::str>(o)) return parseExtractionMethod(o.cast<std::string>());
+  return o.cast<ExtractionMethod>();
+}
+
+// Adds `__init__(**fields)` to an options class: a default-constructed struct with the named
+// fields set as attributes (so each goes through its property's checks and conversions).
+template <class T, class Cls>
+void initFromFields(Cls& cls) {
+  cls.def(py::init([](const py::kwargs& kw) {
+            py::object obj = py::cast(T{});
+            for (const auto& [key, value] : kw) {
+              if (!py::hasattr(obj, key))
+                throw py::type_error(std::string(py::str(py::type::handle_of(obj).attr("__name__"))) +
+                                     ": unknown field '" + std::string(py::str(key)) + "'");
+              py::setattr(obj, key, value);
+            }
+            return obj.cast<T>();
+          }),
+          "Default values, with any field given by keyword overridden.");
+}
+
+// The exception classes, set when the module is initialised.
+struct Exceptions {
+  py::object base, badInput, noPlatform, kernelBuild, outOfMemory, device, internal;
+} exceptions;
+
+py::object makeException(py::module_& m, const char* name, py::tuple bases, const char* doc) {
+  py::dict ns;
+  ns["__doc__"] = doc;
+  ns["__module__"] = "penumbra";
+  py::object cls = py::reinterpret_borrow<py::object>(reinterpret_cast<PyObject*>(&PyType_Type))(
+      name, bases, ns);
+  m.attr(name) = cls;
+  return cls;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(penumbra, m) {
+  m.doc() =
+      "penumbra: soft shadows from area lights and HDR environment maps, computed by OpenCL "
+      "kernels (PoCL on the CPU or a GPU driver), with an Embree path tracer as ground truth.\n\n"
+      "Images are NumPy float32 arrays of shape (H, W, C), linear radiance, row 0 at the top.\n"
+      "Typical use:\n\n"
+      "    ctx = penumbra.Context()\n"
+      "    scene = penumbra.builtin_scene()\n"
+      "    env = penumbra.builtin_environment()\n"
+      "    cam = penumbra.frame_camera(scene, 16 / 9)\n"
+      "    lights = penumbra.extract_lights(ctx, env, lights=32)\n"
+      "    frame = penumbra.Renderer(ctx).render(scene, cam, lights, env,\n"
+      "                                          penumbra.RenderOptions(width=320, height=180))\n"
+      "    penumbra.write_image('frame.exr', frame.image)\n";
+  m.attr("__version__") = PENUMBRA_VERSION;
+
+  // ---- errors -----------------------------------------------------------------------------
+  exceptions.base = makeException(
+      m, "Error", py::make_tuple(py::handle(PyExc_RuntimeError)),
+      "Base of every error penumbra raises (C++ penumbra::Error); the message names the file, "
+      "parameter or value at fault. Subclasses tell the kind.");
+  exceptions.badInput = makeException(
+      m, "BadInput", py::make_tuple(exceptions.base, py::handle(PyExc_ValueError)),
+      "A file, parameter or value given is unusable (missing or corrupt file, impossible size, "
+      "bad option). Also a ValueError.");
+  exceptions.noPlatform = makeException(
+      m, "NoPlatform", py::make_tuple(exceptions.base),
+      "No OpenCL platform or device could be found or matched (the message names the package "
+      "to install or the selector).");
+  exceptions.kernelBuild = makeException(
+      m, "KernelBuild", py::make_tuple(exceptions.base),
+      "An embedded OpenCL kernel failed to compile; the message carries the build log.");
+  exceptions.outOfMemory = makeException(
+      m, "OutOfMemory", py::make_tuple(exceptions.base, py::handle(PyExc_MemoryError)),
+      "The OpenCL device could not allocate a buffer. Also a MemoryError.");
+  exceptions.device = makeException(m, "DeviceError", py::make_tuple(exceptions.base),
+                                    "Any other OpenCL failure.");
+  exceptions.internal = makeException(m, "InternalError", py::make_tuple(exceptions.base),
+                                      "A bug in penumbra.");
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      py::object cls;
+      switch (e.kind()) {
+        case ErrorKind::BadInput: cls = exceptions.badInput; break;
+        case ErrorKind::NoPlatform: cls = exceptions.noPlatform; break;
+        case ErrorKind::KernelBuild: cls = exceptions.kernelBuild; break;
+        case ErrorKind::OutOfMemory: cls = exceptions.outOfMemory; break;
+        case ErrorKind::Device: cls = exceptions.device; break;
+        case ErrorKind::Internal: cls = exceptions.internal; break;
+      }
+      PyErr_SetString(cls.ptr(), e.what());
+    } catch (const cl::Error& e) {
+      // The library converts OpenCL errors itself; this is a safety net.
+      PyErr_SetString(exceptions.device.ptr(),
+                      (std::string(e.what()) + ": " + clErrorName(e.err())).c_str());
+    }
+  });
+
+  // ---- context ----------------------------------------------------------------------------
+  py::class_<DeviceInfo>(m, "DeviceInfo", "An OpenCL device as `penumbra devices` lists it.")
+      .def_readonly("index", &DeviceInfo::index, "Position in list_devices().")
+      .def_readonly("platform", &DeviceInfo::platform, "OpenCL platform name.")
+      .def_readonly("name", &DeviceInfo::name, "Device name.")
+      .def_readonly("version", &DeviceInfo::version, "OpenCL C version the device compiles.")
+      .def_readonly("global_mem_bytes", &DeviceInfo::globalMemBytes, "Global memory, bytes.")
+      .def_readonly("max_work_group_size", &DeviceInfo::maxWorkGroupSize,
+                    "Largest work-group size.")
+      .def_readonly("fp64", &DeviceInfo::fp64, "Whether the device has double precision.")
+      .def_readonly("int64_atomics", &DeviceInfo::int64Atomics,
+                    "Whether the device has 64-bit integer atomics.")
+      .def("__repr__", [](const DeviceInfo& d) {
+        return "<penumbra.DeviceInfo " + std::to_string(d.index) + ": " + d.name + " (" +
+               d.platform + ")>";
+      });
+  m.def("list_devices", &listDevices,
+        "All OpenCL devices on all platforms, in a stable order. Raises NoPlatform if there is "
+        "none.");
+
+  py::class_<Context>(m, "Context",
+                      "An OpenCL device with its queue and kernel cache. Create one and pass it "
+                      "to extraction, Renderer and cube_map_energy; it must outlive them (Renderer "
+                      "keeps it alive).")
+      .def(py::init<const std::string&>(), "device"_a = "",
+           "device: '' uses $PENUMBRA_DEVICE if set, else device 0; otherwise an index into "
+           "list_devices() (as a string) or a case-insensitive part of the device or platform "
+           "name. Raises NoPlatform when nothing matches.")
+      .def(py::init([](int index) { return new Context(std::to_string(index)); }), "device"_a,
+           "Device by its index in list_devices().")
+      .def_property_readonly("info", &Context::info, py::return_value_policy::copy,
+                             "The chosen device (DeviceInfo).")
+      .def("stage_times_ms", [](Context& c) { return timingsDict(c.stageTimesMs()); },
+           "Device milliseconds per named kernel stage since the last reset_timings(), as a "
+           "dict in first-launch order. Waits for the queue.")
+      .def("reset_timings", &Context::resetTimings, "Clears the accumulated stage times.")
+      .def("finish", &Context::finish, "Waits until every queued command has completed.")
+      .def("__repr__", [](const Context& c) { return "<penumbra.Context " + c.info().name + ">"; });
+
+  // ---- images -----------------------------------------------------------------------------
+  m.def(
+      "read_image",
+      [](const std::string& path) { return imageToArray(readImage(path)); }, "path"_a,
+      "Reads any image OpenImageIO understands (EXR, HDR, PFM, PNG, ...) as a float32 array of "
+      "shape (H, W, C). Raises BadInput naming the file when it is missing, unreadable, "
+      "truncated or empty.");
+  m.def(
+      "write_image",
+      [](const std::string& path, const FloatArray& image, float exposure) {
+        Image img = arrayToImage(image, "write_image");
+        py::gil_scoped_release release;
+        writeImage(path, img, exposure);
+      },
+      "path"_a, "image"_a, "exposure"_a = 1.0f,
+      "Writes a (H, W) or (H, W, C) array: .exr is linear (all channels), .png is tone-mapped "
+      "sRGB (alpha dropped) after multiplying by `exposure`. Written to a temporary file and "
+      "renamed, so a failure leaves no half-written file. Raises BadInput on an unknown "
+      "extension or unwritable path.");
+  m.def(
+      "auto_exposure", [](const FloatArray& image) { return autoExposure(arrayToImage(image, "auto_exposure")); },
+      "image"_a,
+      "Exposure mapping the log-average luminance (of the alpha > 0.5 pixels if any) to 0.25.");
+
+  // ---- environment ------------------------------------------------------------------------
+  py::class_<Environment>(m, "Environment",
+                          "An HDR environment map (equirectangular, RGB linear radiance, y up).")
+      .def(py::init<>(), "An empty map; set .equirect to fill it.")
+      .def_readwrite("source", &Environment::source, "File path or 'builtin'.")
+      .def_property(
+          "equirect", [](py::object self) { return imageView(self.cast<Environment&>().equirect, self); },
+          [](Environment& e, const FloatArray& a) { e.equirect = arrayToImage(a, "equirect"); },
+          "The map as a float32 (H, W, 3) array. Reading gives a view of the map's pixels (no "
+          "copy; writes to it change the map); assigning copies the array in.")
+      .def_readonly("sanitized_pixels", &Environment::sanitizedPixels,
+                    "Pixels whose NaN/Inf/negative values were replaced with 0 when loading.")
+      .def_readonly("non_finite_values", &Environment::nonFiniteValues,
+                    "Channel values that were NaN or Inf (set to 0).")
+      .def_readonly("negative_values", &Environment::negativeValues,
+                    "Channel values below 0 (clamped to 0).")
+      .def_readwrite("rotation_y_deg", &Environment::rotationYDeg,
+                     "Rotation of the map about +y in degrees (counter-clockwise seen from above); "
+                     "honoured by lookup, irradiance, extraction, rendering and the reference.")
+      .def_property_readonly("width", [](const Environment& e) { return e.equirect.width; },
+                             "Map width in texels.")
+      .def_property_readonly("height", [](const Environment& e) { return e.equirect.height; },
+                             "Map height in texels.")
+      .def(
+          "lookup",
+          [](const Environment& e, const Vec3& d) {
+            float rgb[3];
+            e.lookup(d[0], d[1], d[2], rgb);
+            return std::array<float, 3>{rgb[0], rgb[1], rgb[2]};
+          },
+          "direction"_a, "Radiance (r, g, b) along a world direction (nearest texel).")
+      .def(
+          "power",
+          [](const Environment& e) {
+            std::array<double, 3> p;
+            e.power(p.data());
+            return p;
+          },
+          "Integral of radiance over the sphere, per channel.")
+      .def(
+          "irradiance",
+          [](const Environment& e, const Vec3& n) {
+            std::array<double, 3> p;
+            e.irradiance(n.data(), p.data());
+            return p;
+          },
+          "normal"_a, "Irradiance (r, g, b) on a surface with the given unit normal.")
+      .def("with_rotation_applied", &Environment::withRotationApplied,
+           "A copy whose pixels are the rotated map and whose rotation_y_deg is 0.")
+      .def("__repr__", [](const Environment& e) {
+        return "<penumbra.Environment '" + e.source + "' " + std::to_string(e.equirect.width) +
+               "x" + std::to_string(e.equirect.height) + ">";
+      });
+  m.def("load_environment", &loadEnvironment, "path"_a, py::call_guard<py::gil_scoped_release>(),
+        "Loads and sanitizes an EXR, Radiance HDR or PFM map. Raises BadInput naming the file "
+        "for unreadable, truncated, non-image or empty input.");
+  m.def("builtin_environment", &builtinEnvironment, "width"_a = 512,
+        "A procedural sky (sun, gradient, bright horizon patch, dark ground), width x width/2.");
+  m.def("environment_from", &environmentFrom, "path_or_builtin"_a,
+        py::call_guard<py::gil_scoped_release>(),
+        "'builtin' -> builtin_environment(), anything else -> load_environment(path).");
+  m.def(
+      "cube_map_energy",
+      [](Context& ctx, const Environment& env, int faceSize, int supersample) {
+        Image img;
+        {
+          py::gil_scoped_release release;
+          img = cubeMapEnergy(ctx, env, faceSize, supersample);
+        }
+        return imageToArray(std::move(img));
+      },
+      "ctx"_a, "env"_a, "face_size"_a, "supersample"_a = 4,
+      "The map resampled on the device to a cube map of radiant energy per texel, float32 "
+      "(6*face_size, face_size, 3): faces stacked vertically. Raises BadInput for face_size "
+      "outside [1, 4096].");
+
+  // ---- scene ------------------------------------------------------------------------------
+  py::class_<Mesh>(m, "Mesh", "A triangle mesh with a diffuse albedo.")
+      .def(py::init<>())
+      .def_readwrite("name", &Mesh::name, "Mesh name.")
+      .def_property(
+          "positions", [](const Mesh& me) { return rows3(me.positions, [](const Vec3& v) { return v; }); },
+          [](Mesh& me, const FloatArray& a) { me.positions = arrayToVec3(a, "positions"); },
+          "Vertex positions, float32 (N, 3) (a copy; assign to change).")
+      .def_property(
+          "normals", [](const Mesh& me) { return rows3(me.normals, [](const Vec3& v) { return v; }); },
+          [](Mesh& me, const FloatArray& a) { me.normals = arrayToVec3(a, "normals"); },
+          "Unit vertex normals, float32 (N, 3), or (0, 3) for flat shading (a copy).")
+      .def_property(
+          "triangles",
+          [](const Mesh& me) {
+            py::array_t<int> out({py::ssize_t(me.triangles.size()), py::ssize_t(3)});
+            if (!me.triangles.empty())
+              std::memcpy(out.mutable_data(), me.triangles.data(), me.triangles.size() * 12);
+            return out;
+          },
+          [](Mesh& me, const py::array_t<int, py::array::c_style | py::array::forcecast>& a) {
+            if (a.ndim() != 2 || a.shape(1) != 3) badInput("triangles: expected shape (N, 3)");
+            me.triangles.resize(std::size_t(a.shape(0)));
+            if (!me.triangles.empty())
+              std::memcpy(me.triangles.data(), a.data(), me.triangles.size() * 12);
+          },
+          "Vertex indices, int32 (T, 3) (a copy; assign to change).")
+      .def_readwrite("albedo", &Mesh::albedo, "Diffuse reflectance (r, g, b) in [0, 1].");
+
+  py::class_<Bounds>(m, "Bounds", "Axis-aligned bounding box.")
+      .def_readwrite("lo", &Bounds::lo, "Lower corner.")
+      .def_readwrite("hi", &Bounds::hi, "Upper corner.")
+      .def("center", &Bounds::center, "Centre of the box.")
+      .def("radius", &Bounds::radius, "Half the diagonal.");
+
+  py::class_<Camera> camera(m, "Camera", "A pinhole camera.");
+  initFromFields<Camera>(camera);
+  camera.def_readwrite("eye", &Camera::eye, "Position (x, y, z).")
+      .def_readwrite("target", &Camera::target, "Point looked at.")
+      .def_readwrite("up", &Camera::up, "Up direction.")
+      .def_readwrite("fovy_deg", &Camera::fovyDeg, "Vertical field of view, degrees.")
+      .def("__repr__", [](const Camera& c) {
+        return "<penumbra.Camera eye=(" + std::to_string(c.eye[0]) + ", " +
+               std::to_string(c.eye[1]) + ", " + std::to_string(c.eye[2]) + ") fovy=" +
+               std::to_string(c.fovyDeg) + ">";
+      });
+
+  py::class_<Scene>(m, "Scene", "Triangle meshes with diffuse albedos (metres, y up).")
+      .def(py::init<>())
+      .def_readwrite("meshes", &Scene::meshes,
+                     "The meshes, as a list of copies; assign a list to change them.")
+      .def("bounds", &Scene::bounds, "Bounding box of every mesh.")
+      .def("triangle_count", &Scene::triangleCount, "Triangles in all meshes.")
+      .def("__repr__", [](const Scene& s) {
+        return "<penumbra.Scene " + std::to_string(s.meshes.size()) + " meshes, " +
+               std::to_string(s.triangleCount()) + " triangles>";
+      });
+  m.def("builtin_scene", &builtinScene, "time"_a = 0.0f,
+        "The default scene (ground, box, sphere, floating slab, torus, lattice) at `time` "
+        "seconds: the sphere bounces and the slab turns. Raises BadInput for a non-finite time.");
+  m.def(
+      "load_scene",
+      [](const std::string& path, bool addGround) { return loadScene(path, LoadOptions{addGround}); },
+      "path"_a, "add_ground"_a = true, py::call_guard<py::gil_scoped_release>(),
+      "Loads a mesh file through Assimp (OBJ, PLY, glTF/GLB, ...), with a ground plane under it "
+      "unless add_ground is False. Raises BadInput naming the file: unreadable, no triangles, "
+      "non-finite vertices, indices out of range.");
+  m.def(
+      "scene_from",
+      [](const std::string& path, bool addGround) { return sceneFrom(path, LoadOptions{addGround}); },
+      "path_or_builtin"_a, "add_ground"_a = true, py::call_guard<py::gil_scoped_release>(),
+      "'builtin' -> builtin_scene(), else load_scene(path).");
+  m.def("frame_camera", &frameCamera, "scene"_a, "aspect"_a,
+        "A camera looking at the scene from above and to the side, fitting its bounds for the "
+        "aspect ratio width / height.");
+  m.def("parse_camera", &parseCamera, "text"_a,
+        "Parses 'ex,ey,ez,tx,ty,tz[,fovy]'. Raises BadInput on malformed text.");
+
+  // ---- lights -----------------------------------------------------------------------------
+  py::class_<AreaLight> light(m, "AreaLight",
+                              "A directional area light: a uniform spherical cap of half-angle "
+                              "alpha around `direction` with radiance L; power M = L * solid "
+                              "angle (seed 003 §4.1.3).");
+  initFromFields<AreaLight>(light);
+  light.def_readwrite("direction", &AreaLight::direction, "Unit vector towards the light.")
+      .def_readwrite("cos_alpha", &AreaLight::cosAlpha, "Cosine of the cap's half-angle.")
+      .def_readwrite("radiance", &AreaLight::radiance, "Uniform RGB radiance inside the cap.")
+      .def_readwrite("power", &AreaLight::power, "RGB power M = radiance * solid angle.")
+      .def_readwrite("regions", &AreaLight::regions,
+                     "Cube-face regions it came from: [face, x0, y0, x1, y1] each.")
+      .def("half_angle", &AreaLight::halfAngle, "Half-angle of the cap, radians.")
+      .def("solid_angle", &AreaLight::solidAngle, "2 pi (1 - cos alpha), steradians.")
+      .def("irradiance", &AreaLight::irradiance, "normal"_a,
+           "Unshadowed irradiance on a unit normal (cap clipped by the horizon).");
+
+  py::class_<LightSet>(m, "LightSet",
+                       "Area lights extracted from a map plus an unshadowed ambient residual "
+                       "(9 spherical-harmonic coefficients, RGB).")
+      .def(py::init<>(), "An empty set (method 'user'); fill .lights yourself.")
+      .def_readwrite("lights", &LightSet::lights,
+                     "The lights, as a list of AreaLight copies; assign a list to change them.")
+      .def_readwrite("face_size", &LightSet::faceSize, "Cube face size used for extraction.")
+      .def_readwrite("method", &LightSet::method,
+                     "'median-cut', 'greedy', 'center-surround' or 'user'.")
+      .def_readwrite("has_ambient", &LightSet::hasAmbient, "Whether ambient_sh is used.")
+      .def_property(
+          "ambient_sh",
+          [](const LightSet& s) {
+            py::array_t<float> out({py::ssize_t(9), py::ssize_t(3)});
+            std::memcpy(out.mutable_data(), s.ambientSH.data(), sizeof(s.ambientSH));
+            return out;
+          },
+          [](LightSet& s, const FloatArray& a) {
+            if (a.ndim() != 2 || a.shape(0) != 9 || a.shape(1) != 3)
+              badInput("ambient_sh: expected shape (9, 3)");
+            std::memcpy(s.ambientSH.data(), a.data(), sizeof(s.ambientSH));
+          },
+          "Ambient residual, float32 (9, 3): SH coefficients (l,m) = (0,0) (1,-1) (1,0) (1,1) "
+          "(2,-2) (2,-1) (2,0) (2,1) (2,2) by RGB (a copy; assign to change).")
+      .def_property_readonly(
+          "directions", [](const LightSet& s) { return rows3(s.lights, [](const AreaLight& l) { return l.direction; }); },
+          "Light directions, float32 (N, 3).")
+      .def_property_readonly(
+          "powers", [](const LightSet& s) { return rows3(s.lights, [](const AreaLight& l) { return l.power; }); },
+          "Light powers, float32 (N, 3).")
+      .def_property_readonly(
+          "radiances", [](const LightSet& s) { return rows3(s.lights, [](const AreaLight& l) { return l.radiance; }); },
+          "Light radiances, float32 (N, 3).")
+      .def_property_readonly(
+          "cos_alpha",
+          [](const LightSet& s) {
+            py::array_t<float> out(py::ssize_t(s.lights.size()));
+            for (std::size_t i = 0; i < s.lights.size(); ++i) out.mutable_at(i) = s.lights[i].cosAlpha;
+            return out;
+          },
+          "Cosines of the lights' half-angles, float32 (N,).")
+      .def("power", &LightSet::power, "Lights' power plus the ambient's, RGB.")
+      .def("lights_power", &LightSet::lightsPower, "Sum of the lights' power, RGB.")
+      .def("ambient_power", &LightSet::ambientPower, "Integral of the ambient radiance, RGB.")
+      .def("irradiance", &LightSet::irradiance, "normal"_a,
+           "Unshadowed irradiance on a unit normal: every light plus the ambient.")
+      .def("ambient_irradiance", &LightSet::ambientIrradiance, "normal"_a,
+           "Unshadowed irradiance of the ambient residual alone.")
+      .def("to_json", &LightSet::toJson, "The set as JSON text (what `penumbra lights` writes).")
+      .def("__len__", [](const LightSet& s) { return s.lights.size(); })
+      .def("__repr__", [](const LightSet& s) {
+        return "<penumbra.LightSet " + s.method + ", " + std::to_string(s.lights.size()) +
+               " lights" + (s.hasAmbient ? " + ambient>" : ">");
+      });
+
+  py::enum_<ExtractionMethod>(m, "ExtractionMethod", "Light extraction method.")
+      .value("MEDIAN_CUT", ExtractionMethod::MedianCut, "Median cut (seed 003 §3.1).")
+      .value("GREEDY", ExtractionMethod::Greedy, "Greedy square/rectangle fitting (seed 000 §4.2).")
+      .value("CENTER_SURROUND", ExtractionMethod::CenterSurround,
+             "Center-surround filter bank (seed 004 §3).");
+
+  py::class_<MedianCutOptions> mc(m, "MedianCutOptions", "Options of extract_median_cut.");
+  initFromFields<MedianCutOptions>(mc);
+  mc.def_readwrite("lights", &MedianCutOptions::lights, "Regions/lights, >= 1. Default 32.")
+      .def_readwrite("face_size", &MedianCutOptions::faceSize, "Cube face size, 1..4096. Default 256.")
+      .def_readwrite("supersample", &MedianCutOptions::supersample,
+                     "Sub-samples per texel side when splatting. Default 4.")
+      .def_readwrite("min_half_angle_deg", &MedianCutOptions::minHalfAngleDeg,
+                     "Lower clamp on the half-angle, degrees. Default 0.")
+      .def_readwrite("max_half_angle_deg", &MedianCutOptions::maxHalfAngleDeg,
+                     "Upper clamp on the half-angle, degrees. Default 85.")
+      .def_readwrite("merge_across_faces", &MedianCutOptions::mergeAcrossFaces,
+                     "Merge compact lights split by a cube-face edge. Default True.")
+      .def_readwrite("merge_compactness", &MedianCutOptions::mergeCompactness,
+                     "Largest cap/region solid-angle ratio merged, (0, 1]. Default 0.5.");
+
+  py::class_<GreedyOptions> gr(m, "GreedyOptions", "Options of extract_greedy.");
+  initFromFields<GreedyOptions>(gr);
+  gr.def_readwrite("threshold", &GreedyOptions::threshold,
+                   "A side grows while its added energy / the light's exceeds this. Default 0.02.")
+      .def_readwrite("square", &GreedyOptions::square, "Square lights (else rectangles). Default True.")
+      .def_readwrite("face_size", &GreedyOptions::faceSize, "Cube face size, 1..1024. Default 64.")
+      .def_readwrite("max_lights", &GreedyOptions::maxLights, "Strongest lights kept. Default 64.")
+      .def_readwrite("supersample", &GreedyOptions::supersample, "Splat sub-samples. Default 4.");
+
+  py::class_<CenterSurroundOptions> cs(m, "CenterSurroundOptions",
+                                       "Options of extract_center_surround.");
+  initFromFields<CenterSurroundOptions>(cs);
+  cs.def_readwrite("width", &CenterSurroundOptions::width, "Working map width. Default 512.")
+      .def_readwrite("sizes", &CenterSurroundOptions::sizes, "Filter sizes. Default 20.")
+      .def_readwrite("min_deg", &CenterSurroundOptions::minDeg, "Smallest outer diameter. Default 4.5.")
+      .def_readwrite("max_deg", &CenterSurroundOptions::maxDeg, "Largest outer diameter. Default 45.")
+      .def_readwrite("inner_ratio", &CenterSurroundOptions::innerRatio,
+                     "Inner / outer radius. Default 0.75.")
+      .def_readwrite("surround_weight", &CenterSurroundOptions::surroundWeight,
+                     "Weight of the ring (centre +1). Default -10.")
+      .def_readwrite("candidate_fraction", &CenterSurroundOptions::candidateFraction,
+                     "Brightest fraction of texels that are candidates. Default 0.10.")
+      .def_readwrite("stop_fraction", &CenterSurroundOptions::stopFraction,
+                     "Stop when a light carries less than this of those so far. Default 0.02.")
+      .def_readwrite("max_lights", &CenterSurroundOptions::maxLights, "Most lights. Default 256.");
+
+  py::class_<ExtractOptions> eo(m, "ExtractOptions", "Options of extract_lights.");
+  initFromFields<ExtractOptions>(eo);
+  eo.def_property(
+        "method", [](const ExtractOptions& o) { return o.method; },
+        [](ExtractOptions& o, const py::object& v) { o.method = toMethod(v); },
+        "ExtractionMethod or 'median-cut' | 'greedy' | 'center-surround'. Default median cut.")
+      .def_readwrite("median_cut", &ExtractOptions::medianCut, "MedianCutOptions.")
+      .def_readwrite("greedy", &ExtractOptions::greedy, "GreedyOptions.")
+      .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
+      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.");
+
+  m.def(
+      "extract_lights",
+      [](Context& ctx, const Environment& env, const py::object& method, const py::object& lights,
+         const py::object& ambient, const py::object& options) {
+        ExtractOptions o = options.is_none() ? ExtractOptions{} : options.cast<ExtractOptions>();
+        if (!method.is_none()) o.method = toMethod(method);
+        if (!lights.is_none()) {
+          const int n = lights.cast<int>();
+          o.medianCut.lights = n;
+          o.greedy.maxLights = n;
+          o.centerSurround.maxLights = n;
+        }
+        if (!ambient.is_none()) o.ambient = ambient.cast<bool>();
+        py::gil_scoped_release release;
+        return extractLights(ctx, env, o);
+      },
+      "ctx"_a, "env"_a, "method"_a = py::none(), "lights"_a = py::none(), "ambient"_a = py::none(),
+      "options"_a = py::none(),
+      "Extracts area lights from the map on the device, then the ambient residual. Starts from "
+      "`options` (ExtractOptions; defaults: median cut, 32 lights, ambient on); `method` "
+      "(ExtractionMethod or its name), `lights` (the light count of every method) and "
+      "`ambient` override it when given. Raises BadInput for impossible counts or sizes.");
+  m.def("extract_median_cut", &extractMedianCut, "ctx"_a, "env"_a,
+        "options"_a = MedianCutOptions{}, py::call_guard<py::gil_scoped_release>(),
+        "Median cut on the device (seed 003 §3.1, §4.1), without the ambient residual. Raises "
+        "BadInput for lights < 1, lights > 6*face_size^2 or face_size out of range.");
+  m.def("extract_greedy", &extractGreedy, "ctx"_a, "env"_a, "options"_a = GreedyOptions{},
+        py::call_guard<py::gil_scoped_release>(),
+        "Greedy square/rectangle fitting per cube face (seed 000 §4.2), without the ambient.");
+  m.def("extract_center_surround", &extractCenterSurround, "ctx"_a, "env"_a,
+        "options"_a = CenterSurroundOptions{}, py::call_guard<py::gil_scoped_release>(),
+        "Center-surround filter bank on the sphere (seed 004 §3), without the ambient.");
+  m.def("add_ambient_residual", &addAmbientResidual, "ctx"_a, "env"_a, "lights"_a,
+        py::call_guard<py::gil_scoped_release>(),
+        "Sets lights.ambient_sh to the map's SH9 minus the lights' and has_ambient to True.");
+  m.def("write_light_overlay", &writeLightOverlay, "path"_a, "env"_a, "lights"_a,
+        py::call_guard<py::gil_scoped_release>(),
+        "Writes a PNG of the tone-mapped map with every light's region or cap outlined.");
+
+  // ---- rendering --------------------------------------------------------------------------
+  py::enum_<ShadowTechnique>(m, "ShadowTechnique", "How light visibility is computed.")
+      .value("NONE", ShadowTechnique::None, "No shadows.")
+      .value("HARD", ShadowTechnique::Hard, "One shadow map at the light's centre.")
+      .value("PCSS", ShadowTechnique::PCSS, "Percentage-closer soft shadows.")
+      .value("CSSM", ShadowTechnique::CSSM, "Convolution soft shadow maps (seed 000).")
+      .value("MSSM4", ShadowTechnique::MSSM4, "Moment soft shadow maps, 4 moments (seed 003).")
+      .value("MSSM6", ShadowTechnique::MSSM6, "Moment soft shadow maps, 6 moments.")
+      .value("BRUTE", ShadowTechnique::Brute, "K point-sample shadow maps per light, averaged.")
+      .value("BITMASK", ShadowTechnique::Bitmask, "Sample-based visibility (seed 001).")
+      .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (seed 001).");
+  py::enum_<Prefilter>(m, "Prefilter", "Prefiltering of the filtered techniques.")
+      .value("SAT", Prefilter::SAT, "Summed-area tables.")
+      .value("MIP", Prefilter::Mip, "Mip pyramids.");
+  m.def("parse_shadow_technique", &parseShadowTechnique, "name"_a,
+        "'none' | 'hard' | 'pcss' | 'cssm' | 'mssm4' | 'mssm6' | 'brute' | 'bitmask' | "
+        "'bitmask-hard' -> ShadowTechnique. Raises BadInput otherwise.");
+  m.def("technique_name", [](ShadowTechnique t) { return std::string(toString(t)); }, "technique"_a,
+        "The command-line name of a ShadowTechnique.");
+
+  py::class_<MSSMOptions> mo(m, "MSSMOptions",
+                             "Moment soft shadow map options (also bias, light size and filter "
+                             "limits for every technique).");
+  initFromFields<MSSMOptions>(mo);
+  mo.def_readwrite("moment_bias", &MSSMOptions::momentBias, "Moment bias. Default 3e-5.")
+      .def_readwrite("depth_bias", &MSSMOptions::depthBias,
+                     "Receiver depth bias, normalized depth. Default 0.002.")
+      .def_readwrite("slope_bias", &MSSMOptions::slopeBias, "Slope-scaled bias. Default 0.")
+      .def_readwrite("light_size_scale", &MSSMOptions::lightSizeScale,
+                     "Multiplies every light's angular size. Default 1.")
+      .def_readwrite("max_filter_texels", &MSSMOptions::maxFilterTexels,
+                     "Largest filter width, texels. Default 27.")
+      .def_readwrite("min_filter_texels", &MSSMOptions::minFilterTexels,
+                     "Smallest filter width, texels. Default 1.")
+      .def_readwrite("blocker_epsilon", &MSSMOptions::blockerEpsilon, "Seed 003 eq. 7. Default 1e-3.")
+      .def_readwrite("upper_bound_blocker", &MSSMOptions::upperBoundBlocker,
+                     "Upper-bound blocker depth (seed 003 eq. 19). Default False.")
+      .def_readwrite("delta1", &MSSMOptions::delta1, "Lower clamp of eq. 19. Default 1e-3.")
+      .def_readwrite("delta2", &MSSMOptions::delta2, "Upper clamp of eq. 19. Default 0.5.");
+
+  py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (seed 000).");
+  initFromFields<CSSMOptions>(co);
+  co.def_readwrite("order", &CSSMOptions::order, "Fourier order M, 1..32. Default 4.")
+      .def_readwrite("sharpen_a", &CSSMOptions::sharpenA, "Sharpening A (eq. 9). Default 30.")
+      .def_readwrite("sharpen_b", &CSSMOptions::sharpenB, "Sharpening B. Default 80.")
+      .def_readwrite("ringing_offset", &CSSMOptions::ringingOffset, "In [0, 1]. Default 0.")
+      .def_readwrite("damping", &CSSMOptions::damping, "Term attenuation, [0, 8]. Default 0.")
+      .def_readwrite("depth_bias", &CSSMOptions::depthBias, "Receiver depth bias. Default 0.")
+      .def_readwrite("slope_bias", &CSSMOptions::slopeBias, "Blocker search slope bias. Default 0.")
+      .def_readwrite("max_basis_bytes", &CSSMOptions::maxBasisBytes,
+                     "Device bytes for basis images per batch. Default 256 MiB.");
+
+  py::class_<PCSSOptions> po(m, "PCSSOptions", "Percentage-closer soft shadow options.");
+  initFromFields<PCSSOptions>(po);
+  po.def_readwrite("blocker_taps", &PCSSOptions::blockerTaps,
+                   "Blocker search samples (0: every texel). Default 16.")
+      .def_readwrite("filter_taps", &PCSSOptions::filterTaps,
+                     "Filter samples (0: every texel, coverage weighted). Default 0.")
+      .def_readwrite("receiver_plane_bias", &PCSSOptions::receiverPlaneBias,
+                     "Compare with the receiver's tangent plane. Default True.");
+
+  py::class_<BruteOptions> bo(m, "BruteOptions", "Brute-force point-sample shadow map options.");
+  initFromFields<BruteOptions>(bo);
+  bo.def_readwrite("samples", &BruteOptions::samples, "Point lights per light, 1..4096. Default 64.")
+      .def_readwrite("batch_bytes", &BruteOptions::batchBytes,
+                     "Device bytes of sample maps at once. Default 256 MiB.");
+
+  py::class_<BitmaskOptions> bm(m, "BitmaskOptions", "Sample-based visibility options (seed 001).");
+  initFromFields<BitmaskOptions>(bm);
+  bm.def_readwrite("light_samples", &BitmaskOptions::lightSamples,
+                   "Light samples: 128, 256, 512 or 1024. Default 256.")
+      .def_readwrite("list_size", &BitmaskOptions::listSize, "List grid side (0: automatic).")
+      .def_readwrite("mask_bytes", &BitmaskOptions::maskBytes,
+                     "Device bytes of bitmasks at once. Default 256 MiB.");
+
+  py::class_<RenderOptions> ro(m, "RenderOptions",
+                               "Options of Renderer.render. Keywords set fields, e.g. "
+                               "RenderOptions(width=64, height=32, technique='pcss').");
+  initFromFields<RenderOptions>(ro);
+  ro.def_readwrite("width", &RenderOptions::width, "Image width. Default 640.")
+      .def_readwrite("height", &RenderOptions::height, "Image height. Default 360.")
+      .def_readwrite("shadow_map_size", &RenderOptions::shadowMapSize,
+                     "Square shadow map per light, texels. Default 256.")
+      .def_property(
+          "technique", [](const RenderOptions& o) { return o.shadows; },
+          [](RenderOptions& o, const py::object& v) { o.shadows = toTechnique(v); },
+          "ShadowTechnique or its name ('mssm4', 'pcss', ...). Default MSSM4.")
+      .def_property(
+          "prefilter", [](const RenderOptions& o) { return o.prefilter; },
+          [](RenderOptions& o, const py::object& v) { o.prefilter = toPrefilter(v); },
+          "Prefilter or 'sat' | 'mip'. Default SAT.")
+      .def_readwrite("front_back_faces", &RenderOptions::frontBackFaces,
+                     "Average front and back depths (seed 003 §4.2.3). Default False.")
+      .def_readwrite("mssm", &RenderOptions::mssm, "MSSMOptions (biases, light size, filters).")
+      .def_readwrite("cssm", &RenderOptions::cssm, "CSSMOptions.")
+      .def_readwrite("pcss", &RenderOptions::pcss, "PCSSOptions.")
+      .def_readwrite("brute", &RenderOptions::brute, "BruteOptions.")
+      .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
+      .def_readwrite("environment_background", &RenderOptions::environmentBackground,
+                     "Show the map behind the geometry. Default True.");
+
+  py::class_<Frame>(m, "Frame", "A rendered frame.")
+      .def_property_readonly(
+          "image", [](py::object self) { return imageView(self.cast<Frame&>().image, self); },
+          "RGBA linear radiance, float32 (H, W, 4); alpha 1 on geometry. A view of the frame's "
+          "pixels (no copy); the array keeps the Frame alive.")
+      .def_property_readonly(
+          "timings", [](const Frame& f) { return timingsDict(f.timingsMs); },
+          "Device milliseconds per stage since the Context's last reset_timings(), plus 'total' "
+          "(render's wall clock), as a dict.")
+      .def_readonly("shadow_map_bytes", &Frame::shadowMapBytes,
+                    "Device bytes of the filterable shadow maps.");
+
+  py::class_<Renderer>(m, "Renderer",
+                       "Renders frames on a Context. Keep one: device buffers are reused between "
+                       "frames of the same sizes.")
+      .def(py::init<Context&>(), "ctx"_a, py::keep_alive<1, 2>(), "A renderer on ctx.")
+      .def("render", &Renderer::render, "scene"_a, "camera"_a, "lights"_a, "env"_a,
+           "options"_a = RenderOptions{}, py::call_guard<py::gil_scoped_release>(),
+           "Renders one frame: shadow maps, visibility with options.technique, shading, "
+           "background. Returns a Frame. Raises BadInput for impossible sizes or options.")
+      .def(
+          "last_visibility",
+          [](Renderer& r, int width, int height) {
+            std::vector<float> v = r.lastVisibility();
+            const py::ssize_t per = py::ssize_t(width) * height;
+            if (per <= 0 || py::ssize_t(v.size()) % per != 0)
+              badInput("last_visibility: " + std::to_string(v.size()) +
+                       " values are not a whole number of " + std::to_string(width) + "x" +
+                       std::to_string(height) + " images");
+            py::array_t<float> out({py::ssize_t(v.size()) / per, py::ssize_t(height), py::ssize_t(width)});
+            std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(float));
+            return out;
+          },
+          "width"_a, "height"_a,
+          "Visibility of each light at each pixel from the last render, float32 (lights, H, W) "
+          "(pass the last render's width and height).");
+  m.def(
+      "render_report_json",
+      [](const Context& ctx, const LightSet& l, const Environment& e, const RenderOptions& o,
+         const Frame& f) { return renderReportJson(ctx.info().name, l, e, o, f); },
+      "ctx"_a, "lights"_a, "env"_a, "options"_a, "frame"_a,
+      "The JSON report `penumbra render --report` writes for a frame.");
+
+  // ---- reference and comparison -----------------------------------------------------------
+  py::class_<ReferenceOptions> rf(m, "ReferenceOptions", "Options of the Embree reference.");
+  initFromFields<ReferenceOptions>(rf);
+  rf.def_readwrite("width", &ReferenceOptions::width, "Image width. Default 640.")
+      .def_readwrite("height", &ReferenceOptions::height, "Image height. Default 360.")
+      .def_readwrite("spp", &ReferenceOptions::spp, "Shadow-ray samples per pixel. Default 256.")
+      .def_readwrite("seed", &ReferenceOptions::seed, "Random seed (same seed, same image).")
+      .def_readwrite("threads", &ReferenceOptions::threads, "Threads, 0: all. Default 0.")
+      .def_readwrite("environment_background", &ReferenceOptions::environmentBackground,
+                     "Show the map behind the geometry. Default True.");
+  m.def(
+      "reference_environment",
+      [](const Scene& s, const Camera& c, const Environment& e, const ReferenceOptions& o) {
+        Image img;
+        {
+          py::gil_scoped_release release;
+          img = referenceEnvironment(s, c, e, o);
+        }
+        return imageToArray(std::move(img));
+      },
+      "scene"_a, "camera"_a, "env"_a, "options"_a = ReferenceOptions{},
+      "Embree ground truth lit by the whole map (MIS of map and cosine), float32 (H, W, 4). "
+      "Raises BadInput for sizes outside 1..16384, spp < 1, a bad scene or an empty map.");
+  m.def(
+      "reference_lights",
+      [](const Scene& s, const Camera& c, const LightSet& l, const Environment& e,
+         const ReferenceOptions& o) {
+        Image img;
+        {
+          py::gil_scoped_release release;
+          img = referenceLights(s, c, l, e, o);
+        }
+        return imageToArray(std::move(img));
+      },
+      "scene"_a, "camera"_a, "lights"_a, "env"_a, "options"_a = ReferenceOptions{},
+      "Embree ground truth lit by the light set (plus its ambient, unshadowed), float32 "
+      "(H, W, 4): isolates a shadow technique's error from the extraction's.");
+
+  py::class_<ImageMetrics>(m, "ImageMetrics", "Errors of an image against a reference.")
+      .def_readonly("rmse", &ImageMetrics::rmse, "RMSE over compared pixels and RGB.")
+      .def_readonly("relative_rmse", &ImageMetrics::relativeRmse, "RMSE / mean of the reference.")
+      .def_readonly("psnr", &ImageMetrics::psnr, "20 log10(max(reference) / RMSE); inf if equal.")
+      .def_readonly("max_abs_error", &ImageMetrics::maxAbsError, "Largest absolute difference.")
+      .def_readonly("pixels", &ImageMetrics::pixels, "Pixels compared.")
+      .def("to_json", [](const ImageMetrics& mt) { return toJson(mt); },
+           "The metrics as JSON (what `penumbra compare` writes).")
+      .def("__repr__", [](const ImageMetrics& mt) {
+        return "<penumbra.ImageMetrics relative_rmse=" + std::to_string(mt.relativeRmse) +
+               " psnr=" + std::to_string(mt.psnr) + ">";
+      });
+  m.def(
+      "compare_images",
+      [](const FloatArray& a, const FloatArray& b) {
+        return compareImages(arrayToImage(a, "compare_images: image"),
+                             arrayToImage(b, "compare_images: reference"));
+      },
+      "image"_a, "reference"_a,
+      "Compares image with reference over the reference's geometry pixels (alpha > 0.5, or "
+      "all without alpha). Raises BadInput on mismatched sizes, fewer than 3 channels, no "
+      "pixels to compare or non-finite values.");
+}

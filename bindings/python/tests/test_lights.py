@@ -1,0 +1,99 @@
+import json
+
+import numpy as np
+import pytest
+
+import penumbra
+
+
+def test_light_set_arrays(lights, env):
+    assert len(lights) == len(lights.lights) > 0 and lights.method == "median-cut"
+    assert lights.face_size == 64 and lights.has_ambient
+    n = len(lights)
+    for arr in (lights.directions, lights.powers, lights.radiances):
+        assert arr.shape == (n, 3) and arr.dtype == np.float32
+    assert lights.cos_alpha.shape == (n,)
+    assert np.allclose(np.linalg.norm(lights.directions, axis=1), 1, atol=1e-4)
+    first = lights.lights[0]
+    assert np.allclose(lights.directions[0], first.direction)
+    assert np.allclose(lights.powers[0], first.power)
+    assert lights.cos_alpha[0] == pytest.approx(first.cos_alpha)
+    assert first.solid_angle() == pytest.approx(2 * np.pi * (1 - first.cos_alpha), rel=1e-5)
+    assert 0 < first.half_angle() < np.pi / 2
+    assert first.regions and len(first.regions[0]) == 5
+    assert all(v >= 0 for v in first.irradiance(first.direction))
+    sh = lights.ambient_sh
+    assert sh.shape == (9, 3) and sh.dtype == np.float32
+    # Lights plus ambient carry the map's power (seed 003 eqs. 16-17).
+    assert np.allclose(lights.power(), env.power(), rtol=0.02)
+    assert np.allclose(np.add(lights.lights_power(), lights.ambient_power()), lights.power())
+    up = (0.0, 1.0, 0.0)
+    assert np.allclose(lights.irradiance(up), env.irradiance(up), rtol=0.05)
+    assert len(lights.ambient_irradiance(up)) == 3
+    doc = json.loads(lights.to_json())
+    assert doc["method"] == "median-cut" and doc["count"] == n == len(doc["lights"])
+    assert f"{n} lights" in repr(lights)
+
+
+def test_methods(ctx, env):
+    for method in ("median-cut", penumbra.ExtractionMethod.MEDIAN_CUT):
+        s = penumbra.extract_lights(ctx, env, method=method, lights=4, ambient=False,
+                                    options=penumbra.ExtractOptions(
+                                        median_cut=penumbra.MedianCutOptions(face_size=32)))
+        assert 1 <= len(s) <= 4 and not s.has_ambient
+    g = penumbra.extract_lights(ctx, env, method="greedy", lights=8,
+                                options=penumbra.ExtractOptions(greedy=penumbra.GreedyOptions(face_size=16)))
+    assert g.method == "greedy" and 1 <= len(g) <= 8 and g.has_ambient
+    c = penumbra.extract_lights(ctx, env, method=penumbra.ExtractionMethod.CENTER_SURROUND, lights=8,
+                                options=penumbra.ExtractOptions(
+                                    center_surround=penumbra.CenterSurroundOptions(width=64, sizes=4)))
+    assert c.method == "center-surround" and 1 <= len(c) <= 8
+
+
+def test_option_objects():
+    o = penumbra.ExtractOptions()
+    assert o.method == penumbra.ExtractionMethod.MEDIAN_CUT and o.ambient
+    o.method = "greedy"
+    assert o.method == penumbra.ExtractionMethod.GREEDY
+    o.median_cut.lights = 5  # nested options are modified in place
+    assert o.median_cut.lights == 5
+    mc = penumbra.MedianCutOptions(lights=3, merge_across_faces=False)
+    assert (mc.lights, mc.face_size, mc.merge_across_faces) == (3, 256, False)
+    assert mc.min_half_angle_deg == 0 and mc.max_half_angle_deg == 85 and mc.supersample == 4
+    assert mc.merge_compactness == pytest.approx(0.5)
+    g = penumbra.GreedyOptions(threshold=0.05, square=False)
+    assert (g.threshold, g.square, g.face_size, g.max_lights, g.supersample) == \
+        (pytest.approx(0.05), False, 64, 64, 4)
+    c = penumbra.CenterSurroundOptions()
+    assert (c.width, c.sizes, c.max_lights) == (512, 20, 256)
+    assert c.min_deg == pytest.approx(4.5) and c.max_deg == pytest.approx(45)
+    assert c.inner_ratio == pytest.approx(0.75) and c.surround_weight == pytest.approx(-10)
+    assert c.candidate_fraction == pytest.approx(0.1) and c.stop_fraction == pytest.approx(0.02)
+
+
+def test_individual_extractors(ctx, env, tmp_path):
+    mc = penumbra.extract_median_cut(ctx, env, penumbra.MedianCutOptions(lights=6, face_size=32,
+                                                                         merge_across_faces=False))
+    assert len(mc) == 6 and not mc.has_ambient
+    penumbra.add_ambient_residual(ctx, env, mc)
+    assert mc.has_ambient and np.abs(mc.ambient_sh).sum() > 0
+    g = penumbra.extract_greedy(ctx, env, penumbra.GreedyOptions(face_size=16, max_lights=4))
+    assert 1 <= len(g) <= 4
+    cs = penumbra.extract_center_surround(ctx, env, penumbra.CenterSurroundOptions(width=64, sizes=4))
+    assert len(cs) >= 1
+    out = tmp_path / "overlay.png"
+    penumbra.write_light_overlay(str(out), env, mc)
+    assert out.stat().st_size > 0
+
+
+def test_user_light_set():
+    s = penumbra.LightSet()
+    light = penumbra.AreaLight(direction=(0, 1, 0), cos_alpha=0.99, radiance=(1, 1, 1))
+    light.power = [x * light.solid_angle() for x in light.radiance]
+    s.lights = [light]
+    s.ambient_sh = np.zeros((9, 3))
+    s.has_ambient = False
+    assert len(s) == 1 and s.lights[0].cos_alpha == pytest.approx(0.99)
+    assert np.allclose(s.power(), light.power)
+    with pytest.raises(penumbra.BadInput):
+        s.ambient_sh = np.zeros((3, 9))

@@ -1,0 +1,112 @@
+import gc
+import json
+
+import numpy as np
+import pytest
+
+import penumbra
+from conftest import H, W, small_options
+
+TECHNIQUES = ["none", "hard", "pcss", "cssm", "mssm4", "mssm6", "brute", "bitmask-hard"]
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_every_technique(scene, camera, lights, env, renderer, technique):
+    opt = small_options(technique=technique)
+    opt.brute.samples = 4
+    frame = renderer.render(scene, camera, lights, env, opt)
+    img = frame.image
+    assert img.shape == (H, W, 4) and img.dtype == np.float32
+    assert np.isfinite(img).all()
+    alpha = img[..., 3]
+    assert (alpha > 0.5).any() and (alpha < 0.5).any()  # geometry and sky
+    assert "total" in frame.timings and all(v >= 0 for v in frame.timings.values())
+    assert frame.shadow_map_bytes >= 0
+
+
+def test_bitmask_sampled(scene, camera, lights, env, renderer):
+    opt = small_options(technique=penumbra.ShadowTechnique.BITMASK, shadow_map_size=32)
+    opt.bitmask.light_samples = 128
+    img = renderer.render(scene, camera, lights, env, opt).image
+    assert np.isfinite(img).all()
+
+
+def test_shadows_darken(scene, camera, lights, env, renderer):
+    unshadowed = renderer.render(scene, camera, lights, env, small_options(technique="none")).image
+    shadowed = renderer.render(scene, camera, lights, env, small_options(technique="mssm4")).image
+    geo = unshadowed[..., 3] > 0.5
+    assert shadowed[geo, :3].sum() < unshadowed[geo, :3].sum()
+
+
+def test_image_is_a_view(scene, camera, lights, env, renderer):
+    frame = renderer.render(scene, camera, lights, env, small_options())
+    a, b = frame.image, frame.image
+    assert np.shares_memory(a, b)  # both are views of the frame's pixels, not copies
+    del frame
+    gc.collect()
+    assert a.shape == (H, W, 4) and np.isfinite(a).all()  # the array keeps the frame alive
+
+
+def test_options():
+    o = penumbra.RenderOptions()
+    assert (o.width, o.height, o.shadow_map_size) == (640, 360, 256)
+    assert o.technique == penumbra.ShadowTechnique.MSSM4 and o.prefilter == penumbra.Prefilter.SAT
+    o.technique = "cssm"
+    assert o.technique == penumbra.ShadowTechnique.CSSM
+    o.technique = penumbra.ShadowTechnique.PCSS
+    assert penumbra.technique_name(o.technique) == "pcss"
+    assert penumbra.parse_shadow_technique("bitmask-hard") == penumbra.ShadowTechnique.BITMASK_HARD
+    o.prefilter = "mip"
+    assert o.prefilter == penumbra.Prefilter.MIP
+    o.mssm.depth_bias = 0.01  # nested options change in place
+    assert o.mssm.depth_bias == pytest.approx(0.01)
+    o.mssm = penumbra.MSSMOptions(upper_bound_blocker=True, moment_bias=1e-4)
+    assert o.mssm.upper_bound_blocker and o.mssm.moment_bias == pytest.approx(1e-4)
+    m = o.mssm
+    for f in ("slope_bias", "light_size_scale", "max_filter_texels", "min_filter_texels",
+              "blocker_epsilon", "delta1", "delta2"):
+        assert getattr(m, f) >= 0
+    c = penumbra.CSSMOptions(order=8)
+    assert c.order == 8 and c.sharpen_a == 30 and c.sharpen_b == 80
+    assert (c.ringing_offset, c.damping, c.depth_bias, c.slope_bias) == (0, 0, 0, 0)
+    assert c.max_basis_bytes == 256 << 20
+    p = penumbra.PCSSOptions(blocker_taps=9)
+    assert (p.blocker_taps, p.filter_taps, p.receiver_plane_bias) == (9, 0, True)
+    b = penumbra.BruteOptions(samples=16)
+    assert b.samples == 16 and b.batch_bytes == 256 << 20
+    bm = penumbra.BitmaskOptions()
+    assert (bm.light_samples, bm.list_size, bm.mask_bytes) == (256, 0, 256 << 20)
+    o.cssm, o.pcss, o.brute, o.bitmask = c, p, b, bm
+    o.front_back_faces = True
+    o.environment_background = False
+    assert o.cssm.order == 8 and o.front_back_faces and not o.environment_background
+
+
+def test_mip_front_back_no_background(scene, camera, lights, env, renderer):
+    opt = small_options(prefilter="mip", front_back_faces=True, environment_background=False)
+    img = renderer.render(scene, camera, lights, env, opt).image
+    assert np.all(img[img[..., 3] < 0.5, :3] == 0)
+
+
+def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
+    ctx.reset_timings()
+    frame = renderer.render(scene, camera, lights, env, small_options())
+    vis = renderer.last_visibility(W, H)
+    assert vis.shape == (len(lights), H, W)
+    assert vis.min() >= -1e-4 and vis.max() <= 1 + 1e-4
+    report = json.loads(penumbra.render_report_json(ctx, lights, env, small_options(), frame))
+    assert isinstance(report, dict)
+    with pytest.raises(penumbra.BadInput):
+        renderer.last_visibility(7, 3)
+
+
+def test_animation(ctx, camera, renderer):
+    env = penumbra.builtin_environment(64)
+    images = []
+    for i in range(2):
+        env.rotation_y_deg = 30.0 * i
+        ls = penumbra.extract_lights(ctx, env, lights=4, options=penumbra.ExtractOptions(
+            median_cut=penumbra.MedianCutOptions(face_size=32)))
+        images.append(renderer.render(penumbra.builtin_scene(0.5 * i), camera, ls, env,
+                                      small_options()).image.copy())
+    assert not np.array_equal(images[0], images[1])
