@@ -506,7 +506,7 @@ TEST_P(TemporalStability, OneDegreePerFrameChangesMeanRadianceBelowTwoPercent) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, TemporalStability,
-                         ::testing::Values("median-cut", "center-surround"),
+                         ::testing::Values("median-cut", "center-surround", "greedy"),
                          [](const auto& info) {
                            std::string n = info.param;
                            n.erase(std::remove(n.begin(), n.end(), '-'), n.end());
