@@ -212,14 +212,61 @@ SceneSetup loadSetup(const Args& a, bool loadEnv = true) {
   return s;
 }
 
-MedianCutOptions extractOptions(const Args& a) {
-  std::string method = get(a, "extract", "median-cut");
-  if (method != "median-cut")
-    badInput("--extract: unknown method '" + method + "' (available: median-cut)");
-  MedianCutOptions mc;
-  mc.lights = int(parseInt("lights", get(a, "lights", "32"), 1, PB_MAX_LIGHTS));
-  mc.faceSize = int(parseInt("face-size", get(a, "face-size", "256"), 1, 4096));
-  return mc;
+// The extraction options shared by `render`, `reference` and `lights` (every method, its own
+// options, the ambient residual). An option that does not belong to the chosen method is refused
+// rather than silently ignored.
+const std::vector<OptionSpec> kExtractSpecs = {
+    {"extract", true, "median-cut (default) | greedy | center-surround"},
+    {"lights", true, "median-cut: number of lights (default 32); greedy, center-surround: the most "
+                     "lights kept (default 64, 256)"},
+    {"face-size", true, "median-cut, greedy: cube face size (default 256, 64)"},
+    {"threshold", true, "greedy: a side grows while its added energy / the light's exceeds this "
+                        "(default 0.02)"},
+    {"rect", false, "greedy: rectangular lights (default square)"},
+    {"stop", true, "center-surround: stop when a light carries less than this fraction of the "
+                   "lights so far (default 0.02)"},
+    {"sizes", true, "center-surround: filter sizes from 4.5 to 45 degrees (default 20)"},
+    {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
+};
+
+ExtractOptions parseExtractOptions(const Args& a) {
+  ExtractOptions eo;
+  eo.method = parseExtractionMethod(get(a, "extract", "median-cut"));
+  const std::string name = toString(eo.method);
+  auto only = [&](const std::string& option, std::initializer_list<ExtractionMethod> methods) {
+    if (!has(a, option)) return false;
+    for (ExtractionMethod m : methods)
+      if (m == eo.method) return true;
+    std::string list;
+    for (ExtractionMethod m : methods)
+      list += std::string(list.empty() ? "" : " or ") + toString(m);
+    badInput("--" + option + " applies to --extract " + list + ", not " + name);
+  };
+  using M = ExtractionMethod;
+  if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
+    int n = int(parseInt("lights", get(a, "lights", ""), 1, PB_MAX_LIGHTS));
+    eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
+  }
+  if (only("face-size", {M::MedianCut, M::Greedy})) {
+    int m = int(parseInt("face-size", get(a, "face-size", ""), 1, 4096));
+    eo.medianCut.faceSize = eo.greedy.faceSize = m;
+  }
+  if (only("threshold", {M::Greedy})) {
+    float t = parseFloat("threshold", get(a, "threshold", ""));
+    if (!(t > 0 && t < 1))
+      badInput("--threshold must be in (0, 1), got " + get(a, "threshold", ""));
+    eo.greedy.threshold = t;
+  }
+  if (only("rect", {M::Greedy})) eo.greedy.square = false;
+  if (only("stop", {M::CenterSurround})) {
+    float f = parseFloat("stop", get(a, "stop", ""));
+    if (!(f >= 0 && f < 1)) badInput("--stop must be in [0, 1), got " + get(a, "stop", ""));
+    eo.centerSurround.stopFraction = f;
+  }
+  if (only("sizes", {M::CenterSurround}))
+    eo.centerSurround.sizes = int(parseInt("sizes", get(a, "sizes", ""), 1, 256));
+  eo.ambient = !has(a, "no-ambient");
+  return eo;
 }
 
 int cmdDevices(int argc, char** argv) {
@@ -235,24 +282,6 @@ int cmdDevices(int argc, char** argv) {
               << (d.globalMemBytes >> 20) << " MiB, max work-group " << d.maxWorkGroupSize
               << (d.fp64 ? ", fp64" : "") << (d.int64Atomics ? ", int64 atomics" : "") << "\n";
   return 0;
-}
-
-// --extract/--lights/--face-size/--no-ambient for render: every method through extractLights.
-ExtractOptions renderExtraction(const Args& a) {
-  ExtractOptions eo;
-  eo.method = parseExtractionMethod(get(a, "extract", "median-cut"));
-  const int n = int(parseInt("lights", get(a, "lights", "32"), 1, PB_MAX_LIGHTS));
-  eo.medianCut.lights = n;
-  eo.greedy.maxLights = n;
-  eo.centerSurround.maxLights = n;
-  if (has(a, "face-size")) {
-    eo.medianCut.faceSize = int(parseInt("face-size", get(a, "face-size", ""), 1, 4096));
-    eo.greedy.faceSize = int(parseInt("face-size", get(a, "face-size", ""), 1, 1024));
-  } else {
-    eo.medianCut.faceSize = 256;
-  }
-  eo.ambient = !has(a, "no-ambient");
-  return eo;
 }
 
 // Comma-separated list, every entry non-empty.
@@ -278,11 +307,7 @@ std::string framePath(const std::string& out, int i, int frames) {
 }
 
 int cmdRender(int argc, char** argv) {
-  auto specs = with(kSceneOptions, {
-      {"lights", true, "area lights from the map: the count (median cut), a cap (others); 32"},
-      {"extract", true, "light extraction: median-cut (default) | greedy | center-surround"},
-      {"face-size", true, "cube-map face size for median-cut (default 256) and greedy (64)"},
-      {"no-ambient", false, "leave out the ambient residual (the map minus the lights, SH9)"},
+  auto specs = with(with(kSceneOptions, kExtractSpecs), {
       {"env-rotate", true, "turn the map by DEG about +y, counter-clockwise from above (default 0)"},
       {"frames", true, "render an animation of N frames (1..100000; see below)"},
       {"frame-time", true, "animation: seconds between frames (default 1/24)"},
@@ -358,7 +383,7 @@ int cmdRender(int argc, char** argv) {
     ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
   if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
   float exposure = parseExposure(a);
-  ExtractOptions eo = renderExtraction(a);
+  ExtractOptions eo = parseExtractOptions(a);
 
   // Animation parameters, all checked before any work.
   const bool animate = has(a, "frames");
@@ -429,11 +454,10 @@ int cmdRender(int argc, char** argv) {
 }
 
 int cmdReference(int argc, char** argv) {
-  auto specs = with(kSceneOptions, {
+  // --lights (or any extraction option) selects light-set mode: the scene is lit by the
+  // extracted lights and their ambient residual instead of the map.
+  auto specs = with(with(kSceneOptions, kExtractSpecs), {
       {"spp", true, "shadow-ray samples per pixel (default 256)"},
-      {"lights", true, "light-set mode: light the scene by N extracted lights instead of the map"},
-      {"extract", true, "light extraction method for light-set mode: median-cut (default)"},
-      {"face-size", true, "cube-map face size for extraction (default 256)"},
       {"seed", true, "random seed (default 1)"},
       {"threads", true, "CPU threads (default: all)"},
       {"exposure", true, "PNG exposure multiplier (default: automatic)"},
@@ -455,8 +479,8 @@ int cmdReference(int argc, char** argv) {
   ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", "1"), 0, 1L << 62));
   ro.threads = int(parseInt("threads", get(a, "threads", "0"), 0, 1024));
   float exposure = parseExposure(a);
-  bool lightMode = has(a, "lights");
-  MedianCutOptions mc = extractOptions(a);
+  bool lightMode = has(a, "lights") || has(a, "extract");
+  ExtractOptions eo = parseExtractOptions(a);
   SceneSetup s = loadSetup(a);
   bool tty = isatty(2);
   ro.progress = [tty](double f) {
@@ -465,7 +489,7 @@ int cmdReference(int argc, char** argv) {
   Image img;
   if (lightMode) {
     Context ctx(get(a, "device", ""));
-    LightSet lights = extractMedianCut(ctx, s.env, mc);
+    LightSet lights = extractLights(ctx, s.env, eo);
     img = referenceLights(s.scene, s.camera, lights, s.env, ro);
   } else {
     img = referenceEnvironment(s.scene, s.camera, s.env, ro);
@@ -499,62 +523,6 @@ int cmdCompare(int argc, char** argv) {
   std::cout << json;
   if (has(a, "out")) writeTextAtomic(get(a, "out", ""), json);
   return 0;
-}
-
-// The extraction options of `lights` (every method, its own options, the ambient residual). An
-// option that does not belong to the chosen method is refused rather than silently ignored.
-const std::vector<OptionSpec> kExtractSpecs = {
-    {"extract", true, "median-cut (default) | greedy | center-surround"},
-    {"lights", true, "median-cut: number of lights (default 32); greedy, center-surround: the most "
-                     "lights kept (default 64, 256)"},
-    {"face-size", true, "median-cut, greedy: cube face size (default 256, 64)"},
-    {"threshold", true, "greedy: a side grows while its added energy / the light's exceeds this "
-                        "(default 0.02)"},
-    {"rect", false, "greedy: rectangular lights (default square)"},
-    {"stop", true, "center-surround: stop when a light carries less than this fraction of the "
-                   "lights so far (default 0.02)"},
-    {"sizes", true, "center-surround: filter sizes from 4.5 to 45 degrees (default 20)"},
-    {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
-};
-
-ExtractOptions parseExtractOptions(const Args& a) {
-  ExtractOptions eo;
-  eo.method = parseExtractionMethod(get(a, "extract", "median-cut"));
-  const std::string name = toString(eo.method);
-  auto only = [&](const std::string& option, std::initializer_list<ExtractionMethod> methods) {
-    if (!has(a, option)) return false;
-    for (ExtractionMethod m : methods)
-      if (m == eo.method) return true;
-    std::string list;
-    for (ExtractionMethod m : methods)
-      list += std::string(list.empty() ? "" : " or ") + toString(m);
-    badInput("--" + option + " applies to --extract " + list + ", not " + name);
-  };
-  using M = ExtractionMethod;
-  if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
-    int n = int(parseInt("lights", get(a, "lights", ""), 1, PB_MAX_LIGHTS));
-    eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
-  }
-  if (only("face-size", {M::MedianCut, M::Greedy})) {
-    int m = int(parseInt("face-size", get(a, "face-size", ""), 1, 4096));
-    eo.medianCut.faceSize = eo.greedy.faceSize = m;
-  }
-  if (only("threshold", {M::Greedy})) {
-    float t = parseFloat("threshold", get(a, "threshold", ""));
-    if (!(t > 0 && t < 1))
-      badInput("--threshold must be in (0, 1), got " + get(a, "threshold", ""));
-    eo.greedy.threshold = t;
-  }
-  if (only("rect", {M::Greedy})) eo.greedy.square = false;
-  if (only("stop", {M::CenterSurround})) {
-    float f = parseFloat("stop", get(a, "stop", ""));
-    if (!(f >= 0 && f < 1)) badInput("--stop must be in [0, 1), got " + get(a, "stop", ""));
-    eo.centerSurround.stopFraction = f;
-  }
-  if (only("sizes", {M::CenterSurround}))
-    eo.centerSurround.sizes = int(parseInt("sizes", get(a, "sizes", ""), 1, 256));
-  eo.ambient = !has(a, "no-ambient");
-  return eo;
 }
 
 int cmdLights(int argc, char** argv) {

@@ -61,9 +61,7 @@ LightSet oneLight(float deg) {
   float d[3] = {0.35f, 1.0f, 0.25f}, n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   l.direction = {d[0] / n, d[1] / n, d[2] / n};
   l.cosAlpha = std::cos(deg * 3.14159265f / 180.0f);
-  float omega = 2 * 3.14159265f * (1 - l.cosAlpha);
-  l.power = {1, 1, 1};
-  l.radiance = {1 / omega, 1 / omega, 1 / omega};
+  l.setPower({1, 1, 1});
   ls.lights.push_back(l);
   ls.faceSize = 256;
   ls.method = "user";

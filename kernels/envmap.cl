@@ -110,7 +110,7 @@ kernel void env_sat_inputs(global const long* energy, int m, global long4* lum, 
   size_t plane = (size_t)6 * m * m;
   size_t i = ((size_t)face * m + y) * m + x;
   long r = energy[i], g = energy[plane + i], b = energy[2 * plane + i];
-  long Y = (PB_LUM_R_I * r + PB_LUM_G_I * g + PB_LUM_B_I * b) / 10000;
+  long Y = PB_LUM_FIXED(r, g, b);
   float u = 2.0f * (x + 0.5f) / m - 1.0f, v = 2.0f * (y + 0.5f) / m - 1.0f;
   float dx, dy, dz;
   pb_cube_dir(face, u, v, &dx, &dy, &dz);

@@ -6,11 +6,9 @@
 // cap lights; tests/test_greedy.cpp holds a plain C++ copy of the same algorithm.
 #include "shared.h"
 
-// Luminance energy of a texel, exact in fixed point (the Rec. 709 weights in 1/10000 units, as
-// env_sat_inputs computes it). Energies stay below 2^48, so the products stay below 2^62.
+// Luminance energy of a texel, exact in fixed point (as env_sat_inputs computes it).
 static long texel_lum(global const long* energy, size_t plane, size_t i) {
-  return (PB_LUM_R_I * energy[i] + PB_LUM_G_I * energy[plane + i] +
-          PB_LUM_B_I * energy[2 * plane + i]) / 10000;
+  return PB_LUM_FIXED(energy[i], energy[plane + i], energy[2 * plane + i]);
 }
 
 // Seed 000's growth test: a side (or, for squares, an L-shaped rim) is added when the energy it
@@ -182,7 +180,7 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
       energy[plane + i] = kg;
       energy[2 * plane + i] = kb;
       long dr = r - kr, dg = g - kg, db = b - kb;
-      long dy = (PB_LUM_R_I * dr + PB_LUM_G_I * dg + PB_LUM_B_I * db) / 10000;
+      long dy = PB_LUM_FIXED(dr, dg, db);
       p += (long4)(dr, dg, db, dy);
       float dx_, dy_, dz_;
       pb_cube_dir(f, 2.0f * (x + 0.5f) / m - 1.0f, 2.0f * (y + 0.5f) / m - 1.0f, &dx_, &dy_, &dz_);

@@ -414,9 +414,7 @@ class CenterSurround {
     }
     for (int i = 0; i < 3; ++i) l.direction[i] = float(v[i] / len);
     l.cosAlpha = float(std::cos(innerR_[k]));
-    l.power = {f[0], f[1], f[2]};
-    const float omega = l.solidAngle();
-    for (int i = 0; i < 3; ++i) l.radiance[i] = omega > 0 ? l.power[i] / omega : 0.0f;
+    l.setPower({f[0], f[1], f[2]});
     return l;
   }
 

@@ -128,11 +128,8 @@ LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions
       cosA = cosMinCap;
     }
     l.cosAlpha = std::clamp(cosA, cosMax, cosMinCap);
-    float omega = l.solidAngle();
-    for (int c = 0; c < 3; ++c) {
-      l.power[c] = float(double(g.removed[c]) * inv);
-      l.radiance[c] = omega > 0 ? l.power[c] / omega : 0.0f;
-    }
+    l.setPower({float(double(g.removed[0]) * inv), float(double(g.removed[1]) * inv),
+                float(double(g.removed[2]) * inv)});
     l.regions.push_back({g.face, g.x0, g.y0, g.x1, g.y1});
     set.lights.push_back(l);
   }

@@ -23,6 +23,12 @@ constexpr float kDeg = float(kPi / 180.0);
 float AreaLight::halfAngle() const { return std::acos(std::clamp(cosAlpha, -1.0f, 1.0f)); }
 float AreaLight::solidAngle() const { return float(2.0 * kPi * (1.0 - double(cosAlpha))); }
 
+void AreaLight::setPower(const std::array<float, 3>& m) {
+  power = m;
+  const float omega = solidAngle();
+  for (int c = 0; c < 3; ++c) radiance[c] = omega > 0 ? power[c] / omega : 0.0f;
+}
+
 std::array<float, 3> AreaLight::irradiance(const std::array<float, 3>& n) const {
   float cb = n[0] * direction[0] + n[1] * direction[1] + n[2] * direction[2];
   float e = pb_cap_irradiance(cosAlpha, cb);
@@ -315,9 +321,7 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
     l.direction = {d[i].s[0], d[i].s[1], d[i].s[2]};
     l.cosAlpha = d[i].s[3];
     auto rgb = toRgb(xyz[i].s[0], xyz[i].s[1], xyz[i].s[2], xyz[i].s[3]);
-    for (int c = 0; c < 3; ++c) l.power[c] = float(rgb[c] / scale);
-    float omega = l.solidAngle();
-    for (int c = 0; c < 3; ++c) l.radiance[c] = omega > 0 ? l.power[c] / omega : 0.0f;
+    l.setPower({float(rgb[0] / scale), float(rgb[1] / scale), float(rgb[2] / scale)});
     for (auto& r : regs)
       if (r.group == i) l.regions.push_back({r.face, r.x0, r.y0, r.x1, r.y1});
     set.lights.push_back(l);

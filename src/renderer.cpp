@@ -160,6 +160,8 @@ using detail::Cull;
 struct Renderer::Impl {
   Context& ctx;
   BufferPool pool;
+  std::unique_ptr<detail::ShadowPass> pass;  // nullptr for ShadowTechnique::None
+  ShadowTechnique passKind = ShadowTechnique::None;
   int lastPixels = 0, lastLights = 0;
   cl::Buffer vis;
   explicit Impl(Context& c) : ctx(c), pool(c) {}
@@ -276,29 +278,41 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     badInput(std::string("--shadows ") + toString(opt.shadows) + " is not available");
   if (!detail::prefilterAvailable(opt.prefilter))
     badInput(std::string("--prefilter ") + toString(opt.prefilter) + " is not available");
-  std::unique_ptr<detail::ShadowPass> pass = detail::makeShadowPass(opt.shadows);
+  // The pass is kept between frames of the same technique: passes hold what depends only on
+  // their options (the bitmask's light samples and look-up tables), not on the frame.
+  if (!impl_->pass || impl_->passKind != opt.shadows) {
+    impl_->pass = detail::makeShadowPass(opt.shadows);
+    impl_->passKind = opt.shadows;
+  }
+  detail::ShadowPass* pass = impl_->pass.get();
   if (nl > 0 && pass) {
-    auto rasterizeDepth = [&](const std::vector<pb_view>& views, Cull cull, cl::Buffer& out,
-                              const std::string& stage) {
-      cl::Buffer& vb = impl_->pool.upload("views " + stage, views);
-      const std::size_t bytes = views.size() * std::size_t(S) * S * 4;
-      ctx.fill(out, &emptyDepth, 4, bytes, stage);
-      rasterize(vb, int(views.size()), 0, cull, out, out, stage);
+    // Every depth map of the frame (the lights' and any a technique adds) goes through here, so
+    // --front-back applies to all of them alike: nearest surface, or the average of the front-
+    // and back-facing surfaces' depths (seed 003 §4.2.3).
+    auto rasterizeDepth = [&](const std::vector<pb_view>& views, cl::Buffer& out,
+                              const std::string& prefix) {
+      cl::Buffer& vb = impl_->pool.upload("views " + prefix, views);
+      const std::size_t texels = views.size() * std::size_t(S) * S;
+      auto one = [&](Cull cull, cl::Buffer& dst, const std::string& stage) {
+        ctx.fill(dst, &emptyDepth, 4, texels * 4, stage);
+        rasterize(vb, int(views.size()), 0, cull, dst, dst, stage);
+      };
+      if (!opt.frontBackFaces) {
+        one(Cull::None, out, prefix + "/raster");
+        return;
+      }
+      cl::Buffer& back = impl_->pool.buffer("back-face maps " + prefix, texels * 4);
+      one(Cull::KeepFront, out, prefix + "/raster-front");
+      one(Cull::KeepBack, back, prefix + "/raster-back");
+      cl::Kernel k = ctx.kernel("raster.cl", "combine_front_back");
+      k.setArg(0, out);
+      k.setArg(1, back);
+      k.setArg(2, cl_int(texels));
+      ctx.launch(prefix + "/front-back", k, cl::NDRange(texels));
     };
     const std::size_t texels = std::size_t(S) * S * nl;
     cl::Buffer& ldepth = impl_->pool.buffer("shadow maps", texels * 4);
-    if (opt.frontBackFaces) {
-      cl::Buffer& back = impl_->pool.buffer("back-face shadow maps", texels * 4);
-      rasterizeDepth(lviews, Cull::KeepFront, ldepth, "shadow-maps/raster-front");
-      rasterizeDepth(lviews, Cull::KeepBack, back, "shadow-maps/raster-back");
-      cl::Kernel k = ctx.kernel("raster.cl", "combine_front_back");
-      k.setArg(0, ldepth);
-      k.setArg(1, back);
-      k.setArg(2, cl_int(texels));
-      ctx.launch("shadow-maps/front-back", k, cl::NDRange(texels));
-    } else {
-      rasterizeDepth(lviews, Cull::None, ldepth, "shadow-maps/raster");
-    }
+    rasterizeDepth(lviews, ldepth, "shadow-maps");
     detail::ShadowFrame sf{ctx,  impl_->pool, opt,   W,    H,     npx,  S,    lights,         lightB,
                            gpos, gnrm,        ggeo,  ldepth, impl_->vis, rasterizeDepth,
                            cids, posB,        triB,  ntris};

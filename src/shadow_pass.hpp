@@ -53,9 +53,9 @@ struct ShadowFrame {
                                           // plane (as_float), PB_DEPTH_EMPTY where nothing
   cl::Buffer vis;                         // out: float [light][pixel], 1 = unshadowed
   // Renders depth maps of the scene for `views` (orthographic pb_view, S x S each) into `out`
-  // (views.size()*S*S uint), same encoding as `depth`.
-  std::function<void(const std::vector<pb_view>& views, Cull cull, cl::Buffer& out,
-                     const std::string& stage)>
+  // (views.size()*S*S uint), same encoding as `depth`, front and back faces averaged when
+  // opt.frontBackFaces. Stages "<prefix>/raster" (or /raster-front, /raster-back, /front-back).
+  std::function<void(const std::vector<pb_view>& views, cl::Buffer& out, const std::string& prefix)>
       rasterizeDepth;
   cl::Buffer gids;                        // camera triangle id per pixel (PB_ID_EMPTY: none)
   cl::Buffer positions, triangles;        // the scene as rasterized: float4 vertices, int4

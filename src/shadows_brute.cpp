@@ -136,26 +136,13 @@ class BrutePass : public ShadowPass {
     cl::Buffer& sampleBuf = f.pool.upload("brute sample lights", samples);
     const std::size_t texels = std::size_t(batch) * S * S;
     cl::Buffer& maps = f.pool.buffer("brute sample maps", texels * sizeof(cl_uint));
-    cl::Buffer* back = nullptr;
-    if (f.opt.frontBackFaces) back = &f.pool.buffer("brute sample back-face maps", texels * sizeof(cl_uint));
     heldBytesPerTexel_ = double(batch) * mapBytes / (double(S) * S * nl);
 
     cl::Kernel k = f.ctx.kernel("pcss.cl", "brute_visibility");
     for (int first = 0; first < total; first += batch) {
       const int count = std::min(batch, total - first);
       std::vector<pb_view> bv(views.begin() + first, views.begin() + first + count);
-      if (back) {
-        // seed 003 §4.2.3, as the renderer does for the standard maps
-        f.rasterizeDepth(bv, Cull::KeepFront, maps, "brute/raster-front");
-        f.rasterizeDepth(bv, Cull::KeepBack, *back, "brute/raster-back");
-        cl::Kernel c = f.ctx.kernel("raster.cl", "combine_front_back");
-        c.setArg(0, maps);
-        c.setArg(1, *back);
-        c.setArg(2, cl_int(std::size_t(count) * S * S));
-        f.ctx.launch("brute/front-back", c, cl::NDRange(std::size_t(count) * S * S));
-      } else {
-        f.rasterizeDepth(bv, Cull::None, maps, "brute/raster");
-      }
+      f.rasterizeDepth(bv, maps, "brute");
       const int l0 = first / K, l1 = (first + count - 1) / K;
       k.setArg(0, f.gpos);
       k.setArg(1, f.gnrm);

@@ -34,7 +34,7 @@ struct RefLight {
 std::vector<RefLight> referenceGreedy(std::vector<i64>& e, int m, float t, bool square) {
   const std::size_t plane = 6ull * m * m;
   auto lum = [&](std::size_t i) {
-    return (PB_LUM_R_I * e[i] + PB_LUM_G_I * e[plane + i] + PB_LUM_B_I * e[2 * plane + i]) / 10000;
+    return PB_LUM_FIXED(e[i], e[plane + i], e[2 * plane + i]);
   };
   auto grows = [&](i64 added, i64 held) {
     i64 total = held + added;
@@ -113,7 +113,7 @@ std::vector<RefLight> referenceGreedy(std::vector<i64>& e, int m, float t, bool 
             e[c * plane + i] = keep;
             L.r.removed[c] += d[c];
           }
-          i64 dy = (PB_LUM_R_I * d[0] + PB_LUM_G_I * d[1] + PB_LUM_B_I * d[2]) / 10000;
+          i64 dy = PB_LUM_FIXED(d[0], d[1], d[2]);
           L.r.removed[3] += dy;
           float dx, dyy, dz;
           pb_cube_dir(f, 2.0f * (x + 0.5f) / m - 1.0f, 2.0f * (y + 0.5f) / m - 1.0f, &dx, &dyy, &dz);

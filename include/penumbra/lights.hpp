@@ -24,6 +24,8 @@ struct AreaLight {
 
   float halfAngle() const;
   float solidAngle() const;  // 2 pi (1 - cos alpha)
+  // Sets the power M and the radiance M / solid angle (seed 003 eqs. 16-17); set cosAlpha first.
+  void setPower(const std::array<float, 3>& m);
   // Unshadowed irradiance on unit normal n (cap clipped by the horizon; shared.h).
   std::array<float, 3> irradiance(const std::array<float, 3>& n) const;
 };

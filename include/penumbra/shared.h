@@ -19,6 +19,9 @@
 #define PB_LUM_R_I 2126
 #define PB_LUM_G_I 7152
 #define PB_LUM_B_I 722
+/* Fixed-point luminance of fixed-point RGB energies, exact (energies stay below 2^48, so the
+ * products stay below 2^62); env_sat_inputs, the greedy fit and its host copy all use this. */
+#define PB_LUM_FIXED(r, g, b) ((PB_LUM_R_I * (r) + PB_LUM_G_I * (g) + PB_LUM_B_I * (b)) / 10000)
 /* The X and Z rows of the same matrix (IEC 61966-2-1:1999, the sRGB standard: Rec. 709 primaries,
  * D65 white), also in 1/10000 units: the median-cut SATs carry colour as CIE XYZ so that Y is
  * shared with the luminance SAT (seed 003 §5); src/lights.cpp inverts the whole matrix exactly. */
