@@ -1,6 +1,9 @@
 // penumbra command-line interface: devices | render | reference | compare | lights.
 // A thin layer over the public API; every penumbra::Error becomes one line on stderr and exit 2.
 #include <penumbra/penumbra.hpp>
+#ifdef PENUMBRA_HAS_GL
+#include <penumbra/gl/interop.hpp>
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -227,7 +230,24 @@ const std::vector<OptionSpec> kExtractSpecs = {
                    "lights so far (default 0.02)"},
     {"sizes", true, "center-surround: filter sizes from 4.5 to 45 degrees (default 20)"},
     {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
+    {"light-shape", true, "median-cut: cap (default) | polygon (a light from one region is that "
+                          "region's exact cube-face quadrilateral)"},
 };
+
+// `--light-set FILE` (render, reference): lights a user defines (caps, polygons, rectangles;
+// loadLightSet in lights.hpp) instead of lights extracted from the map. Extraction options are
+// refused beside it rather than silently ignored.
+const OptionSpec kLightSetSpec = {"light-set", true,
+                                  "JSON light set (caps, polygons, rects; see README) used instead "
+                                  "of extracting lights from the map"};
+bool userLightSet(const Args& a, LightSet& out) {
+  if (!has(a, "light-set")) return false;
+  for (const OptionSpec& o : kExtractSpecs)
+    if (has(a, o.name)) badInput("--" + o.name + " extracts lights from the map; it cannot be "
+                                 "combined with --light-set");
+  out = loadLightSet(get(a, "light-set", ""));
+  return true;
+}
 
 ExtractOptions parseExtractOptions(const Args& a) {
   ExtractOptions eo;
@@ -265,6 +285,12 @@ ExtractOptions parseExtractOptions(const Args& a) {
   }
   if (only("sizes", {M::CenterSurround}))
     eo.centerSurround.sizes = int(parseInt("sizes", get(a, "sizes", ""), 1, 256));
+  if (only("light-shape", {M::MedianCut})) {
+    const std::string shape = get(a, "light-shape", "");
+    if (shape == "cap") eo.medianCut.shape = LightShape::Cap;
+    else if (shape == "polygon") eo.medianCut.shape = LightShape::Polygon;
+    else badInput("--light-shape must be cap or polygon, got '" + shape + "'");
+  }
   eo.ambient = !has(a, "no-ambient");
   return eo;
 }
@@ -308,11 +334,12 @@ std::string framePath(const std::string& out, int i, int frames) {
 
 int cmdRender(int argc, char** argv) {
   auto specs = with(with(kSceneOptions, kExtractSpecs), {
+      kLightSetSpec,
       {"env-rotate", true, "turn the map by DEG about +y, counter-clockwise from above (default 0)"},
       {"frames", true, "render an animation of N frames (1..100000; see below)"},
       {"frame-time", true, "animation: seconds between frames (default 1/24)"},
       {"rotate-step", true, "animation: map rotation added per frame, DEG (default: see below)"},
-      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | bitmask | bitmask-hard | none"},
+      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | bitmask | bitmask-hard | area-approx | none"},
       {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
       {"front-back", false, "average front- and back-face depths in the shadow maps"},
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
@@ -329,9 +356,14 @@ int cmdRender(int argc, char** argv) {
       {"pcss-filter-taps", true, "PCSS filter samples (default 0: every texel, explicit)"},
       {"brute-samples", true, "brute force: point samples per light (default 64)"},
       {"light-samples", true, "bitmask: light samples per light, 128 | 256 (default) | 512 | 1024"},
+      {"accumulate", true, "bitmask: average N frames with rotated light samples (default 1)"},
+      {"area-samples", true, "area-approx: samples per polygon edge besides its vertices (default 1)"},
+      {"area-cap-vertices", true, "area-approx: vertices of the polygon standing in for a cap (default 8)"},
+      {"area-taps", true, "area-approx: texel reads placing a shadow edge on a segment (default 4; 0: midpoint)"},
       {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},
       {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
       {"report", true, "write a JSON report (device, lights, timings, ...)"},
+      {"gl", true, "egl | osmesa | auto: GL rasterizes the G-buffer and shadow maps and shades, OpenCL computes visibility"},
   });
   Args a = parse(argc, argv, 2, specs, "render");
   if (has(a, "help")) {
@@ -371,10 +403,20 @@ int cmdRender(int argc, char** argv) {
     ro.pcss.filterTaps = int(parseInt("pcss-filter-taps", get(a, "pcss-filter-taps", ""), 0, 4096));
   if (has(a, "brute-samples"))
     ro.brute.samples = int(parseInt("brute-samples", get(a, "brute-samples", ""), 1, 4096));
+  if (has(a, "area-samples"))
+    ro.areaApprox.edgeSamples = int(parseInt("area-samples", get(a, "area-samples", ""), 0, 15));
+  if (has(a, "area-cap-vertices"))
+    ro.areaApprox.capVertices = int(parseInt("area-cap-vertices", get(a, "area-cap-vertices", ""), 3, 16));
+  if (has(a, "area-taps")) ro.areaApprox.taps = int(parseInt("area-taps", get(a, "area-taps", ""), 0, 64));
   if (has(a, "light-samples")) {
     ro.bitmask.lightSamples = int(parseInt("light-samples", get(a, "light-samples", ""), 32, 1024));
     if (ro.bitmask.lightSamples % 32) badInput("--light-samples must be a multiple of 32, got " + get(a, "light-samples", ""));
   }
+  // --accumulate N: frames 0..N-1 of the bitmask's temporal jitter (seed 001 §4.3), averaged.
+  const int accumulate =
+      has(a, "accumulate") ? int(parseInt("accumulate", get(a, "accumulate", ""), 1, 4096)) : 1;
+  if (accumulate > 1 && ro.shadows != ShadowTechnique::Bitmask)
+    badInput("--accumulate needs --shadows bitmask (the only technique with jittered samples)");
   ro.frontBackFaces = has(a, "front-back");
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
   if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
@@ -384,6 +426,8 @@ int cmdRender(int argc, char** argv) {
   if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
   float exposure = parseExposure(a);
   ExtractOptions eo = parseExtractOptions(a);
+  LightSet userLights;
+  const bool useLightSet = userLightSet(a, userLights);
 
   // Animation parameters, all checked before any work.
   const bool animate = has(a, "frames");
@@ -408,6 +452,25 @@ int cmdRender(int argc, char** argv) {
 
   Context ctx(get(a, "device", ""));
   Renderer renderer(ctx);
+  // --gl: the frame through the GL interop layer (include/penumbra/gl/interop.hpp).
+  std::function<Frame(const Scene&, const Camera&, const LightSet&, const Environment&,
+                      const RenderOptions&)> renderFrame =
+      [&](auto& sc, auto& cam, auto& ls, auto& en, auto& o) { return renderer.render(sc, cam, ls, en, o); };
+#ifdef PENUMBRA_HAS_GL
+  std::unique_ptr<gl::HeadlessContext> glContext;
+  std::unique_ptr<gl::GLRenderer> glRenderer;
+  if (has(a, "gl")) {
+    if (accumulate > 1) badInput("--accumulate does not work with --gl");
+    glContext = std::make_unique<gl::HeadlessContext>(gl::parseBackend(get(a, "gl", "")));
+    glRenderer = std::make_unique<gl::GLRenderer>(ctx, glContext->loader());
+    renderFrame = [&](auto& sc, auto& cam, auto& ls, auto& en, auto& o) {
+      return glRenderer->render(sc, cam, ls, en, o);
+    };
+    std::cout << "penumbra: GL " << glContext->description() << "\n";
+  }
+#else
+  if (has(a, "gl")) badInput("--gl: this penumbra was built without GL (-DPENUMBRA_BUILD_GL=OFF)");
+#endif
   std::string reports;
   double totalMs = 0;
   std::size_t lastLights = 0;
@@ -419,8 +482,21 @@ int cmdRender(int argc, char** argv) {
     if (animate && movingScene) s.scene = builtinScene(t);
     ctx.resetTimings();
     auto t0 = std::chrono::steady_clock::now();
-    LightSet lights = extractLights(ctx, env, eo);
-    Frame f = renderer.render(s.scene, s.camera, lights, env, ro);
+    LightSet lights = useLightSet ? userLights : extractLights(ctx, env, eo);
+    Frame f = renderFrame(s.scene, s.camera, lights, env, ro);
+    if (accumulate > 1) {
+      double totalRender = f.timingsMs.back().second;
+      for (int k = 1; k < accumulate; ++k) {
+        RenderOptions rk = ro;
+        rk.bitmask.jitter = k;
+        Frame g = renderer.render(s.scene, s.camera, lights, env, rk);
+        for (std::size_t p = 0; p < f.image.pixels.size(); ++p) f.image.pixels[p] += g.image.pixels[p];
+        totalRender += g.timingsMs.back().second;
+        f.timingsMs = g.timingsMs;  // stage times add up since resetTimings()
+      }
+      for (float& v : f.image.pixels) v /= float(accumulate);
+      f.timingsMs.back().second = totalRender;
+    }
     const double frameMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const std::string path = animate ? framePath(out, i, frames) : out;
@@ -457,6 +533,7 @@ int cmdReference(int argc, char** argv) {
   // --lights (or any extraction option) selects light-set mode: the scene is lit by the
   // extracted lights and their ambient residual instead of the map.
   auto specs = with(with(kSceneOptions, kExtractSpecs), {
+      kLightSetSpec,
       {"spp", true, "shadow-ray samples per pixel (default 256)"},
       {"seed", true, "random seed (default 1)"},
       {"threads", true, "CPU threads (default: all)"},
@@ -479,8 +556,11 @@ int cmdReference(int argc, char** argv) {
   ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", "1"), 0, 1L << 62));
   ro.threads = int(parseInt("threads", get(a, "threads", "0"), 0, 1024));
   float exposure = parseExposure(a);
-  bool lightMode = has(a, "lights") || has(a, "extract");
+  bool lightMode = has(a, "lights") || has(a, "extract") || has(a, "light-shape");
   ExtractOptions eo = parseExtractOptions(a);
+  LightSet userLights;
+  const bool useLightSet = userLightSet(a, userLights);
+  lightMode = lightMode || useLightSet;
   SceneSetup s = loadSetup(a);
   bool tty = isatty(2);
   ro.progress = [tty](double f) {
@@ -489,7 +569,7 @@ int cmdReference(int argc, char** argv) {
   Image img;
   if (lightMode) {
     Context ctx(get(a, "device", ""));
-    LightSet lights = extractLights(ctx, s.env, eo);
+    LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, eo);
     img = referenceLights(s.scene, s.camera, lights, s.env, ro);
   } else {
     img = referenceEnvironment(s.scene, s.camera, s.env, ro);

@@ -19,7 +19,12 @@
 // half-spaces has one nappe, so the triangle's own plane needs no test of its own (a light at
 // infinity is behind every triangle). A sample on the triangle's plane (det = 0) is never blocked
 // by it, and a view sample is never tested against the triangle it lies on (G-buffer triangle id):
-// no depth bias (see src/shadows_bitmask.cpp for why not seed 001's back-face rule).
+// no depth bias. Closed meshes (mesh_orient != 0) cast from their light-back-facing triangles
+// only (seed 001 §3.3): a ray from outside that hits a closed mesh enters it through a triangle
+// facing away from the ray's direction, so the triangles that face every light sample can go.
+// A ray that starts on a closed mesh and heads below its own triangle's plane is inside at once:
+// bitmask_self blocks those samples (src/shadows_bitmask.cpp says why not the back-face rule
+// alone, and for open meshes).
 //
 // Look-up table. For an edge plane with light-frame normal (nx, ny, nz), sample k is behind it iff
 // nz + tan(alpha) (u_k nx + v_k ny) >= 0, i.e. u_k cos(phi) + v_k sin(phi) + delta >= 0 with
@@ -30,8 +35,13 @@
 // `in`, the samples behind the plane for every (phi, delta) of the cell, and `out`, those behind
 // it for some. AND over the edges gives certain and possible blockers; the few possible but not
 // certain ones (a band one cell wide along each cut) are tested exactly, so the result is the
-// exact test's, at the table's cost.
+// exact test's, at the table's cost. The two masks of a cell lie next to each other (lut[cell]:
+// WORDS `in` words, then WORDS `out` words), so a look-up touches one cache line at 128 samples
+// instead of two far apart: the tables (2 MiB at 128 samples) do not fit the CPU's L2.
 #include "shared.h"
+#ifdef PB_PROFILE
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+#endif
 
 #ifndef LUT_PHI
 #define LUT_PHI 128
@@ -69,9 +79,13 @@ static float fast_atan2(float y, float x) {
   return signbit(y) ? -r : r;
 }
 
-// Look-up cell of an edge plane whose delta is in [-1, 1).
-static int lut_cell(float nx, float ny, float delta) {
-  float phi = fast_atan2(ny, nx);  // [-pi, pi]
+// Look-up cell of an edge plane whose delta is in [-1, 1). The tables are those of the unrotated
+// sample set; jittered frames (seed 001 §4.3) rotate every sample by rot in [0, 2 pi) about the
+// disk's centre, and a sample at angle a + rot is behind a plane at angle phi exactly when the
+// unrotated one at a is behind the plane at phi - rot: the same table, looked up at phi - rot.
+static int lut_cell(float nx, float ny, float delta, float rot) {
+  float phi = fast_atan2(ny, nx) - rot;  // [-pi, pi] - rot
+  if (phi < -M_PI_F) phi += 2.0f * M_PI_F;
   int ip = (int)floor((phi + M_PI_F) * (LUT_PHI / (2.0f * M_PI_F)));
   int id = (int)floor((delta + 1.0f) * (0.5f * LUT_DELTA));
   ip = clamp(ip, 0, LUT_PHI - 1);
@@ -88,10 +102,21 @@ static int lut_cell(float nx, float ny, float delta) {
 kernel void bitmask_triangles(global const float4* pos, global const int4* tris, int ntris,
                               global const pb_light* lights, global const pb_list_grid* grids,
                               int l0, global const int* counts, global const long* ends,
-                              global const int* lists, global const float4* gpos,
-                              global const uint* gids, int npixels, global const uint* lut_in,
-                              global const uint* lut_out, global const float2* disk, int stripes,
-                              global const int* zfar, volatile global uint* masks) {
+                              global const float4* lists, global const float4* gpos,
+                              global const uint* gids, int npixels, global const uint* lut,
+                              global const float2* disk, int stripes,
+                              global const int* zfar, volatile global uint* masks,
+                              global const int* mesh_orient, float rot
+#ifdef PB_PROFILE
+                              , volatile global long* prof
+#endif
+                              ) {
+#ifdef PB_PROFILE
+  long pc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+#define PCOUNT(i) (pc[i]++)
+#else
+#define PCOUNT(i)
+#endif
   int tri = get_global_id(0), stripe = get_global_id(1), lb = get_global_id(2);
   if (tri >= ntris) return;
   int l = l0 + lb;
@@ -109,6 +134,16 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
     R[i] = g.tan_alpha * fmax(g.zmax - c[i].z, 0.0f);
   }
   if (zmin > g.zmax) return;  // behind every view sample
+  const float3 ex = vec3(L.ex), ey = vec3(L.ey), w = vec3(L.dir);
+  const float ta = g.tan_alpha;
+  if (mesh_orient[t.w] != 0) {
+    // Closed mesh: skip the triangle when it faces every light sample d ~ w + ta (u ex + v ey),
+    // |(u, v)| <= 1, i.e. n.w > ta |n - (n.w) w| (with a margin for rounding; keeping a
+    // triangle is always safe).
+    float3 nt = cross(V[1] - V[0], V[2] - V[0]) * (float)mesh_orient[t.w];  // outward
+    float nw = dot(nt, w), nu = dot(nt, ex), nv = dot(nt, ey);
+    if (nw - ta * sqrt(nu * nu + nv * nv) > 1e-4f * length(nt)) return;
+  }
   float bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
   for (int i = 0; i < 3; ++i) {
     bx0 = fmin(bx0, c[i].x - R[i]);
@@ -135,12 +170,22 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
   ax[4] = (float2)(0.0f, 1.0f);
   for (int a = 0; a < 5; ++a)
     for (int i = 0; i < 3; ++i) sc[a][i] = dot(ax[a], c[i].xy);
-  const float3 ex = vec3(L.ex), ey = vec3(L.ey), w = vec3(L.dir);
-  const float ta = g.tan_alpha;
+  // The supporting plane (seed 001 §4.3: "cut off the influence region based on the triangle's
+  // supporting plane"). In the light frame the samples' directions towards the light are
+  // (ta u, ta v, -1), |(u, v)| <= 1. If the plane does not cut the light, every ray leaves the
+  // plane's side that holds the light, so samples on that side (or on the plane, within float
+  // rounding of the light-frame coordinates) cannot be blocked by the triangle: light side
+  // lside = sign(-n.z), skipped when lside n.(q - c0) >= -eps. lside 0: the plane cuts the light.
+  const float3 pn = cross(c[1] - c[0], c[2] - c[0]);
+  const float pnl = length(pn);
+  const float pd = dot(pn, c[0]);
+  float lside = 0.0f;
+  if (fabs(pn.z) > ta * sqrt(pn.x * pn.x + pn.y * pn.y) * 1.0001f + 1e-6f * pnl)
+    lside = pn.z < 0.0f ? 1.0f : -1.0f;
   const int S = g.size;
   global const int* cnt = counts + (size_t)l * S * S;
   global const long* end = ends + (size_t)l * S * S;
-  global const int* list = lists + (size_t)l * npixels;
+  global const float4* list = lists + (size_t)l * npixels;
   for (int j = j0 + stripe; j <= j1; j += stripes)
     for (int i = i0; i <= i1; ++i) {
       int n = cnt[j * S + i];
@@ -165,13 +210,17 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
       if (apart) continue;
       long first = end[j * S + i] - n;
       for (int s = 0; s < n; ++s) {
-        int px = list[first + s];
-        if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
-        float3 p = gpos[px].xyz;
+        // light-frame coordinates from the list itself (kernels/viewsamples.cl, vs_scatter)
+        float4 entry = list[first + s];
+        PCOUNT(0);
+        float3 q = entry.xyz;
         // The sample's own depth bounds the region exactly at that depth (radius
         // tan(alpha) (z_p - z_i) at vertex i): most samples of a texel leave here.
-        float3 q = light_coords(&L, p);
         if (q.z <= zmin) continue;
+        if (lside != 0.0f &&
+            lside * (dot(pn, q) - pd) >= -1e-5f * pnl * (1.0f + fabs(q.x) + fabs(q.y) + fabs(q.z)))
+          continue;
+        PCOUNT(1);
         {
           float pad = 1e-5f * (fabs(q.x) + fabs(q.y) + fabs(q.z));
           bool apart = false;
@@ -186,10 +235,15 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           }
           if (apart) continue;
         }
+        int px = as_int(entry.w);
+        PCOUNT(2);
+        if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
+        float3 p = gpos[px].xyz;
         float3 A = V[0] - p, B = V[1] - p, C = V[2] - p;
         float3 nrm[3] = {cross(A, B), cross(B, C), cross(C, A)};
         float det = dot(A, nrm[1]);
         if (det == 0.0f) continue;  // on the triangle's plane: the cone is flat
+        PCOUNT(3);
         float sg = det > 0.0f ? 1.0f : -1.0f;
 #ifdef HARD
         // the light's centre direction w: blocked iff w is inside the cone
@@ -211,15 +265,18 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           float tr = ta * sqrt(nx[e] * nx[e] + ny[e] * ny[e]);
           if (nz[e] >= tr) continue;  // the whole disk is behind this edge's plane
           if (nz[e] < -tr) { none = true; break; }
-          cell[partial++] = lut_cell(nx[e], ny[e], nz[e] / tr);
+          cell[partial++] = lut_cell(nx[e], ny[e], nz[e] / tr, rot);
         }
         if (none) continue;
+        PCOUNT(4);
+        if (partial == 0) PCOUNT(5);
         global volatile uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
         for (int k = 0; k < WORDS; ++k) {
           uint in = 0xffffffffu, out = 0xffffffffu;
           for (int e = 0; e < partial; ++e) {
-            in &= lut_in[(size_t)cell[e] * WORDS + k];
-            out &= lut_out[(size_t)cell[e] * WORDS + k];
+            global const uint* cl = lut + (size_t)cell[e] * (2 * WORDS);
+            in &= cl[k];
+            out &= cl[WORDS + k];
           }
           uint bits = in, unsure = out & ~in;
           while (unsure != 0u) {
@@ -237,6 +294,54 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
 #endif
       }
     }
+#ifdef PB_PROFILE
+  int mesh = min(t.w, 7);
+  for (int i = 0; i < 6; ++i) if (pc[i]) atom_add(&prof[mesh * 8 + i], pc[i]);
+#endif
+}
+
+// Global (pixels, lights of the batch), before bitmask_triangles. A view sample on a closed mesh
+// (mesh_orient != 0) is blocked from every light sample below its own triangle's plane: that ray
+// enters the mesh at once and must leave it through a triangle facing the light, which
+// bitmask_triangles skips on closed meshes (seed 001 §3.3 keeps such samples out of the lists
+// instead; ours are chosen by the shading normal, which may still see the light there). The
+// plane is the triangle's outward one (the mesh's winding), not the camera-facing normal.
+kernel void bitmask_self(global const float4* pos, global const int4* tris,
+                         global const int* mesh_orient, global const uint* gids,
+                         global const pb_light* lights, global const pb_list_grid* grids, int l0,
+                         global const int* slot, global const float2* disk, int npixels,
+                         volatile global uint* masks) {
+  int px = get_global_id(0), lb = get_global_id(1);
+  if (px >= npixels) return;
+  int l = l0 + lb;
+  if (slot[(size_t)l * npixels + px] < 0) return;
+  uint id = gids[px];
+  if (id == PB_ID_EMPTY) return;
+  int4 t = tris[id];
+  int o = mesh_orient[t.w];
+  if (o == 0) return;
+  float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
+  float3 n = cross(b - a, c - a) * (float)o;
+  pb_light L = lights[l];
+  float nx = dot(n, vec3(L.ex)), ny = dot(n, vec3(L.ey)), nz = dot(n, vec3(L.dir));
+#ifdef HARD
+  if (nz < 0.0f) {
+    size_t bit = (size_t)lb * npixels + px;
+    atomic_or(&masks[bit >> 5], 1u << (uint)(bit & 31));
+  }
+#else
+  float ta = grids[l].tan_alpha;
+  if (nz >= ta * sqrt(nx * nx + ny * ny)) return;  // every sample above the plane
+  global volatile uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
+  for (int k = 0; k < WORDS; ++k) {
+    uint bits = 0u;
+    for (int i = 0; i < 32; ++i) {
+      float2 uv = disk[k * 32 + i] * ta;
+      if (nz + uv.x * nx + uv.y * ny < 0.0f) bits |= 1u << (uint)i;
+    }
+    if (bits != 0u) atomic_or(&mask[k], bits);
+  }
+#endif
 }
 
 // Global (pixels, lights of the batch): visibility of light l0 + z at each pixel. Soft: the

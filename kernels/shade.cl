@@ -1,5 +1,6 @@
-// Final shading: diffuse reflection of every directional cap light (irradiance of seed 003
-// eqs. 15-18, with the horizon-clipped closed form of shared.h) times its visibility, times
+// Final shading: diffuse reflection of every directional light (a cap: irradiance of seed 003
+// eqs. 15-18, with the horizon-clipped closed form of shared.h; a polygon: Lambert's formula on
+// the horizon-clipped polygon, shared.h's pb_polygon_irradiance) times its visibility, times
 // albedo / pi. Background pixels show the environment (nearest texel) with alpha 0.
 // The ambient residual (9 RGB SH coefficients of radiance, zeros when the light set has none) is
 // added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
@@ -10,7 +11,8 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
                   global const pb_light* lights, int nlights, global const float* vis,
                   int npixels, global const pb_view* camera, global const float* equirect,
                   int env_w, int env_h, float env_shift, int background,
-                  global float4* out, global const float4* ambient) {
+                  global float4* out, global const float4* ambient,
+                  global const float4* polys) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   if (gpos[px].w == 0.0f) {
@@ -36,8 +38,22 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
   float3 acc = (float3)(0.0f);
   for (int l = 0; l < nlights; ++l) {
     pb_light L = lights[l];
-    float cb = n.x * L.dir[0] + n.y * L.dir[1] + n.z * L.dir[2];
-    float e = pb_cap_irradiance(L.dir[3], cb);
+    // polys: PB_MAX_POLY_VERTS float4 per light, w of the first = vertex count, 0 for a cap.
+    global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
+    int nv = (int)pv[0].w;
+    float e;
+    if (nv >= 3) {
+      float v[3 * PB_MAX_POLY_VERTS];
+      for (int i = 0; i < nv && i < PB_MAX_POLY_VERTS; ++i) {
+        v[3 * i] = pv[i].x;
+        v[3 * i + 1] = pv[i].y;
+        v[3 * i + 2] = pv[i].z;
+      }
+      e = pb_polygon_irradiance(v, min(nv, PB_MAX_POLY_VERTS), n.x, n.y, n.z);
+    } else {
+      float cb = n.x * L.dir[0] + n.y * L.dir[1] + n.z * L.dir[2];
+      e = pb_cap_irradiance(L.dir[3], cb);
+    }
     if (e <= 0.0f) continue;
     float V = vis[(size_t)l * npixels + px];
     acc += e * V * (float3)(L.radiance[0], L.radiance[1], L.radiance[2]);

@@ -11,7 +11,8 @@
 //   vs_count    per texel list length by atomic increment; each sample keeps the value it read,
 //               its index inside its texel's list
 //   (scan)      exclusive offsets from an inclusive scan of the lengths (src/scan.cpp, int64)
-//   vs_scatter  each sample's pixel index into one array: lists[light][offset + index]
+//   vs_scatter  each sample's light-frame coordinates and pixel index into one array:
+//               lists[light][offset + index]
 // The order inside a list depends on the atomics, nothing computed from the lists does.
 #include "shared.h"
 
@@ -141,10 +142,13 @@ kernel void vs_widen(global const int* counts, long n, global long* ends) {
 }
 
 // Global (pixels, lights). ends: inclusive scan of counts per light (list t is
-// [ends[t] - counts[t], ends[t])). The texel is recomputed exactly as vs_count computed it.
+// [ends[t] - counts[t], ends[t])). The texel is recomputed exactly as vs_count computed it. Each
+// list entry holds the sample's light-frame coordinates and its pixel index (as_float bits), so
+// the triangle stage reads a list contiguously and loads the G-buffer only for the few samples
+// that survive its region test (kernels/bitmask.cl).
 kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
                        global const pb_list_grid* grids, int npixels, global const int* counts,
-                       global const long* ends, global const int* slot, global int* lists) {
+                       global const long* ends, global const int* slot, global float4* lists) {
   int px = get_global_id(0), l = get_global_id(1);
   if (px >= npixels) return;
   size_t at = (size_t)l * npixels + px;
@@ -154,5 +158,5 @@ kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
   pb_list_grid g = grids[l];
   float3 c = light_coords(&L, gpos[px].xyz);
   size_t t = (size_t)l * g.size * g.size + pb_grid_texel(&g, c.x, c.y);
-  lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = px;
+  lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = (float4)(c, as_float(px));
 }

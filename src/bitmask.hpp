@@ -15,7 +15,12 @@ namespace penumbra::detail {
 // Light sample k of n on the unit disk: a Fibonacci spiral, uniform in area (radius
 // sqrt((k + 1/2) / n), golden-angle turns). Every light uses the same set, scaled by its
 // tan(alpha), so one look-up table serves all lights.
-std::vector<std::array<float, 2>> bitmaskDiskSamples(int n);
+// rotation: every sample turned by that angle about the centre (jittered frames, seed 001 §4.3).
+std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation = 0.0);
+
+// The rotation of jittered frame j (BitmaskOptions::jitter): 0 for j <= 0, else
+// 2 pi frac(j / golden ratio), in [0, 2 pi).
+double bitmaskJitterAngle(int jitter);
 
 // World direction of the light sample at disk point (u, v) of light L with the given tan(alpha)
 // (pb_list_grid::tan_alpha): normalize(dir + tan(alpha) (u ex + v ey)).
@@ -44,6 +49,15 @@ struct BitmaskCapture {
   std::vector<std::uint32_t> gids;             // camera triangle id per pixel
   BitmaskStats stats;
 };
+
+// Per mesh (index = the triangle's 4th component): +1 if the mesh is closed and wound outward
+// (counter-clockwise seen from outside), -1 if closed and wound inward, 0 if open. Closed: with
+// vertices welded by exact position, every directed edge appears once and its reverse once (each
+// edge shared by exactly two consistently wound triangles), no triangle degenerate, and a
+// non-zero signed volume, whose sign gives the winding. Such meshes cast from their
+// light-back-facing triangles only (seed 001 §3.3).
+std::vector<int> meshOrientation(const std::vector<std::array<float, 3>>& positions,
+                                 const std::vector<std::array<int, 4>>& triangles, int meshes);
 
 // Installs a capture filled by every later bitmask frame (nullptr: none). Not thread-safe; for
 // tests and benchmarks.

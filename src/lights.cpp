@@ -20,8 +20,37 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr float kDeg = float(kPi / 180.0);
 }  // namespace
 
+const char* toString(LightShape s) { return s == LightShape::Polygon ? "polygon" : "cap"; }
+
+namespace {
+using D3 = std::array<double, 3>;
+D3 d3(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
+double dot3(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+D3 cross3(const D3& a, const D3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+D3 unit3(const D3& a) {
+  const double l = std::sqrt(dot3(a, a));
+  return {a[0] / l, a[1] / l, a[2] / l};
+}
+// Solid angle of the spherical triangle (a, b, c), unit vertices counter-clockwise about its
+// inside: Van Oosterom & Strackee (1983), tan(Omega / 2) = a.(b x c) / (1 + a.b + b.c + c.a).
+double triangleSolidAngle(const D3& a, const D3& b, const D3& c) {
+  return 2.0 * std::atan2(dot3(a, cross3(b, c)), 1.0 + dot3(a, b) + dot3(b, c) + dot3(c, a));
+}
+}  // namespace
+
 float AreaLight::halfAngle() const { return std::acos(std::clamp(cosAlpha, -1.0f, 1.0f)); }
-float AreaLight::solidAngle() const { return float(2.0 * kPi * (1.0 - double(cosAlpha))); }
+float AreaLight::solidAngle() const {
+  if (shape == LightShape::Polygon) {
+    // fan from vertex 0: the triangles of a convex polygon, each counter-clockwise
+    double omega = 0;
+    for (std::size_t i = 1; i + 1 < vertices.size(); ++i)
+      omega += triangleSolidAngle(d3(vertices[0]), d3(vertices[i]), d3(vertices[i + 1]));
+    return float(omega);
+  }
+  return float(2.0 * kPi * (1.0 - double(cosAlpha)));
+}
 
 void AreaLight::setPower(const std::array<float, 3>& m) {
   power = m;
@@ -30,9 +59,184 @@ void AreaLight::setPower(const std::array<float, 3>& m) {
 }
 
 std::array<float, 3> AreaLight::irradiance(const std::array<float, 3>& n) const {
-  float cb = n[0] * direction[0] + n[1] * direction[1] + n[2] * direction[2];
-  float e = pb_cap_irradiance(cosAlpha, cb);
+  float e;
+  if (shape == LightShape::Polygon) {
+    float v[3 * PB_MAX_POLY_VERTS];
+    const int nv = int(std::min<std::size_t>(vertices.size(), PB_MAX_POLY_VERTS));
+    for (int i = 0; i < nv; ++i)
+      for (int c = 0; c < 3; ++c) v[3 * i + c] = vertices[i][c];
+    e = pb_polygon_irradiance(v, nv, n[0], n[1], n[2]);
+  } else {
+    float cb = n[0] * direction[0] + n[1] * direction[1] + n[2] * direction[2];
+    e = pb_cap_irradiance(cosAlpha, cb);
+  }
   return {e * radiance[0], e * radiance[1], e * radiance[2]};
+}
+
+AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
+                           const std::array<float, 3>& radiance) {
+  const int n = int(vertices.size());
+  if (n < 3 || n > PB_MAX_POLY_VERTS)
+    badInput("a polygon light needs 3 to " + std::to_string(PB_MAX_POLY_VERTS) +
+             " vertices, got " + std::to_string(n));
+  for (int c = 0; c < 3; ++c)
+    if (!std::isfinite(radiance[c]) || radiance[c] < 0)
+      badInput("polygon light radiance must be finite and >= 0");
+  std::vector<D3> v(n);
+  D3 sum{0, 0, 0};
+  for (int i = 0; i < n; ++i) {
+    D3 a = d3(vertices[i]);
+    const double len = std::sqrt(dot3(a, a));
+    if (!std::isfinite(len) || !(len > 0))
+      badInput("polygon light vertex " + std::to_string(i) + " is not a finite non-zero direction");
+    v[i] = {a[0] / len, a[1] / len, a[2] / len};
+    for (int c = 0; c < 3; ++c) sum[c] += v[i][c];
+  }
+  const double slen = std::sqrt(dot3(sum, sum));
+  if (!(slen > 1e-6)) badInput("polygon light is degenerate or wider than a hemisphere");
+  const D3 d = {sum[0] / slen, sum[1] / slen, sum[2] / slen};
+  // Winding: the sign of the edges' triple products with the centroid; reversed to make it
+  // counter-clockwise about d ((v_i x v_i+1) . d > 0).
+  double turn = 0;
+  for (int i = 0; i < n; ++i) turn += dot3(cross3(v[i], v[(i + 1) % n]), d);
+  if (turn < 0) std::reverse(v.begin(), v.end());
+  // Convex and simple: every vertex strictly inside every other edge's great-circle half-space
+  // (a collinear or repeated vertex fails, so does a reflex one), and the vertices go round d
+  // exactly once (a pentagram passes the first test and fails this one).
+  const double eps = 1e-7;
+  for (int i = 0; i < n; ++i) {
+    D3 g = cross3(v[i], v[(i + 1) % n]);
+    const double gl = std::sqrt(dot3(g, g));
+    if (!(gl > 1e-7))
+      badInput("polygon light has coincident vertices " + std::to_string(i) + " and " +
+               std::to_string((i + 1) % n));
+    for (int j = 0; j < n; ++j)
+      if (j != i && j != (i + 1) % n && !(dot3(g, v[j]) / gl > eps))
+        badInput("polygon light is not convex (vertex " + std::to_string(j) +
+                 " is not inside edge " + std::to_string(i) + ")");
+  }
+  D3 ref = std::fabs(d[1]) < 0.99 ? D3{0, 1, 0} : D3{1, 0, 0};
+  const D3 ex = unit3(cross3(ref, d)), ey = cross3(d, ex);
+  double wind = 0;
+  for (int i = 0; i < n; ++i) {
+    const D3 &a = v[i], &b = v[(i + 1) % n];
+    double pa = std::atan2(dot3(a, ey), dot3(a, ex)), pb = std::atan2(dot3(b, ey), dot3(b, ex));
+    double dp = pb - pa;
+    while (dp <= -kPi) dp += 2 * kPi;
+    while (dp > kPi) dp -= 2 * kPi;
+    wind += dp;
+  }
+  if (std::fabs(wind - 2 * kPi) > 1e-3)
+    badInput("polygon light is not a simple convex polygon (its vertices wind " +
+             std::to_string(wind / (2 * kPi)) + " times around its centre)");
+  double cosA = 1;
+  for (auto& a : v) cosA = std::min(cosA, dot3(a, d));
+  // The bounding cap must stay below 90 degrees: the filtered techniques size their filters by
+  // its tangent.
+  if (!(cosA > 1e-3)) badInput("polygon light is wider than a hemisphere (bounding half-angle >= 90 degrees)");
+  AreaLight l;
+  l.shape = LightShape::Polygon;
+  for (auto& a : v) l.vertices.push_back({float(a[0]), float(a[1]), float(a[2])});
+  l.direction = {float(d[0]), float(d[1]), float(d[2])};
+  // rounded down a hair so that float vertices stay inside the float cap
+  l.cosAlpha = float(cosA * (1 - 1e-6));
+  l.radiance = radiance;
+  const float omega = l.solidAngle();
+  for (int c = 0; c < 3; ++c) l.power[c] = radiance[c] * omega;
+  return l;
+}
+
+// Cap: spherical Fibonacci set (moved here from the brute-force pass). cos(theta_k) =
+// 1 - (1 - cos alpha)(k + 1/2)/K splits the cap into K rings of equal solid angle
+// (d omega = d cos(theta) d phi), and the golden angle turns each sample away from its
+// neighbours in phi: a deterministic low-discrepancy set, uniform in solid angle. The frame about
+// the axis is the one renderer.cpp's lightFrame builds (ex = normalize(ref x w)), so brute force
+// samples what it always did.
+// Polygon: the fan triangles from vertex 0, each mapped from the unit square by Arvo's
+// area-preserving map (Arvo 1995, "Stratified sampling of spherical triangles", SIGGRAPH, Fig. 2):
+// u1 picks the sub-triangle of area u1 * Omega (and, over the fan's cumulative areas, the fan
+// triangle), u2 the point along the arc from B. The unit-square points are a Fibonacci lattice
+// ((k + 1/2) / K, frac(k / golden ratio)), so the directions are stratified and uniform in solid
+// angle. `rotation` turns the cap's set about its axis; a polygon is not symmetric about its
+// direction, so there it shifts the lattice's second coordinate by rotation / (2 pi) (mod 1), which
+// moves every sample inside the light as a turn moves a cap's.
+std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, int n,
+                                                        float rotation) {
+  std::vector<std::array<float, 3>> out;
+  if (n < 1) return out;
+  out.reserve(n);
+  if (light.shape != LightShape::Polygon) {
+    const float kGoldenAngle = 2.39996322972865332f;  // pi (3 - sqrt 5)
+    using V = std::array<float, 3>;
+    auto dotf = [](V a, V b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    auto normf = [&](V a) {
+      float l = std::sqrt(dotf(a, a));
+      return V{a[0] / l, a[1] / l, a[2] / l};
+    };
+    auto crossf = [](V a, V b) {
+      return V{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    };
+    V w = normf(light.direction);
+    V ref = std::fabs(w[1]) < 0.99f ? V{0, 1, 0} : V{1, 0, 0};
+    V ex = normf(crossf(ref, w)), ey = crossf(w, ex);
+    float cosA = std::clamp(light.cosAlpha, -1.0f, 1.0f);
+    for (int k = 0; k < n; ++k) {
+      float ct = 1.0f - (1.0f - cosA) * (k + 0.5f) / n;
+      float st = std::sqrt(std::max(0.0f, 1.0f - ct * ct));
+      float ph = kGoldenAngle * k + rotation;
+      V d;
+      for (int i = 0; i < 3; ++i)
+        d[i] = ct * w[i] + st * (std::cos(ph) * ex[i] + std::sin(ph) * ey[i]);
+      out.push_back(normf(d));
+    }
+    return out;
+  }
+  const int nv = int(light.vertices.size());
+  if (nv < 3) return out;
+  std::vector<D3> v(nv);
+  for (int i = 0; i < nv; ++i) v[i] = unit3(d3(light.vertices[i]));
+  std::vector<double> area(nv - 2), cum(nv - 1, 0.0);
+  for (int t = 0; t < nv - 2; ++t) {
+    area[t] = std::max(0.0, triangleSolidAngle(v[0], v[t + 1], v[t + 2]));
+    cum[t + 1] = cum[t] + area[t];
+  }
+  const double total = cum[nv - 2];
+  const double invGolden = 0.61803398874989484820;
+  const double shift = double(rotation) / (2 * kPi);
+  for (int k = 0; k < n; ++k) {
+    const double u = (k + 0.5) / n;
+    double u2 = std::fmod(k * invGolden + shift, 1.0);
+    if (u2 < 0) u2 += 1.0;
+    // the fan triangle holding area u * total, and u1 within it
+    const double target = u * total;
+    int t = 0;
+    while (t + 1 < nv - 2 && cum[t + 1] <= target) ++t;
+    const double u1 = area[t] > 0 ? std::clamp((target - cum[t]) / area[t], 0.0, 1.0) : 0.5;
+    const D3 &A = v[0], &B = v[t + 1], &C = v[t + 2];
+    // Arvo 1995: alpha = the triangle's angle at A, c = arc AB.
+    const D3 nab = unit3(cross3(A, B)), nac = unit3(cross3(A, C));
+    const double alpha = std::acos(std::clamp(dot3(nab, nac), -1.0, 1.0));
+    const double cosc = dot3(A, B);
+    const double ah = u1 * area[t];  // area of the sub-triangle (A, B, C^)
+    const double s = std::sin(ah - alpha), tt = std::cos(ah - alpha);
+    const double uu = tt - std::cos(alpha), vv = s + std::sin(alpha) * cosc;
+    double q = ((vv * tt - uu * s) * std::cos(alpha) - vv) / ((vv * s + uu * tt) * std::sin(alpha));
+    q = std::clamp(q, -1.0, 1.0);
+    D3 perp = {C[0] - dot3(C, A) * A[0], C[1] - dot3(C, A) * A[1], C[2] - dot3(C, A) * A[2]};
+    perp = unit3(perp);
+    const double sq = std::sqrt(std::max(0.0, 1 - q * q));
+    const D3 Ch = {q * A[0] + sq * perp[0], q * A[1] + sq * perp[1], q * A[2] + sq * perp[2]};
+    const double z = 1 - u2 * (1 - dot3(Ch, B));
+    D3 p2 = {Ch[0] - dot3(Ch, B) * B[0], Ch[1] - dot3(Ch, B) * B[1], Ch[2] - dot3(Ch, B) * B[2]};
+    const double pl = std::sqrt(dot3(p2, p2));
+    const double sz = std::sqrt(std::max(0.0, 1 - z * z));
+    D3 P = B;
+    if (pl > 0)
+      for (int c = 0; c < 3; ++c) P[c] = z * B[c] + sz * p2[c] / pl;
+    P = unit3(P);
+    out.push_back({float(P[0]), float(P[1]), float(P[2])});
+  }
+  return out;
 }
 
 // lightsPower, ambientPower and ambientIrradiance live in src/ambient.cpp.
@@ -58,7 +262,15 @@ std::string LightSet::toJson() const {
     << ",\n  \"count\": " << lights.size() << ",\n  \"lights\": [";
   for (std::size_t i = 0; i < lights.size(); ++i) {
     auto& l = lights[i];
-    o << (i ? ",\n" : "\n") << "    {\"direction\": [" << l.direction[0] << ", " << l.direction[1]
+    o << (i ? ",\n" : "\n") << "    {\"shape\": \"" << toString(l.shape) << "\", ";
+    if (l.shape == LightShape::Polygon) {
+      o << "\"vertices\": [";
+      for (std::size_t k = 0; k < l.vertices.size(); ++k)
+        o << (k ? ", " : "") << "[" << l.vertices[k][0] << ", " << l.vertices[k][1] << ", "
+          << l.vertices[k][2] << "]";
+      o << "], ";
+    }
+    o << "\"direction\": [" << l.direction[0] << ", " << l.direction[1]
       << ", " << l.direction[2] << "], \"half_angle_deg\": " << l.halfAngle() / kDeg
       << ", \"cos_alpha\": " << l.cosAlpha << ", \"solid_angle_sr\": " << l.solidAngle()
       << ", \"radiance\": [" << l.radiance[0] << ", " << l.radiance[1] << ", " << l.radiance[2]
@@ -324,6 +536,24 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
     l.setPower({float(rgb[0] / scale), float(rgb[1] / scale), float(rgb[2] / scale)});
     for (auto& r : regs)
       if (r.group == i) l.regions.push_back({r.face, r.x0, r.y0, r.x1, r.y1});
+    if (opt.shape == LightShape::Polygon && l.regions.size() == 1) {
+      // The region's own shape (MedianCutOptions::shape): its four corners on the cube face. The
+      // power stays the region's integral (exact, from the SATs); the radiance spreads it over the
+      // polygon's solid angle, which is the exact sum of the region's texel solid angles.
+      const auto& g = l.regions[0];
+      std::vector<std::array<float, 3>> corners;
+      const int cx[4] = {g[1], g[3], g[3], g[1]}, cy[4] = {g[2], g[2], g[4], g[4]};
+      for (int k = 0; k < 4; ++k) {
+        float x, y, z;
+        pb_cube_dir(g[0], 2.0f * cx[k] / m - 1.0f, 2.0f * cy[k] / m - 1.0f, &x, &y, &z);
+        const float len = std::sqrt(x * x + y * y + z * z);
+        corners.push_back({x / len, y / len, z / len});
+      }
+      AreaLight p = makePolygonLight(corners, {0, 0, 0});
+      p.regions = l.regions;
+      p.setPower(l.power);
+      l = p;
+    }
     set.lights.push_back(l);
   }
   return set;

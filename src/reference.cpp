@@ -629,6 +629,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     float radiance[3];
     double solidAngle;
     const AreaLight* src;
+    std::vector<V3> edgeNormals;  // polygon lights: v_i x v_i+1, inside where all dot >= 0
   };
   std::vector<CapLight> caps;
   caps.reserve(lights.lights.size());
@@ -645,6 +646,14 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     c.cosAlpha = std::clamp(l.cosAlpha, -1.0f, 1.0f);
     for (int k = 0; k < 3; ++k) c.radiance[k] = std::max(0.0f, l.radiance[k]);
     c.solidAngle = 2.0 * kPi * (1.0 - double(c.cosAlpha));
+    if (l.shape == LightShape::Polygon) {
+      // Uniform in the polygon by rejection from its bounding cap (lights.hpp: the cap contains
+      // it); the estimator's pdf is then 1 / the polygon's solid angle.
+      const std::size_t nv = l.vertices.size();
+      for (std::size_t v = 0; v < nv; ++v)
+        c.edgeNormals.push_back(cross(toV3(l.vertices[v]), toV3(l.vertices[(v + 1) % nv])));
+      c.solidAngle = double(l.solidAngle());
+    }
     c.src = &l;
     caps.push_back(c);
   }
@@ -680,7 +689,13 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         while (i > 0 && !(cdf[i + 1] > cdf[i])) --i;
         const CapLight& c = caps[i];
         const double prob = (cdf[i + 1] - cdf[i]) / total;
-        const V3 d = sampleCap(c.axis, c.cosAlpha, rng);
+        V3 d = sampleCap(c.axis, c.cosAlpha, rng);
+        for (int tries = 0; !c.edgeNormals.empty() && tries < 1000; ++tries) {
+          bool inside = true;
+          for (const V3& en : c.edgeNormals) inside = inside && dot(en, d) >= 0.0f;
+          if (inside) break;
+          d = sampleCap(c.axis, c.cosAlpha, rng);
+        }
         const float cosN = dot(h.n, d);
         if (!(cosN > 0.0f)) continue;
         if (!unoccluded(es, h.origin, d)) continue;

@@ -26,6 +26,7 @@ const std::pair<ShadowTechnique, const char*> kTechniques[] = {
     {ShadowTechnique::MSSM4, "mssm4"}, {ShadowTechnique::MSSM6, "mssm6"},
     {ShadowTechnique::Brute, "brute"},  {ShadowTechnique::Bitmask, "bitmask"},
     {ShadowTechnique::BitmaskHard, "bitmask-hard"},
+    {ShadowTechnique::AreaApprox, "area-approx"},
 };
 }  // namespace
 
@@ -311,13 +312,17 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       ctx.launch(prefix + "/front-back", k, cl::NDRange(texels));
     };
     const std::size_t texels = std::size_t(S) * S * nl;
-    cl::Buffer& ldepth = impl_->pool.buffer("shadow maps", texels * 4);
-    rasterizeDepth(lviews, ldepth, "shadow-maps");
+    // Techniques with their own light-space structures (the bitmask's lists) never read them.
+    const bool maps = pass->usesShadowMaps();
+    cl::Buffer& ldepth = impl_->pool.buffer("shadow maps", maps ? texels * 4 : 4);
+    if (maps) rasterizeDepth(lviews, ldepth, "shadow-maps");
     detail::ShadowFrame sf{ctx,  impl_->pool, opt,   W,    H,     npx,  S,    lights,         lightB,
                            gpos, gnrm,        ggeo,  ldepth, impl_->vis, rasterizeDepth,
                            cids, posB,        triB,  ntris};
+    sf.areaLights = &lightSet.lights;
     pass->computeVisibility(sf);
-    frame.shadowMapBytes = texels * pass->bytesPerTexel(opt);
+    frame.shadowMapBytes = pass->frameBytes(opt, texels);
+    frame.stats = pass->frameStats();
   } else if (nl > 0) {
     cl_float one = 1.0f;
     ctx.fill(impl_->vis, &one, 4, std::size_t(npx) * nl * 4, "visibility buffer");
@@ -348,6 +353,19 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
       for (int c = 0; c < 3; ++c) amb[i].s[c] = lightSet.ambientSH[i][c];
     k.setArg(14, impl_->pool.upload("ambient SH", amb));
+    // Polygon lights' vertices, PB_MAX_POLY_VERTS float4 per light, w of the first = the vertex
+    // count (0: a cap); the shading uses the polygon's exact irradiance (shared.h).
+    std::vector<cl_float4> poly(std::max<std::size_t>(1, std::size_t(nl) * PB_MAX_POLY_VERTS),
+                                cl_float4{{0, 0, 0, 0}});
+    for (int l = 0; l < nl; ++l) {
+      const AreaLight& a = lightSet.lights[l];
+      if (a.shape != LightShape::Polygon) continue;
+      const int nv = int(std::min<std::size_t>(a.vertices.size(), PB_MAX_POLY_VERTS));
+      for (int i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c) poly[std::size_t(l) * PB_MAX_POLY_VERTS + i].s[c] = a.vertices[i][c];
+      poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
+    }
+    k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
@@ -390,7 +408,15 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
     << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
     << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps
-    << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"timings_ms\": {";
+    << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"bitmask\": {\"light_samples\": "
+    << opt.bitmask.lightSamples << ", \"list_size\": " << opt.bitmask.listSize << "},\n  \"stats\": {";
+  for (std::size_t i = 0; i < f.stats.size(); ++i)
+  {
+    const double v = f.stats[i].second;  // counts as integers, not in 6-digit scientific form
+    o << (i ? ", " : "") << "\"" << f.stats[i].first << "\": ";
+    if (v == std::floor(v) && std::fabs(v) < 9e15) o << static_cast<long long>(v); else o << v;
+  }
+  o << "},\n  \"timings_ms\": {";
   for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
     o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
   o << "}\n}\n";

@@ -60,6 +60,9 @@ struct ShadowFrame {
   cl::Buffer gids;                        // camera triangle id per pixel (PB_ID_EMPTY: none)
   cl::Buffer positions, triangles;        // the scene as rasterized: float4 vertices, int4
   int triangleCount = 0;                  // (v0, v1, v2, mesh) triangles
+  // The lights themselves (shape, polygon vertices), parallel to `lights`: for techniques that
+  // sample a light (lightSampleDirections in lights.hpp). Set by the renderer.
+  const std::vector<AreaLight>* areaLights = nullptr;
 };
 
 class ShadowPass {
@@ -68,6 +71,15 @@ class ShadowPass {
   virtual void computeVisibility(ShadowFrame& f) = 0;
   // Device bytes per shadow-map texel per light the technique keeps (for the report).
   virtual std::size_t bytesPerTexel(const RenderOptions& opt) const = 0;
+  // Whether the technique reads ShadowFrame::depth (the renderer skips rasterizing it if not).
+  virtual bool usesShadowMaps() const { return true; }
+  // Device bytes the technique held for the last frame (Frame::shadowMapBytes); mapTexels: S*S
+  // per light times the lights.
+  virtual std::size_t frameBytes(const RenderOptions& opt, std::size_t mapTexels) const {
+    return mapTexels * bytesPerTexel(opt);
+  }
+  // Technique statistics of the last frame, for the report (Frame::stats).
+  virtual std::vector<std::pair<std::string, double>> frameStats() const { return {}; }
 };
 
 // One implementation per technique (src/shadows_*.cpp), dispatched in src/shadows.cpp; None has

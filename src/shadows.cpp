@@ -5,6 +5,8 @@
 
 namespace penumbra::detail {
 
+std::unique_ptr<ShadowPass> makeAreaApproxPass();  // src/shadows_area.cpp
+
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
   switch (t) {
     case ShadowTechnique::MSSM4: return makeMSSM4Pass();
@@ -15,6 +17,7 @@ std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
     case ShadowTechnique::Brute: return makeBrutePass();
     case ShadowTechnique::Bitmask: return makeBitmaskPass(false);
     case ShadowTechnique::BitmaskHard: return makeBitmaskPass(true);
+    case ShadowTechnique::AreaApprox: return makeAreaApproxPass();
     // further techniques: one case each
     default: return nullptr;
   }
@@ -28,6 +31,7 @@ bool techniqueAvailable(ShadowTechnique t) {
     case ShadowTechnique::Brute:
     case ShadowTechnique::Bitmask:
     case ShadowTechnique::BitmaskHard:
+    case ShadowTechnique::AreaApprox:
     case ShadowTechnique::CSSM:
     case ShadowTechnique::MSSM6:
     case ShadowTechnique::MSSM4: return true;

@@ -14,20 +14,31 @@
 // distance, infinitely far (exact by gnomonic projection; samples weighted by their solid angle).
 //
 // Self-shadowing without bias. Seed 001 §3.3 keeps only light-front-facing view samples and lets
-// only light-back-facing triangles of closed casters block, so no triangle is both. The built-in
-// scene has open meshes (a one-sided ground quad, a lattice panel, a floating slab): there the
-// back-face rule drops every caster seen from its front (a panel lit from its front side would
-// cast nothing). Instead every triangle casts from both sides, and a view sample is never tested
-// against the triangle it lies on, known exactly from the G-buffer's triangle id; the occlusion
-// test itself needs no offset (a sample exactly on another triangle's plane is not blocked by it:
-// the cone it spans is flat). What remains are neighbours of the sample's own triangle in a mesh:
-// across a convex edge they bend away from the light side, across a concave edge they block for
-// real, so they agree with the ray tracer except at grazing angles.
+// only light-back-facing triangles of closed casters block, so no triangle is both. On open
+// meshes (the built-in scene's ground grid) the back-face rule would drop every caster seen from
+// its front (a panel lit from its front side would cast nothing), so there every triangle casts
+// from both sides, and a view sample is never tested against the triangle it lies on, known
+// exactly from the G-buffer's triangle id; the occlusion test itself needs no offset (a sample
+// exactly on another triangle's plane is not blocked by it: the cone it spans is flat). What
+// remains are neighbours of the sample's own triangle in a mesh: across a convex edge they bend
+// away from the light side, across a concave edge they block for real, so they agree with the
+// ray tracer except at grazing angles.
+// Closed meshes (meshOrientation(), decided once per frame from the triangles) keep seed 001's
+// rule: triangles facing every light sample cast nothing (a ray from outside enters a closed mesh
+// through a triangle facing away from it), which drops about half of their triangles. Our view
+// samples are chosen by the shading normal, so a sample may lie on a triangle facing away from
+// part of the light; its rays below that triangle's plane are inside the mesh at once and are
+// blocked by kernels/bitmask.cl's bitmask_self, as the skipped far side would have blocked them.
 #include <algorithm>
 #include <array>
 #include <climits>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
 #include <string>
+#include <unordered_map>
 
 #include "bitmask.hpp"
 #include "penumbra/error.hpp"
@@ -57,13 +68,13 @@ std::size_t roundUp(std::size_t v, std::size_t m) { return (v + m - 1) / m * m; 
 // (u, v) at radius rho is behind the plane iff f = u cos(phi) + v sin(phi) + delta >= 0; over the
 // cell, f varies from its value at the cell's centre angle by at most rho dphi / 2 (|df/dphi| <=
 // rho). A small margin on both parameters covers the kernel's float rounding of phi and delta.
-void buildTables(const std::vector<std::array<float, 2>>& disk, std::vector<cl_uint>& in,
-                 std::vector<cl_uint>& out) {
+// Stored interleaved per cell: lut[(cell * 2 + 0) * words + w] = in, [(cell * 2 + 1) * words + w]
+// = out (one cache line per look-up at 128 samples).
+void buildTables(const std::vector<std::array<float, 2>>& disk, std::vector<cl_uint>& lut) {
   const int n = int(disk.size()), words = n / 32;
   const double kPi = 3.14159265358979323846;
   const double dphi = 2 * kPi / kLutPhi, ddelta = 2.0 / kLutDelta, margin = 1e-4;
-  in.assign(std::size_t(kLutPhi) * kLutDelta * words, 0u);
-  out.assign(in.size(), 0u);
+  lut.assign(std::size_t(kLutPhi) * kLutDelta * words * 2, 0u);
   for (int ip = 0; ip < kLutPhi; ++ip) {
     double phc = -kPi + (ip + 0.5) * dphi, cp = std::cos(phc), sp = std::sin(phc);
     for (int k = 0; k < n; ++k) {
@@ -71,10 +82,10 @@ void buildTables(const std::vector<std::array<float, 2>>& disk, std::vector<cl_u
       double f = u * cp + v * sp, slack = rho * (0.5 * dphi + margin);
       for (int id = 0; id < kLutDelta; ++id) {
         double d0 = -1 + id * ddelta - margin, d1 = -1 + (id + 1) * ddelta + margin;
-        std::size_t at = (std::size_t(ip) * kLutDelta + id) * words + k / 32;
+        std::size_t at = (std::size_t(ip) * kLutDelta + id) * words * 2 + k / 32;
         cl_uint bit = 1u << (k % 32);
-        if (f - slack + d0 > 1e-6) in[at] |= bit;
-        if (f + slack + d1 >= -1e-6) out[at] |= bit;
+        if (f - slack + d0 > 1e-6) lut[at] |= bit;
+        if (f + slack + d1 >= -1e-6) lut[at + words] |= bit;
       }
     }
   }
@@ -93,6 +104,7 @@ class BitmaskPass : public ShadowPass {
     // Soft influence regions span many texels: a coarser grid walks fewer empty ones (default
     // frame at 160x90, 128 samples: 256^2 31 s, 64^2 22 s, 32^2 19 s of triangle stage on the
     // loaded 2-core machine; the image is bit-identical, as it must be).
+    if (bo.jitter < 0) badInput("bitmask jitter frame must be >= 0, got " + std::to_string(bo.jitter));
     const int S = bo.listSize > 0 ? bo.listSize : hard_ ? f.mapSize : std::min(f.mapSize, 64);
     if (S < 1 || S > 4096) badInput("bitmask list size must be in [1, 4096], got " + std::to_string(S));
     if (f.triangleCount < 1 || !f.gids() || !f.positions() || !f.triangles())
@@ -112,7 +124,7 @@ class BitmaskPass : public ShadowPass {
     cl::Buffer& counts = f.pool.buffer("bitmask list lengths", texels * sizeof(cl_int));
     cl::Buffer& ends = f.pool.buffer("bitmask list ends", texels * sizeof(cl_long));
     cl::Buffer& slot = f.pool.buffer("bitmask sample slots", pairs * sizeof(cl_int));
-    cl::Buffer& lists = f.pool.buffer("bitmask lists", pairs * sizeof(cl_int));
+    cl::Buffer& lists = f.pool.buffer("bitmask lists", pairs * sizeof(cl_float4));
     cl::Buffer& zfar = f.pool.buffer("bitmask list far depths", texels * sizeof(cl_int));
     {
       cl::Kernel k;
@@ -179,20 +191,27 @@ class BitmaskPass : public ShadowPass {
       ctx.launch("bitmask/lists/scatter", k, cl::NDRange(npx, nl));
     }
 
-    // --- light samples and their tables
-    if (disk_.size() != std::size_t(N)) {
-      disk_ = hard_ ? std::vector<std::array<float, 2>>{{0.0f, 0.0f}} : bitmaskDiskSamples(N);
+    // --- light samples and their tables (tables of the unrotated set; a jittered frame rotates
+    // the samples, and the kernels look the tables up at the rotated angle)
+    const double rot = hard_ ? 0.0 : bitmaskJitterAngle(bo.jitter);
+    if (tableSamples_ != N) {
+      std::vector<cl_uint> lut{0u};
+      if (!hard_) buildTables(bitmaskDiskSamples(N), lut);
+      lut_ = ctx.upload(lut, "bitmask tables");
+      tableSamples_ = N;
+      diskRot_ = -1;
+    }
+    if (diskRot_ != rot || disk_.size() != std::size_t(N)) {
+      disk_ = hard_ ? std::vector<std::array<float, 2>>{{0.0f, 0.0f}} : bitmaskDiskSamples(N, rot);
       std::vector<cl_float2> d(disk_.size());
       for (std::size_t i = 0; i < d.size(); ++i) d[i] = {{disk_[i][0], disk_[i][1]}};
-      std::vector<cl_uint> in{0u}, out{0u};
-      if (!hard_) buildTables(disk_, in, out);
       diskBuf_ = ctx.upload(d, "bitmask light samples");
-      lutIn_ = ctx.upload(in, "bitmask table (certain)");
-      lutOut_ = ctx.upload(out, "bitmask table (possible)");
+      diskRot_ = rot;
     }
 
     BitmaskCapture* cap = gCapture;
-    if (cap || gStats) collect(f, counts, grids, slot, nl, S, W, cap);
+    collect(f, counts, grids, slot, nl, S, W, cap);
+    cl::Buffer& orient = f.pool.upload("bitmask mesh orientation", orientation(f));
 
     // --- triangles and resolve, a batch of lights at a time
     const std::size_t perLight = hard_ ? (std::size_t(npx) + 31) / 32 * 4 : std::size_t(npx) * W * 4;
@@ -200,15 +219,32 @@ class BitmaskPass : public ShadowPass {
     const std::size_t maskWords = hard_ ? (std::size_t(batch) * npx + 31) / 32 : std::size_t(batch) * npx * W;
     cl::Buffer& masks = f.pool.buffer("bitmask masks", maskWords * 4);
     heldBytesPerTexel_ = double(maskWords) * 4 / (double(S) * S * std::max(nl, 1)) + 12.0;
+    // What the technique holds on the device: the list grid (length, int64 end, far depth per
+    // texel), the lists (float4 per view sample) and sample slots, and the masks of one batch.
+    heldBytes_ = texels * (4 + 8 + 4) + pairs * (16 + 4) + maskWords * 4;
+    listSize_ = S;
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
                              (hard_ ? " -DHARD" : "");
     cl::Kernel tk = ctx.kernel("bitmask.cl", "bitmask_triangles", opts);
     cl::Kernel rk = ctx.kernel("bitmask.cl", "bitmask_resolve", opts);
+    cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
     for (int l0 = 0; l0 < nl; l0 += batch) {
       const int count = std::min(batch, nl - l0);
       const cl_uint z = 0;
       ctx.fill(masks, &z, 4, maskWords * 4, "bitmask masks");
+      sk.setArg(0, f.positions);
+      sk.setArg(1, f.triangles);
+      sk.setArg(2, orient);
+      sk.setArg(3, f.gids);
+      sk.setArg(4, f.lightBuffer);
+      sk.setArg(5, grids);
+      sk.setArg(6, cl_int(l0));
+      sk.setArg(7, slot);
+      sk.setArg(8, diskBuf_);
+      sk.setArg(9, cl_int(npx));
+      sk.setArg(10, masks);
+      ctx.launch("bitmask/self", sk, cl::NDRange(npx, count));
       tk.setArg(0, f.positions);
       tk.setArg(1, f.triangles);
       tk.setArg(2, cl_int(f.triangleCount));
@@ -221,12 +257,13 @@ class BitmaskPass : public ShadowPass {
       tk.setArg(9, f.gpos);
       tk.setArg(10, f.gids);
       tk.setArg(11, cl_int(npx));
-      tk.setArg(12, lutIn_);
-      tk.setArg(13, lutOut_);
-      tk.setArg(14, diskBuf_);
-      tk.setArg(15, cl_int(kStripes));
-      tk.setArg(16, zfar);
-      tk.setArg(17, masks);
+      tk.setArg(12, lut_);
+      tk.setArg(13, diskBuf_);
+      tk.setArg(14, cl_int(kStripes));
+      tk.setArg(15, zfar);
+      tk.setArg(16, masks);
+      tk.setArg(17, orient);
+      tk.setArg(18, cl_float(rot));
       ctx.launch("bitmask/triangles", tk, cl::NDRange(f.triangleCount, kStripes, count));
       rk.setArg(0, f.gnrm);
       rk.setArg(1, f.lightBuffer);
@@ -259,8 +296,39 @@ class BitmaskPass : public ShadowPass {
   std::size_t bytesPerTexel(const RenderOptions&) const override {
     return std::size_t(std::ceil(heldBytesPerTexel_ > 0 ? heldBytesPerTexel_ : 12.0));
   }
+  // The technique never reads the standard shadow maps: its own lists replace them.
+  bool usesShadowMaps() const override { return false; }
+  std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return heldBytes_; }
+  std::vector<std::pair<std::string, double>> frameStats() const override {
+    const BitmaskStats& st = gLastStats;
+    return {{"list_size", double(listSize_)},
+            {"view_samples", double(st.viewSamples)},
+            {"list_texels", double(st.texels)},
+            {"occupied_texels", double(st.occupiedTexels)},
+            {"mean_list_length", st.meanList},
+            {"max_list_length", double(st.maxList)},
+            {"light_samples", double(disk_.size())}};
+  }
 
  private:
+  // Per-mesh orientation of the frame's triangles (meshOrientation), from a read-back of the
+  // scene as uploaded: a few hundred KiB for the built-in scene, against seconds of triangle work.
+  std::vector<cl_int> orientation(ShadowFrame& f) {
+    auto t4 = f.ctx.download<cl_int4>(f.triangles, std::size_t(f.triangleCount), "triangles");
+    std::vector<std::array<int, 4>> tris(t4.size());
+    int maxV = -1, meshes = 0;
+    for (std::size_t i = 0; i < t4.size(); ++i) {
+      tris[i] = {t4[i].s[0], t4[i].s[1], t4[i].s[2], t4[i].s[3]};
+      maxV = std::max({maxV, tris[i][0], tris[i][1], tris[i][2]});
+      meshes = std::max(meshes, tris[i][3] + 1);
+    }
+    auto p4 = f.ctx.download<cl_float4>(f.positions, std::size_t(maxV + 1), "vertex positions");
+    std::vector<std::array<float, 3>> pos(p4.size());
+    for (std::size_t i = 0; i < p4.size(); ++i) pos[i] = {p4[i].s[0], p4[i].s[1], p4[i].s[2]};
+    std::vector<int> o = meshOrientation(pos, tris, meshes);
+    return std::vector<cl_int>(o.begin(), o.end());
+  }
+
   // Statistics (and the capture's lists and G-buffer) from a read-back of the list lengths.
   void collect(ShadowFrame& f, cl::Buffer& counts, cl::Buffer& grids, cl::Buffer& slot, int nl,
                int S, int W, BitmaskCapture* cap) {
@@ -301,17 +369,21 @@ class BitmaskPass : public ShadowPass {
 
   bool hard_;
   std::vector<std::array<float, 2>> disk_;
-  cl::Buffer diskBuf_, lutIn_, lutOut_;
+  cl::Buffer diskBuf_, lut_;
   double heldBytesPerTexel_ = 0;
+  int tableSamples_ = 0;
+  double diskRot_ = -1;
+  std::size_t heldBytes_ = 0;
+  int listSize_ = 0;
 };
 
 }  // namespace
 
-std::vector<std::array<float, 2>> bitmaskDiskSamples(int n) {
+std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation) {
   const double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
   std::vector<std::array<float, 2>> d(std::max(n, 0));
   for (int k = 0; k < n; ++k) {
-    double r = std::sqrt((k + 0.5) / n), a = kGoldenAngle * k;
+    double r = std::sqrt((k + 0.5) / n), a = kGoldenAngle * k + rotation;
     d[k] = {float(r * std::cos(a)), float(r * std::sin(a))};
   }
   return d;
@@ -323,6 +395,68 @@ std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, f
   float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   for (float& x : d) x /= len;
   return d;
+}
+
+std::vector<int> meshOrientation(const std::vector<std::array<float, 3>>& positions,
+                                 const std::vector<std::array<int, 4>>& triangles, int meshes) {
+  // Weld vertices by exact position, so meshes with split vertices (a box's faces) count as
+  // closed where their surface is.
+  std::map<std::array<std::uint32_t, 3>, int> weld;
+  std::vector<int> id(positions.size());
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    std::array<std::uint32_t, 3> key;
+    for (int c = 0; c < 3; ++c) {
+      float v = positions[i][c] == 0.0f ? 0.0f : positions[i][c];  // -0 welds with +0
+      std::memcpy(&key[c], &v, 4);
+    }
+    id[i] = weld.emplace(key, int(weld.size())).first->second;
+  }
+  std::vector<int> out(std::max(meshes, 0), 1);
+  std::vector<double> volume(out.size(), 0.0);
+  std::vector<std::unordered_map<std::uint64_t, int>> edges(out.size());
+  auto edgeKey = [](int a, int b) { return (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b); };
+  for (const auto& t : triangles) {
+    if (t[3] < 0 || t[3] >= meshes) continue;
+    const int m = t[3];
+    int v[3];
+    bool bad = false;
+    for (int k = 0; k < 3; ++k) {
+      if (t[k] < 0 || std::size_t(t[k]) >= positions.size()) { bad = true; break; }
+      v[k] = id[t[k]];
+    }
+    if (bad || v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) {
+      out[m] = 0;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) ++edges[m][edgeKey(v[k], v[(k + 1) % 3])];
+    const auto &a = positions[t[0]], &b = positions[t[1]], &c = positions[t[2]];
+    // signed volume of the tetrahedron (origin, a, b, c), times 6
+    volume[m] += double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
+                 double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+                 double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]);
+  }
+  for (std::size_t m = 0; m < out.size(); ++m) {
+    if (out[m] == 0 || edges[m].empty()) {
+      out[m] = 0;
+      continue;
+    }
+    for (const auto& [key, n] : edges[m]) {
+      auto rev = edges[m].find((key << 32) | (key >> 32));
+      if (n != 1 || rev == edges[m].end() || rev->second != 1) {
+        out[m] = 0;
+        break;
+      }
+    }
+    if (out[m] != 0) out[m] = volume[m] > 0 ? 1 : volume[m] < 0 ? -1 : 0;
+  }
+  return out;
+}
+
+double bitmaskJitterAngle(int jitter) {
+  if (jitter <= 0) return 0.0;
+  // 2 pi frac(j / golden ratio): any run of consecutive frames spreads its rotations evenly
+  const double g = 0.61803398874989484820, t = std::fmod(jitter * g, 1.0);
+  return 2 * 3.14159265358979323846 * t;
 }
 
 void setBitmaskCapture(BitmaskCapture* capture) { gCapture = capture; }

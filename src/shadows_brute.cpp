@@ -11,6 +11,7 @@
 #include <string>
 
 #include "penumbra/error.hpp"
+#include "penumbra/lights.hpp"
 #include "shadow_pass.hpp"
 
 namespace penumbra::detail {
@@ -28,24 +29,6 @@ V3 normalize(V3 a) {
 V3 xyz(const float* v) { return {v[0], v[1], v[2]}; }
 
 constexpr int kMaxSamples = 4096;
-
-// Direction k of K over the cap of `area` (axis dir, half-angle alpha): a spherical Fibonacci
-// set, uniform in solid angle. cos(theta_k) = 1 - (1 - cos alpha)(k + 1/2)/K splits the cap into
-// K rings of equal solid angle (d omega = d cos(theta) d phi), and the golden angle turns each
-// sample away from its neighbours in phi: a deterministic low-discrepancy set, so the sample mean
-// converges to the cap's uniform-radiance average.
-V3 capSample(const pb_light& area, int k, int K) {
-  const float kGoldenAngle = 2.39996322972865332f;  // pi (3 - sqrt 5)
-  float cosA = std::clamp(area.dir[3], -1.0f, 1.0f);
-  float ct = 1.0f - (1.0f - cosA) * (k + 0.5f) / K;
-  float st = std::sqrt(std::max(0.0f, 1.0f - ct * ct));
-  float ph = kGoldenAngle * k;
-  V3 w = xyz(area.dir), ex = xyz(area.ex), ey = xyz(area.ey);
-  V3 d;
-  for (int i = 0; i < 3; ++i)
-    d[i] = ct * w[i] + st * (std::cos(ph) * ex[i] + std::sin(ph) * ey[i]);
-  return normalize(d);
-}
 
 // Radical inverse of i in base b (Halton): a low-discrepancy sequence in [0, 1).
 float radicalInverse(int i, int b) {
@@ -126,13 +109,25 @@ class BrutePass : public ShadowPass {
     std::vector<pb_view> views;
     samples.reserve(total);
     views.reserve(total);
-    for (int l = 0; l < nl; ++l)
+    for (int l = 0; l < nl; ++l) {
+      // K directions uniform in solid angle over the light (a cap's spherical Fibonacci set or
+      // a polygon's stratified samples, lights.hpp); without the AreaLights, the pb_light's cap.
+      std::vector<V3> dirs;
+      if (f.areaLights && std::size_t(l) < f.areaLights->size()) {
+        dirs = lightSampleDirections((*f.areaLights)[l], K);
+      } else {
+        AreaLight cap;
+        cap.direction = xyz(f.lights[l].dir);
+        cap.cosAlpha = f.lights[l].dir[3];
+        dirs = lightSampleDirections(cap, K);
+      }
       for (int k = 0; k < K; ++k) {
-        samples.push_back(sampleFrame(f.lights[l], capSample(f.lights[l], k, K), S,
+        samples.push_back(sampleFrame(f.lights[l], dirs[k], S,
                                       radicalInverse(k + 1, 2) - 0.5f,
                                       radicalInverse(k + 1, 3) - 0.5f));
         views.push_back(orthoView(samples.back(), S));
       }
+    }
     cl::Buffer& sampleBuf = f.pool.upload("brute sample lights", samples);
     const std::size_t texels = std::size_t(batch) * S * S;
     cl::Buffer& maps = f.pool.buffer("brute sample maps", texels * sizeof(cl_uint));

@@ -689,3 +689,56 @@ TEST_F(CliCompare, MissingFirstImage) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// --light-set: lights a user defines (caps, rectangles, polygons) instead of extracted ones.
+
+class CliLightSet : public CliFixture {
+ protected:
+  std::string example() const {
+    return std::string(PENUMBRA_TEST_DATA) + "/../../examples/lights/window_and_sun.json";
+  }
+};
+
+TEST_F(CliLightSet, RenderAndReferenceUseTheFile) {
+  for (const char* t : {"mssm4", "area-approx"}) {
+    Result r = run({"render", "--light-set", example(), "--shadows", t, "--size", "32x18",
+                    "--shadow-map-size", "64", "--out", path(std::string(t) + ".exr"), "--report",
+                    path("r.json")});
+    ASSERT_EQ(r.code, 0) << describe(r);
+    EXPECT_TRUE(fs::exists(path(std::string(t) + ".exr")));
+    std::ifstream in(path("r.json"));
+    std::string json((std::istreambuf_iterator<char>(in)), {});
+    // The report counts the file's three lights.
+    EXPECT_NE(json.find("\"lights\": 3,"), std::string::npos) << json.substr(0, 400);
+  }
+  Result r = run({"reference", "--light-set", example(), "--size", "16x9", "--spp", "16",
+                  "--out", path("ref.exr")});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  EXPECT_NE(r.out.find("light-set"), std::string::npos) << r.out;
+}
+
+TEST_F(CliLightSet, RefusedBesideExtractionOptions) {
+  expectFailure({"render", "--light-set", example(), "--lights", "8", "--out", path("x.png")},
+                {"--lights", "--light-set"});
+}
+
+TEST_F(CliLightSet, BadFilesNameTheFile) {
+  {
+    std::ofstream(path("bad.json")) << "{\"lights\": [{\"shape\": \"cap\", \"direction\": [0, 1]}]}";
+  }
+  const std::string bad = path("bad.json");
+  Result r = run({"render", "--light-set", bad, "--size", "16x9", "--out", path("x.png")});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_NE(r.err.find("bad.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("x.png")));
+  r = run({"render", "--light-set", path("missing.json"), "--size", "16x9", "--out", path("x.png")});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_NE(r.err.find("missing.json"), std::string::npos) << r.err;
+}
+
+TEST_F(CliLightSet, LightShapeIsMedianCutOnly) {
+  expectFailure({"render", "--extract", "greedy", "--light-shape", "polygon", "--out", path("x.png")},
+                {"--light-shape"});
+  expectFailure({"render", "--light-shape", "hexagon", "--out", path("x.png")}, {"--light-shape"});
+}

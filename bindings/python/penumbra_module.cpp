@@ -583,13 +583,15 @@ PYBIND11_MODULE(penumbra, m) {
       .value("MSSM6", ShadowTechnique::MSSM6, "Moment soft shadow maps, 6 moments.")
       .value("BRUTE", ShadowTechnique::Brute, "K point-sample shadow maps per light, averaged.")
       .value("BITMASK", ShadowTechnique::Bitmask, "Sample-based visibility (seed 001).")
-      .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (seed 001).");
+      .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (seed 001).")
+      .value("AREA_APPROX", ShadowTechnique::AreaApprox,
+             "Polygon lights sampled along their edges, visible-area estimate (seed 002).");
   py::enum_<Prefilter>(m, "Prefilter", "Prefiltering of the filtered techniques.")
       .value("SAT", Prefilter::SAT, "Summed-area tables.")
       .value("MIP", Prefilter::Mip, "Mip pyramids.");
   m.def("parse_shadow_technique", &parseShadowTechnique, "name"_a,
         "'none' | 'hard' | 'pcss' | 'cssm' | 'mssm4' | 'mssm6' | 'brute' | 'bitmask' | "
-        "'bitmask-hard' -> ShadowTechnique. Raises BadInput otherwise.");
+        "'bitmask-hard' | 'area-approx' -> ShadowTechnique. Raises BadInput otherwise.");
   m.def("technique_name", [](ShadowTechnique t) { return std::string(toString(t)); }, "technique"_a,
         "The command-line name of a ShadowTechnique.");
 
@@ -648,6 +650,17 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("mask_bytes", &BitmaskOptions::maskBytes,
                      "Device bytes of bitmasks at once. Default 256 MiB.");
 
+  py::class_<AreaApproxOptions> aa(m, "AreaApproxOptions", "Area approximation options (seed 002).");
+  initFromFields<AreaApproxOptions>(aa);
+  aa.def_readwrite("edge_samples", &AreaApproxOptions::edgeSamples,
+                   "Samples per edge besides its vertices, 0..15. Default 1.")
+      .def_readwrite("cap_vertices", &AreaApproxOptions::capVertices,
+                     "Vertices of the polygon standing in for a cap, 3..16. Default 8.")
+      .def_readwrite("taps", &AreaApproxOptions::taps,
+                     "Texel reads placing a shadow edge on a segment, 0..64 (0: midpoint). Default 4.")
+      .def_readwrite("batch_bytes", &AreaApproxOptions::batchBytes,
+                     "Device bytes of sample maps at once. Default 256 MiB.");
+
   py::class_<RenderOptions> ro(m, "RenderOptions",
                                "Options of Renderer.render. Keywords set fields, e.g. "
                                "RenderOptions(width=64, height=32, technique='pcss').");
@@ -671,6 +684,7 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("pcss", &RenderOptions::pcss, "PCSSOptions.")
       .def_readwrite("brute", &RenderOptions::brute, "BruteOptions.")
       .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
+      .def_readwrite("area_approx", &RenderOptions::areaApprox, "AreaApproxOptions.")
       .def_readwrite("environment_background", &RenderOptions::environmentBackground,
                      "Show the map behind the geometry. Default True.");
 

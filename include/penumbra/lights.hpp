@@ -13,7 +13,22 @@ namespace penumbra {
 class Context;
 struct Environment;
 
+// A light's shape on the sphere of directions (all lights are at infinity).
+//   Cap:     a uniform spherical cap (a disc or a sphere seen from afar), half-angle alpha.
+//   Polygon: a convex spherical polygon (great-circle edges): a rectangle, a cube-face region, any
+//            convex polygon a user gives. `direction` is its normalized vertex centroid and
+//            cosAlpha the cosine of its bounding cap about that direction (the cap every
+//            filtered technique sizes its filters by); radiance is uniform over the polygon and
+//            power = radiance * the polygon's solid angle.
+enum class LightShape { Cap, Polygon };
+const char* toString(LightShape s);  // "cap" | "polygon"
+
 struct AreaLight {
+  LightShape shape = LightShape::Cap;
+  // Polygon only: 3..PB_MAX_POLY_VERTS unit directions, counter-clockwise about `direction` by
+  // the right-hand rule: (v_i x v_i+1) . direction > 0 for every edge (i+1 modulo the count).
+  // Empty for caps.
+  std::vector<std::array<float, 3>> vertices;
   std::array<float, 3> direction{0, 1, 0};  // unit vector towards the light, world space
   float cosAlpha = 1.0f;                    // cosine of the half-angle
   std::array<float, 3> radiance{0, 0, 0};   // uniform radiance inside the cap
@@ -23,12 +38,25 @@ struct AreaLight {
   std::vector<std::array<int, 5>> regions;
 
   float halfAngle() const;
-  float solidAngle() const;  // 2 pi (1 - cos alpha)
+  float solidAngle() const;  // cap: 2 pi (1 - cos alpha); polygon: its spherical excess
   // Sets the power M and the radiance M / solid angle (seed 003 eqs. 16-17); set cosAlpha first.
   void setPower(const std::array<float, 3>& m);
   // Unshadowed irradiance on unit normal n (cap clipped by the horizon; shared.h).
   std::array<float, 3> irradiance(const std::array<float, 3>& n) const;
 };
+
+// Makes a polygon light from its vertices (unit directions, any winding, convex): orders them
+// counter-clockwise, sets direction and the bounding cosAlpha, and the power from `radiance`.
+// Throws Error(BadInput) for fewer than 3 or more than PB_MAX_POLY_VERTS vertices, a non-convex
+// or degenerate polygon, or one wider than a hemisphere.
+AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
+                           const std::array<float, 3>& radiance);
+
+// n light sample directions, stratified and uniform in solid angle over the light (cap:
+// spherical Fibonacci over the cap; polygon: stratified over the polygon), rotated about the light's direction by `rotation` radians (jitter between frames,
+// seed 001 §4.3). Deterministic. Used by brute force, the bitmask technique and the references.
+std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, int n,
+                                                        float rotation = 0.0f);
 
 struct LightSet {
   std::vector<AreaLight> lights;
@@ -46,8 +74,25 @@ struct LightSet {
   // Unshadowed irradiance on unit normal n: every light's cap plus the ambient's.
   std::array<double, 3> irradiance(const std::array<float, 3>& n) const;
   std::array<double, 3> ambientIrradiance(const std::array<float, 3>& n) const;
+  // JSON: method, face_size, count, lights (each with "shape" "cap" or "polygon", direction,
+  // half_angle_deg, cos_alpha, solid_angle_sr, radiance, power, regions; polygons add
+  // "vertices"), ambient, ambient_sh, ambient_power. loadLightSet reads it back.
   std::string toJson() const;
 };
+
+// A light-set file (render/reference --light-set FILE): {"lights": [...], "ambient_sh": [...]
+// optional}. Each light is an object with "shape" (default "cap") and "radiance" or "power" (RGB,
+// finite, >= 0; with both, both are kept as given):
+//   cap:     "direction" [x,y,z], "half_angle_deg" in (0, 90) or "cos_alpha"
+//   polygon: "vertices" [[x,y,z], ...] 3..PB_MAX_POLY_VERTS directions of a convex polygon,
+//            any winding (makePolygonLight)
+//   rect:    "direction", "up" (any vector not parallel to it) and "half_angles_deg" [a, b], each
+//            in (0, 90): the polygon with corners direction +- tan(a) right +- tan(b) up
+// What LightSet::toJson writes loads back. Throws Error(BadInput) naming the file and the light's
+// index for unreadable files, invalid JSON, missing fields, non-finite or negative values,
+// non-convex polygons or too many vertices.
+LightSet loadLightSet(const std::string& path);
+LightSet lightSetFromJson(const std::string& text, const std::string& source = "light set");
 
 struct MedianCutOptions {
   int lights = 32;        // number of regions/lights, >= 1 (any N, not only powers of two)
@@ -65,6 +110,19 @@ struct MedianCutOptions {
   // regions' solid angle (a source brighter than its surroundings; the cap of a uniformly bright
   // region is about as large as the region, 1.05 for a square). In (0, 1], default 0.5.
   float mergeCompactness = 0.5f;
+  // Shape of the extracted lights. Cap: seed 003's disc of the region's moments. Polygon: a light
+  // made from a single region is that region's exact shape, the convex spherical quadrilateral
+  // whose edges are the region's (great circles, since a cube face is a gnomonic projection),
+  // with radiance = region power / region solid angle (exact power). Lights merged from several
+  // regions (across face edges, or whole faces when fewer than 6 lights are asked for) stay caps:
+  // their union is not one convex polygon.
+  // Measured (tests/test_polygon_lights.cpp): the polygon is exact where the map is uniform over
+  // each region, but median-cut regions are not (they are cut at the energy median, so a bright
+  // source shares its region with darker texels), and a uniform polygon moves the region's first
+  // moment to the polygon's centroid, which the cap keeps. On the test maps the polygon shape's
+  // irradiance error on issue 4's 26 normals is 3-9x the cap's (see the test's report); the cap
+  // is the default for that reason.
+  LightShape shape = LightShape::Cap;
 };
 
 // Median cut on the device (seed 003 §3.1, §4.1): resample to a cube map, luminance and RGB SATs

@@ -29,8 +29,9 @@ enum class ShadowTechnique {
   Brute,  // K point-sample shadow maps per area light, averaged (seed 000 Fig. 11d)
   Bitmask,      // sample-based visibility: view-sample lists + light-sample bitmasks (seed 001 §4)
   BitmaskHard,  // alias-free hard shadows from the light's centre (seed 001 §3)
+  AreaApprox,   // polygon lights sampled along their edges, visible-area estimate (seed 002)
 };
-// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard"
+// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard" | "area-approx"
 ShadowTechnique parseShadowTechnique(const std::string& name);
 const char* toString(ShadowTechnique t);
 
@@ -144,6 +145,24 @@ struct BitmaskOptions {
                                 // bitmask-hard, min(shadowMapSize, 64) for bitmask
   std::size_t maskBytes = std::size_t(256) << 20;  // device bytes of bitmasks held at once
                                 // (default 256 MiB, at least one light): lights go in batches
+  int jitter = 0;               // temporal jitter (seed 001 §4.3): frame j > 0 turns the light
+                                // samples by 2 pi frac(j / golden ratio) about the light's axis;
+                                // averaging frames 0..N-1 (`render --accumulate N`) converges
+                                // to the light's integral. 0: unrotated
+};
+
+// Area approximation (seed 002, src/shadows_area.cpp): the light's boundary sampled at its
+// vertices and along its edges, one depth map per sample, visibility = estimated visible area /
+// light area. Caps become a regular polygon of the same (gnomonic) area.
+struct AreaApproxOptions {
+  int edgeSamples = 1;          // samples per edge besides its vertices, in [0, 15]; a light has
+                                // vertices x (edgeSamples + 1) <= 64 samples (depth maps)
+  int capVertices = 8;          // vertices of the polygon standing in for a cap light, in [3, 16]
+  int taps = 4;                 // texel reads that place the shadow boundary on a segment whose
+                                // ends disagree (Heidrich's linear-light visibility); 0: midpoint.
+                                // In [0, 64]
+  std::size_t batchBytes = std::size_t(256) << 20;  // device bytes of sample depth maps at once
+                                // (whole lights per batch, at least one light)
 };
 
 struct RenderOptions {
@@ -159,6 +178,7 @@ struct RenderOptions {
   PCSSOptions pcss;
   BruteOptions brute;
   BitmaskOptions bitmask;
+  AreaApproxOptions areaApprox;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
 };
 
@@ -167,7 +187,11 @@ struct Frame {
   // Device time per stage since the Context's last resetTimings() (so a caller that resets before
   // extracting lights sees extraction and rendering together), plus "total": render()'s wall clock.
   std::vector<std::pair<std::string, double>> timingsMs;
-  std::size_t shadowMapBytes = 0;  // device bytes of the filterable shadow maps (SATs)
+  std::size_t shadowMapBytes = 0;  // device bytes of the filterable shadow maps (SATs); for
+                                   // bitmask: list grid, lists and masks
+  // Technique statistics (bitmask: list_size, view_samples, list_texels, occupied_texels,
+  // mean_list_length, max_list_length of seed 001 Figure 9), empty for the others.
+  std::vector<std::pair<std::string, double>> stats;
 };
 
 class Renderer {

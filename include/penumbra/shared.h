@@ -34,6 +34,7 @@
 
 #define PB_CUBE_FACES 6
 #define PB_MAX_LIGHTS 1024
+#define PB_MAX_POLY_VERTS 8 /* vertices of a polygon light (lights.hpp) */
 
 /* Moments are stored in fixed point: round(z^k * 2^32) in 64-bit integers. A 4096^2 SAT of values
  * <= 2^32 stays below 2^56, far from overflow, and sums are exact (see kernels/scan.cl). */
@@ -144,6 +145,54 @@ PB_INLINE float pb_cap_irradiance(float cos_alpha, float cos_beta) {
   y = y > 1.0f ? 1.0f : (y < -1.0f ? -1.0f : y);
   float sy = sqrt(1.0f - y * y);
   float e = (cos_beta * acos(y) - x * sin_b * sy) * sin2a + atan(sin_b * sy / x);
+  return e > 0.0f ? e : 0.0f;
+}
+
+/* Irradiance at a surface with unit normal n from a convex spherical polygon of unit radiance
+ * (lights.hpp: 3..PB_MAX_POLY_VERTS unit vertices v, packed xyz, ordered so that
+ * (v_i x v_i+1) . d > 0 about the polygon's inside d). Lambert's formula (Lambert 1760, as Arvo
+ * 1995, "Applications of irradiance tensors to the simulation of non-Lambertian phenomena", eq. 8
+ * states it): E = 1/2 sum_i Theta_i n . g_i, with Theta_i the angle of edge i and g_i the unit
+ * normal of its great-circle plane, g_i = (v_i x v_i+1) / |v_i x v_i+1|. The formula needs the
+ * whole polygon above the horizon, so the polygon is first clipped by the plane n . w = 0
+ * (Sutherland-Hodgman: a convex polygon cut by a plane stays convex and gains at most one vertex);
+ * the new vertices need not be unit length since Theta_i = atan2(|a x b|, a . b) and g_i do not
+ * depend on the edge vectors' lengths. atan2 instead of acos keeps short edges accurate in float.
+ * Checked against numerical integration in tests/test_polygon_lights.cpp. */
+PB_INLINE float pb_polygon_irradiance(const float* v, int nv, float nx, float ny, float nz) {
+  float c[3 * (PB_MAX_POLY_VERTS + 1)];
+  int nc = 0;
+  for (int i = 0; i < nv; ++i) {
+    int j = i + 1 == nv ? 0 : i + 1;
+    float ax = v[3 * i], ay = v[3 * i + 1], az = v[3 * i + 2];
+    float bx = v[3 * j], by = v[3 * j + 1], bz = v[3 * j + 2];
+    float da = nx * ax + ny * ay + nz * az, db = nx * bx + ny * by + nz * bz;
+    if (da >= 0.0f && nc < PB_MAX_POLY_VERTS + 1) {
+      c[3 * nc] = ax; c[3 * nc + 1] = ay; c[3 * nc + 2] = az; ++nc;
+    }
+    if ((da >= 0.0f) != (db >= 0.0f) && nc < PB_MAX_POLY_VERTS + 1) {
+      /* the edge's point on the horizon: a + t (b - a) with t = da / (da - db), which is
+       * (b da - a db) / (da - db): keep the numerator, its sign fixed by da - db's */
+      float s = da > db ? 1.0f : -1.0f;
+      c[3 * nc] = s * (bx * da - ax * db);
+      c[3 * nc + 1] = s * (by * da - ay * db);
+      c[3 * nc + 2] = s * (bz * da - az * db);
+      ++nc;
+    }
+  }
+  if (nc < 3) return 0.0f;
+  float e = 0.0f;
+  for (int i = 0; i < nc; ++i) {
+    int j = i + 1 == nc ? 0 : i + 1;
+    float ax = c[3 * i], ay = c[3 * i + 1], az = c[3 * i + 2];
+    float bx = c[3 * j], by = c[3 * j + 1], bz = c[3 * j + 2];
+    float gx = ay * bz - az * by, gy = az * bx - ax * bz, gz = ax * by - ay * bx;
+    float len = sqrt(gx * gx + gy * gy + gz * gz);
+    if (len <= 0.0f) continue; /* coincident vertices: a zero-length edge adds nothing */
+    float theta = atan2(len, ax * bx + ay * by + az * bz);
+    e += theta * (nx * gx + ny * gy + nz * gz) / len;
+  }
+  e *= 0.5f;
   return e > 0.0f ? e : 0.0f;
 }
 

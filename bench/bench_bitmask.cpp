@@ -1,0 +1,133 @@
+// Cost of the bitmask technique (seed 001; src/shadows_bitmask.cpp) against its three drivers:
+//   BM_BitmaskSamples/N/W     built-in scene and sky, 32 median-cut lights, N light samples per
+//                             light (128..1024), a W x (W * 9 / 16) frame. Seed 001 reports roughly
+//                             x2 from 128 to 1024 samples.
+//   BM_BitmaskTriangles/k     a k x k grid of spheres (960 triangles each) over a ground grid, one
+//                             5-degree light, 256 samples, 160x90: cost against triangle count
+//                             (seed 001: roughly linear).
+//   BM_BitmaskRadius/deg      the built-in scene under one light of half-angle deg, 256 samples,
+//                             160x90: larger lights mean larger influence regions.
+// Counters: device time per stage in ms per frame (bitmask/lists/* summed as lists_ms,
+// bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the scene's triangle
+// count, and the list statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and
+// max list length, view samples).
+#include <benchmark/benchmark.h>
+#include <penumbra/penumbra.hpp>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+using namespace penumbra;
+
+namespace {
+
+Context& context() {
+  static Context ctx;
+  return ctx;
+}
+
+LightSet oneLight(float halfAngleDeg) {
+  AreaLight a;
+  const float d[3] = {0.45f, 0.8f, 0.35f};
+  const float l = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  a.direction = {d[0] / l, d[1] / l, d[2] / l};
+  a.cosAlpha = float(std::cos(halfAngleDeg * 3.14159265358979 / 180));
+  a.radiance = {1, 1, 1};
+  LightSet s;
+  s.lights.push_back(a);
+  return s;
+}
+
+// k x k spheres of radius 0.3 on a 0.8 m pitch, resting 0.1 m above a ground grid.
+Scene sphereGrid(int k) {
+  Scene s = builtinScene();
+  Scene out;
+  for (const Mesh& m : s.meshes)
+    if (m.name == "ground") out.meshes.push_back(m);
+  const Mesh* sphere = nullptr;
+  for (const Mesh& m : s.meshes)
+    if (m.name == "sphere") sphere = &m;
+  if (!sphere) return out;
+  // the built-in sphere's centre and radius from its vertex bounds
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (auto& p : sphere->positions)
+    for (int c = 0; c < 3; ++c) lo[c] = std::fmin(lo[c], p[c]), hi[c] = std::fmax(hi[c], p[c]);
+  const float r = (hi[0] - lo[0]) / 2, scale = 0.3f / r;
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < k; ++j) {
+      Mesh m = *sphere;
+      const float cx = (i - (k - 1) / 2.0f) * 0.8f, cz = (j - (k - 1) / 2.0f) * 0.8f;
+      for (auto& p : m.positions) {
+        for (int c = 0; c < 3; ++c) p[c] = (p[c] - (lo[c] + hi[c]) / 2) * scale;
+        p[0] += cx;
+        p[1] += 0.4f;
+        p[2] += cz;
+      }
+      out.meshes.push_back(m);
+    }
+  return out;
+}
+
+void run(benchmark::State& state, const Scene& scene, const LightSet& lights, int samples,
+         int width) {
+  Context& ctx = context();
+  Environment env = builtinEnvironment();
+  const int height = std::max(1, width * 9 / 16);
+  Camera cam = frameCamera(scene, float(width) / float(height));
+  Renderer renderer(ctx);
+  RenderOptions ro;
+  ro.shadows = ShadowTechnique::Bitmask;
+  ro.bitmask.lightSamples = samples;
+  ro.width = width;
+  ro.height = height;
+  ctx.resetTimings();
+  renderer.render(scene, cam, lights, env, ro);  // warm-up: kernels, tables, buffers
+  std::map<std::string, double> sum;
+  std::vector<std::pair<std::string, double>> stats;
+  for (auto _ : state) {
+    ctx.resetTimings();
+    Frame f = renderer.render(scene, cam, lights, env, ro);
+    for (auto& [stage, ms] : f.timingsMs) {
+      std::string key = stage.rfind("bitmask/lists/", 0) == 0 ? "bitmask/lists" : stage;
+      sum[key] += ms;
+    }
+    stats = f.stats;
+  }
+  const double n = double(state.iterations());
+  for (auto& [stage, ms] : sum) state.counters[stage + "_ms"] = ms / n;
+  for (auto& [name, v] : stats) state.counters[name] = v;
+  state.counters["triangles"] = double(scene.triangleCount());
+}
+
+void BM_BitmaskSamples(benchmark::State& state) {
+  Context& ctx = context();
+  Environment env = builtinEnvironment();
+  static const LightSet lights = extractMedianCut(ctx, env, MedianCutOptions{});
+  run(state, builtinScene(), lights, int(state.range(0)), int(state.range(1)));
+}
+
+void BM_BitmaskTriangles(benchmark::State& state) {
+  run(state, sphereGrid(int(state.range(0))), oneLight(5), 256, 160);
+}
+
+void BM_BitmaskRadius(benchmark::State& state) {
+  run(state, builtinScene(), oneLight(float(state.range(0))), 256, 160);
+}
+
+}  // namespace
+
+BENCHMARK(BM_BitmaskSamples)
+    ->ArgsProduct({{128, 256, 512, 1024}, {160}})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2);
+BENCHMARK(BM_BitmaskTriangles)->DenseRange(1, 4, 1)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_BitmaskRadius)
+    ->Arg(1)
+    ->Arg(2)
+    ->Arg(5)
+    ->Arg(10)
+    ->Arg(20)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2);
+BENCHMARK_MAIN();
