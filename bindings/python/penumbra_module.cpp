@@ -405,12 +405,21 @@ PYBIND11_MODULE(penumbra, m) {
         "Parses 'ex,ey,ez,tx,ty,tz[,fovy]'. Raises BadInput on malformed text.");
 
   // ---- lights -----------------------------------------------------------------------------
+  py::enum_<LightShape>(m, "LightShape", "A light's shape on the sphere of directions.")
+      .value("CAP", LightShape::Cap, "A uniform spherical cap (a disc or sphere seen from afar).")
+      .value("POLYGON", LightShape::Polygon,
+             "A convex spherical polygon (rectangles, cube-face regions, user polygons).");
+
   py::class_<AreaLight> light(m, "AreaLight",
                               "A directional area light: a uniform spherical cap of half-angle "
                               "alpha around `direction` with radiance L; power M = L * solid "
                               "angle (seed 003 §4.1.3).");
   initFromFields<AreaLight>(light);
-  light.def_readwrite("direction", &AreaLight::direction, "Unit vector towards the light.")
+  light.def_readwrite("shape", &AreaLight::shape, "LightShape.CAP or LightShape.POLYGON.")
+      .def_readwrite("vertices", &AreaLight::vertices,
+                     "Polygon lights: unit vertex directions, counter-clockwise seen from the "
+                     "origin (empty for caps). Build polygons with make_polygon_light.")
+      .def_readwrite("direction", &AreaLight::direction, "Unit vector towards the light.")
       .def_readwrite("cos_alpha", &AreaLight::cosAlpha, "Cosine of the cap's half-angle.")
       .def_readwrite("radiance", &AreaLight::radiance, "Uniform RGB radiance inside the cap.")
       .def_readwrite("power", &AreaLight::power, "RGB power M = radiance * solid angle.")
@@ -476,6 +485,18 @@ PYBIND11_MODULE(penumbra, m) {
                " lights" + (s.hasAmbient ? " + ambient>" : ">");
       });
 
+  m.def("make_polygon_light", &makePolygonLight, "vertices"_a, "radiance"_a,
+        "A polygon light from 3..8 unit directions of a convex polygon (any winding) and a "
+        "uniform RGB radiance. Raises BadInput for non-convex, degenerate or too wide polygons.");
+  m.def("light_sample_directions", &lightSampleDirections, "light"_a, "n"_a, "rotation"_a = 0.0f,
+        "n directions stratified and uniform in solid angle over the light, turned about its "
+        "direction by `rotation` radians.");
+  m.def("load_light_set", &loadLightSet, "path"_a,
+        "Reads a light-set JSON file (caps, polygons, rects; the format of `penumbra render "
+        "--light-set`). Raises BadInput naming the file and the light for bad input.");
+  m.def("light_set_from_json", &lightSetFromJson, "text"_a, "source"_a = "light set",
+        "Parses light-set JSON text; `source` names it in error messages.");
+
   py::enum_<ExtractionMethod>(m, "ExtractionMethod", "Light extraction method.")
       .value("MEDIAN_CUT", ExtractionMethod::MedianCut, "Median cut (seed 003 §3.1).")
       .value("GREEDY", ExtractionMethod::Greedy, "Greedy square/rectangle fitting (seed 000 §4.2).")
@@ -495,7 +516,10 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("merge_across_faces", &MedianCutOptions::mergeAcrossFaces,
                      "Merge compact lights split by a cube-face edge. Default True.")
       .def_readwrite("merge_compactness", &MedianCutOptions::mergeCompactness,
-                     "Largest cap/region solid-angle ratio merged, (0, 1]. Default 0.5.");
+                     "Largest cap/region solid-angle ratio merged, (0, 1]. Default 0.5.")
+      .def_readwrite("shape", &MedianCutOptions::shape,
+                     "LightShape.CAP (default) or POLYGON: a light from one region becomes that "
+                     "region's cube-face quadrilateral.");
 
   py::class_<GreedyOptions> gr(m, "GreedyOptions", "Options of extract_greedy.");
   initFromFields<GreedyOptions>(gr);

@@ -97,3 +97,33 @@ def test_user_light_set():
     assert np.allclose(s.power(), light.power)
     with pytest.raises(penumbra.BadInput):
         s.ambient_sh = np.zeros((3, 9))
+
+
+def test_polygon_lights_and_light_set_files(ctx, tmp_path):
+    verts = [(0.2, 1.0, 0.1), (-0.2, 1.0, 0.1), (-0.2, 1.0, -0.1), (0.2, 1.0, -0.1)]
+    verts = [tuple(np.array(v) / np.linalg.norm(v)) for v in verts]
+    light = penumbra.make_polygon_light(verts, (1.0, 1.0, 1.0))
+    assert light.shape == penumbra.LightShape.POLYGON and len(light.vertices) == 4
+    # Lambert's formula for a small polygon straight above: E ~ radiance * solid angle.
+    e = light.irradiance((0.0, 1.0, 0.0))
+    assert e[0] == pytest.approx(light.solid_angle(), rel=0.03)
+    dirs = penumbra.light_sample_directions(light, 64)
+    assert len(dirs) == 64
+    with pytest.raises(penumbra.BadInput, match="vert"):
+        penumbra.make_polygon_light(verts[:2], (1.0, 1.0, 1.0))
+    f = tmp_path / "set.json"
+    f.write_text(json.dumps({"lights": [
+        {"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [10, 5],
+         "radiance": [1, 1, 1]},
+        {"shape": "cap", "direction": [1, 1, 0], "half_angle_deg": 4, "power": [2, 2, 2]}]}))
+    s = penumbra.load_light_set(str(f))
+    assert len(s) == 2 and s.lights[0].shape == penumbra.LightShape.POLYGON
+    assert s.lights[1].shape == penumbra.LightShape.CAP
+    again = penumbra.light_set_from_json(s.to_json())
+    assert np.allclose(again.powers, s.powers, rtol=1e-5)
+    f.write_text('{"lights": [{"shape": "cap", "direction": [0, 1]}]}')
+    with pytest.raises(penumbra.BadInput, match="set.json"):
+        penumbra.load_light_set(str(f))
+    opt = penumbra.MedianCutOptions()
+    opt.shape = penumbra.LightShape.POLYGON
+    assert opt.shape == penumbra.LightShape.POLYGON
