@@ -350,10 +350,13 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
 // projection) and brings cos(theta between n and d_k), so with d'_k = (tan u, tan v, 1) its
 // weight is max(0, n'.d'_k) / |d'_k|^4. Pixels that are no view sample of the light get 1 (their
 // visibility is never used), as does a sample set wholly below the horizon.
+// inside: per light, WORDS words, bit k set where disk sample k lies inside the light. A cap's
+// samples all do; a polygon light (lights.hpp) is sampled by the disk samples of its bounding
+// cap that fall inside it, so the table and the triangle stage stay shared by every light.
 kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* lights,
                             global const pb_list_grid* grids, int l0, global const int* slot,
                             global const float2* disk, int npixels, global const uint* masks,
-                            global float* vis) {
+                            global float* vis, global const uint* inside) {
   int px = get_global_id(0), lb = get_global_id(1);
   if (px >= npixels) return;
   int l = l0 + lb;
@@ -379,8 +382,9 @@ kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* li
   float nx = dot(n, vec3(L.ex)), ny = dot(n, vec3(L.ey)), nz = dot(n, vec3(L.dir));
   float total = 0.0f, lit = 0.0f;
   for (int k = 0; k < WORDS; ++k) {
-    uint m = mask[k];
+    uint m = mask[k], in = inside[(size_t)l * WORDS + k];
     for (int b = 0; b < 32; ++b) {
+      if (((in >> b) & 1u) == 0u) continue;  // outside a polygon light (see `inside` above)
       float2 uv = disk[k * 32 + b] * ta;
       float q = 1.0f + dot(uv, uv);
       float wgt = fmax(nz + uv.x * nx + uv.y * ny, 0.0f) / (q * q);

@@ -226,6 +226,36 @@ class BitmaskPass : public ShadowPass {
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
                              (hard_ ? " -DHARD" : "");
+    // Which disk samples each light keeps: all of a cap's; a polygon's, those whose direction is
+    // inside it (behind every edge's great-circle plane; lights.hpp's counter-clockwise order).
+    std::vector<cl_uint> inside(std::size_t(nl) * W, ~0u);
+    for (int l = 0; l < nl && f.areaLights && !hard_; ++l) {
+      if (std::size_t(l) >= f.areaLights->size()) break;
+      const AreaLight& al = (*f.areaLights)[l];
+      if (al.shape != LightShape::Polygon) continue;
+      const pb_light& L = f.lights[l];
+      const float c = L.dir[3];
+      const float ta = std::sqrt(std::max(1.0f - c * c, 0.0f)) / std::max(c, 1e-6f);
+      const std::size_t nv = al.vertices.size();
+      int kept = 0;
+      for (int k = 0; k < N; ++k) {
+        const std::array<float, 3> d = bitmaskSampleDirection(L, ta, disk_[k][0], disk_[k][1]);
+        bool in = true;
+        for (std::size_t v = 0; v < nv && in; ++v) {
+          const auto& a = al.vertices[v];
+          const auto& b = al.vertices[(v + 1) % nv];
+          const float e[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                              a[0] * b[1] - a[1] * b[0]};
+          in = e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= 0.0f;
+        }
+        if (!in) inside[std::size_t(l) * W + k / 32] &= ~(1u << (k % 32));
+        kept += in;
+      }
+      if (kept == 0)
+        badInput("light " + std::to_string(l) + ": a polygon too thin for " + std::to_string(N) +
+                 " bitmask light samples (none falls inside it); use more --light-samples");
+    }
+    cl::Buffer& insideBuf = f.pool.upload("bitmask polygon samples", inside);
     cl::Kernel tk = ctx.kernel("bitmask.cl", "bitmask_triangles", opts);
     cl::Kernel rk = ctx.kernel("bitmask.cl", "bitmask_resolve", opts);
     cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
@@ -274,6 +304,7 @@ class BitmaskPass : public ShadowPass {
       rk.setArg(6, cl_int(npx));
       rk.setArg(7, masks);
       rk.setArg(8, f.vis);
+      rk.setArg(9, insideBuf);
       ctx.launch("bitmask/resolve", rk, cl::NDRange(npx, count));
       if (cap) {
         auto m = ctx.download<cl_uint>(masks, maskWords, "bitmask masks");
