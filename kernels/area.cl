@@ -28,8 +28,6 @@
 #include "shared.h"
 #include "filter.clh"
 
-// Largest receiver-plane slope (depth per unit of lateral distance), as kernels/pcss.cl: tan(84°).
-#define AREA_MAX_SLOPE 10.0f
 // Most boundary samples per light: the point visibilities of one receiver fit one ulong.
 #define AREA_MAX_SAMPLES 64
 
@@ -53,17 +51,9 @@ static area_point area_point_of(const pb_light* L, float3 p, float3 g, int size)
   m.d = dot(r, -w) / m.range;
   m.tx = 2.0f * L->ex[3] / size;
   m.ty = 2.0f * L->ey[3] / size;
-  // Receiver plane n.(dx ex + dy ey - dz w) = 0: dz = (nx dx + ny dy) / nz; v grows towards -ey.
-  float nz = dot(g, w);
-  float inv = 1.0f / copysign(fmax(fabs(nz), 1e-6f), nz);
-  float sx = dot(g, ex) * inv, sy = dot(g, ey) * inv;
-  float len = sqrt(sx * sx + sy * sy);
-  if (len > AREA_MAX_SLOPE) {
-    sx *= AREA_MAX_SLOPE / len;
-    sy *= AREA_MAX_SLOPE / len;
-  }
-  m.du = sx * m.tx / m.range;
-  m.dv = -sy * m.ty / m.range;
+  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range);
+  m.du = slope.x;
+  m.dv = slope.y;
   return m;
 }
 

@@ -14,10 +14,6 @@
 // Width of the equal-area square of a disc of radius r is sqrt(pi) r (as kernels/moments.cl): the
 // box filter that stands in for the disc-shaped light has half-width (sqrt(pi)/2) r.
 #define BOX_FROM_DISC 0.88622692545f
-// Largest receiver-plane slope (depth per unit of lateral distance): tan(84 deg). Surfaces more
-// grazing than this see almost none of the light (cos factor < 0.1), and their planes would reach
-// through real blockers a few texels away.
-#define MAX_RECEIVER_SLOPE 10.0f
 
 // A receiver as one depth map sees it.
 typedef struct {
@@ -43,18 +39,9 @@ static map_point map_point_of(const pb_light* L, float3 p, float3 g, int size) {
   m.d = dot(r, -w) / m.range;
   m.tx = 2.0f * hx / size;
   m.ty = 2.0f * hy / size;
-  // Plane n.(dx ex + dy ey - dz w) = 0 gives depth dz = (nx dx + ny dy) / nz along the view;
-  // v grows towards -ey, so dy = -ty per texel of v.
-  float nx = dot(g, ex), ny = dot(g, ey), nz = dot(g, w);
-  float inv = 1.0f / copysign(fmax(fabs(nz), 1e-6f), nz);
-  float sx = nx * inv, sy = ny * inv;
-  float len = sqrt(sx * sx + sy * sy);
-  if (len > MAX_RECEIVER_SLOPE) {
-    sx *= MAX_RECEIVER_SLOPE / len;
-    sy *= MAX_RECEIVER_SLOPE / len;
-  }
-  m.du = sx * m.tx / m.range;
-  m.dv = -sy * m.ty / m.range;
+  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range);
+  m.du = slope.x;
+  m.dv = slope.y;
   return m;
 }
 

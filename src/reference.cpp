@@ -24,6 +24,7 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/shared.h"
+#include "embree_scene.hpp"
 
 namespace penumbra {
 namespace {
@@ -105,14 +106,9 @@ class Pcg32 {
 // ---------------------------------------------------------------------------------------------
 // Scene flattening and Embree.
 
-struct FlatScene {
-  std::vector<float> positions;          // xyz per vertex, all meshes
-  std::vector<unsigned> indices;         // 3 per triangle, into `positions`
-  std::vector<std::uint32_t> triMesh;    // mesh index per triangle
-  std::vector<const Mesh*> meshes;
-  std::vector<std::uint32_t> meshFirstVertex;
-  float epsilon = 1e-4f;                 // shadow-ray origin offset
-};
+}  // namespace
+
+namespace detail {
 
 FlatScene flatten(const Scene& scene) {
   FlatScene f;
@@ -167,57 +163,53 @@ FlatScene flatten(const Scene& scene) {
   return f;
 }
 
-class EmbreeScene {
- public:
-  // threads: Embree's own build threads (0: its default, all hardware threads).
-  EmbreeScene(const FlatScene& f, int threads) {
-    const std::string config =
-        threads > 0 ? "verbose=0,threads=" + std::to_string(threads) : std::string("verbose=0");
-    device_ = rtcNewDevice(config.c_str());
-    if (!device_) throw Error(ErrorKind::Internal, "Embree: rtcNewDevice failed");
-    scene_ = rtcNewScene(device_);
-    // Robust mode: no cracks between triangles sharing an edge, which a ground truth cannot have.
-    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    const std::size_t nv = f.positions.size() / 3, nt = f.indices.size() / 3;
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                          RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-    auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
-    if (!v || !ix) {
-      rtcReleaseGeometry(g);
-      check("allocating geometry buffers");
-      throw Error(ErrorKind::Internal, "Embree: geometry buffer allocation failed");
-    }
-    std::memcpy(v, f.positions.data(), f.positions.size() * sizeof(float));
-    std::memcpy(ix, f.indices.data(), f.indices.size() * sizeof(unsigned));
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(scene_, g);
+EmbreeScene::EmbreeScene(const FlatScene& f, int threads) {
+  const std::string config =
+      threads > 0 ? "verbose=0,threads=" + std::to_string(threads) : std::string("verbose=0");
+  device_ = rtcNewDevice(config.c_str());
+  if (!device_) throw Error(ErrorKind::Internal, "Embree: rtcNewDevice failed");
+  scene_ = rtcNewScene(device_);
+  // Robust mode: no cracks between triangles sharing an edge, which a ground truth cannot have.
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+  const std::size_t nv = f.positions.size() / 3, nt = f.indices.size() / 3;
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                        RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
+  if (!v || !ix) {
     rtcReleaseGeometry(g);
-    rtcCommitScene(scene_);
-    check("building the scene");
+    check("allocating geometry buffers");
+    throw Error(ErrorKind::Internal, "Embree: geometry buffer allocation failed");
   }
-  ~EmbreeScene() {
-    if (scene_) rtcReleaseScene(scene_);
-    if (device_) rtcReleaseDevice(device_);
-  }
-  EmbreeScene(const EmbreeScene&) = delete;
-  EmbreeScene& operator=(const EmbreeScene&) = delete;
-  RTCScene get() const { return scene_; }
+  std::memcpy(v, f.positions.data(), f.positions.size() * sizeof(float));
+  std::memcpy(ix, f.indices.data(), f.indices.size() * sizeof(unsigned));
+  rtcCommitGeometry(g);
+  rtcAttachGeometry(scene_, g);
+  rtcReleaseGeometry(g);
+  rtcCommitScene(scene_);
+  check("building the scene");
+}
+EmbreeScene::~EmbreeScene() {
+  if (scene_) rtcReleaseScene(scene_);
+  if (device_) rtcReleaseDevice(device_);
+}
+void EmbreeScene::check(const char* what) {
+  RTCError e = rtcGetDeviceError(device_);
+  if (e == RTC_ERROR_NONE) return;
+  if (e == RTC_ERROR_OUT_OF_MEMORY)
+    throw Error(ErrorKind::OutOfMemory, std::string("Embree: out of memory ") + what);
+  throw Error(ErrorKind::Internal,
+              std::string("Embree error ") + std::to_string(int(e)) + " while " + what);
+}
+}  // namespace detail
 
- private:
-  void check(const char* what) {
-    RTCError e = rtcGetDeviceError(device_);
-    if (e == RTC_ERROR_NONE) return;
-    if (e == RTC_ERROR_OUT_OF_MEMORY)
-      throw Error(ErrorKind::OutOfMemory, std::string("Embree: out of memory ") + what);
-    throw Error(ErrorKind::Internal,
-                std::string("Embree error ") + std::to_string(int(e)) + " while " + what);
-  }
-  RTCDevice device_ = nullptr;
-  RTCScene scene_ = nullptr;
-};
+namespace {
+
+using detail::EmbreeScene;
+using detail::FlatScene;
+using detail::flatten;
 
 // A surface point as the shading sees it.
 struct Hit {

@@ -16,6 +16,7 @@
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
 #include "shadow_pass.hpp"
+#include "vec3.hpp"
 
 namespace penumbra {
 
@@ -56,15 +57,10 @@ const char* toString(Prefilter p) { return p == Prefilter::SAT ? "sat" : "mip"; 
 
 namespace {
 
-using V3 = std::array<float, 3>;
-float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(V3 a, V3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 normalize(V3 a) {
-  float l = std::sqrt(dot(a, a));
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
+using detail::V3;
+using detail::cross;
+using detail::dot;
+using detail::normalize;
 
 pb_view cameraView(const Camera& c, int w, int h) {
   CameraBasis b = cameraBasis(c, w, h);

@@ -5,6 +5,7 @@
 // light at every pixel. A technique adds its own stages (named "<technique>/<stage>") and may
 // rasterize more depth maps through ShadowFrame::rasterizeDepth (front/back faces, sample views).
 #pragma once
+#include <array>
 #include <functional>
 #include <map>
 #include <memory>
@@ -85,6 +86,13 @@ class ShadowPass {
 // One implementation per technique (src/shadows_*.cpp), dispatched in src/shadows.cpp; None has
 // no pass (nullptr).
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t);
+
+// Orthographic frame of a point light in direction `dir`, fitted to the oriented box of the area
+// light `area`'s own frame (which holds the whole scene): brute force's and area approximation's
+// one map per light sample. size > 0: the grid is shifted by (jx, jy) texels of a size x size map,
+// with a texel of margin each side so the shift keeps the box inside (src/shadows_brute.cpp).
+pb_light sampleFrame(const pb_light& area, const std::array<float, 3>& dir, int size = 0,
+                     float jx = 0.0f, float jy = 0.0f);
 bool techniqueAvailable(ShadowTechnique t);
 std::unique_ptr<ShadowPass> makeMSSM4Pass();
 std::unique_ptr<ShadowPass> makeMSSM6Pass();

@@ -27,20 +27,11 @@
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
 #include "shadow_pass.hpp"
+#include "vec3.hpp"
 
 namespace penumbra::detail {
 namespace {
 
-using V3 = std::array<float, 3>;
-float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(V3 a, V3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 normalize(V3 a) {
-  float l = std::sqrt(dot(a, a));
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
-V3 xyz(const float* v) { return {v[0], v[1], v[2]}; }
 
 constexpr int kMaxSamples = 64;  // kernels/area.cl's AREA_MAX_SAMPLES: visibilities in one ulong
 
@@ -48,44 +39,6 @@ struct AreaRange {
   cl_int first, count;  // kernels/area.cl's area_range
 };
 
-// Orthographic frame of sample direction `dir`, fitted to the oriented box of the light's own
-// frame (which holds the whole scene, renderer.cpp's lightFrame): every sample map covers the
-// scene with about the light's texel size.
-pb_light sampleFrame(const pb_light& area, V3 dir) {
-  V3 aex = xyz(area.ex), aey = xyz(area.ey), afwd = {-area.dir[0], -area.dir[1], -area.dir[2]};
-  V3 w = normalize(dir);
-  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
-  V3 ex = normalize(cross(ref, w));
-  V3 ey = cross(w, ex);
-  V3 fwd = {-w[0], -w[1], -w[2]};
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (int i = 0; i < 8; ++i) {
-    float sx = i & 1 ? area.ex[3] : -area.ex[3], sy = i & 2 ? area.ey[3] : -area.ey[3];
-    float sz = i & 4 ? area.origin[3] : 0.0f;
-    V3 c;
-    for (int a = 0; a < 3; ++a) c[a] = area.origin[a] + sx * aex[a] + sy * aey[a] + sz * afwd[a];
-    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
-    }
-  }
-  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
-  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]), z0 = lo[2] - margin;
-  pb_light L{};
-  for (int a = 0; a < 3; ++a) {
-    L.dir[a] = w[a];
-    L.radiance[a] = area.radiance[a];
-    L.ex[a] = ex[a];
-    L.ey[a] = ey[a];
-    L.origin[a] = cx * ex[a] + cy * ey[a] + z0 * fwd[a];
-  }
-  L.dir[3] = 1.0f;  // a point direction of the light
-  L.ex[3] = 0.5f * (hi[0] - lo[0]) + margin;
-  L.ey[3] = 0.5f * (hi[1] - lo[1]) + margin;
-  L.origin[3] = hi[2] + margin - z0;
-  return L;
-}
 
 }  // namespace
 

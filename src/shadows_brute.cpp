@@ -13,32 +13,9 @@
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
 #include "shadow_pass.hpp"
+#include "vec3.hpp"
 
 namespace penumbra::detail {
-namespace {
-
-using V3 = std::array<float, 3>;
-float dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(V3 a, V3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 normalize(V3 a) {
-  float l = std::sqrt(dot(a, a));
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
-V3 xyz(const float* v) { return {v[0], v[1], v[2]}; }
-
-constexpr int kMaxSamples = 4096;
-
-// Radical inverse of i in base b (Halton): a low-discrepancy sequence in [0, 1).
-float radicalInverse(int i, int b) {
-  float f = 1.0f, r = 0.0f;
-  for (; i > 0; i /= b) {
-    f /= b;
-    r += f * (i % b);
-  }
-  return r;
-}
 
 // Orthographic frame of a point light in direction `dir`, fitted (as lightFrame fits the scene's
 // box) to the oriented box of the area light's own frame, which holds the whole scene: a sample
@@ -50,7 +27,7 @@ float radicalInverse(int i, int b) {
 // on every other texel-wide strip and the average is a staircase of two-texel steps (measured:
 // 0.086 max error at K = 256 on a 5-degree planar penumbra). Shifts from a Halton sequence make
 // the rounding independent of the direction, so it only blurs the profile by about a texel.
-pb_light sampleFrame(const pb_light& area, V3 dir, int size, float jx, float jy) {
+pb_light sampleFrame(const pb_light& area, const V3& dir, int size, float jx, float jy) {
   V3 aex = xyz(area.ex), aey = xyz(area.ey), afwd = {-area.dir[0], -area.dir[1], -area.dir[2]};
   V3 w = normalize(dir);
   V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
@@ -70,11 +47,15 @@ pb_light sampleFrame(const pb_light& area, V3 dir, int size, float jx, float jy)
     }
   }
   float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
-  // one more texel each side, so that the shift keeps the whole box inside the map
-  float hx = (0.5f * (hi[0] - lo[0]) + margin) * size / std::max(size - 2, 1);
-  float hy = (0.5f * (hi[1] - lo[1]) + margin) * size / std::max(size - 2, 1);
-  float cx = 0.5f * (lo[0] + hi[0]) + jx * 2 * hx / size;
-  float cy = 0.5f * (lo[1] + hi[1]) + jy * 2 * hy / size;
+  float hx = 0.5f * (hi[0] - lo[0]) + margin, hy = 0.5f * (hi[1] - lo[1]) + margin;
+  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]);
+  if (size > 0) {
+    // one more texel each side, so that the shift keeps the whole box inside the map
+    hx *= float(size) / std::max(size - 2, 1);
+    hy *= float(size) / std::max(size - 2, 1);
+    cx += jx * 2 * hx / size;
+    cy += jy * 2 * hy / size;
+  }
   float z0 = lo[2] - margin;
   pb_light L{};
   for (int a = 0; a < 3; ++a) {
@@ -91,6 +72,22 @@ pb_light sampleFrame(const pb_light& area, V3 dir, int size, float jx, float jy)
   L.origin[3] = hi[2] + margin - z0;
   return L;
 }
+
+namespace {
+
+
+constexpr int kMaxSamples = 4096;
+
+// Radical inverse of i in base b (Halton): a low-discrepancy sequence in [0, 1).
+float radicalInverse(int i, int b) {
+  float f = 1.0f, r = 0.0f;
+  for (; i > 0; i /= b) {
+    f /= b;
+    r += f * (i % b);
+  }
+  return r;
+}
+
 
 class BrutePass : public ShadowPass {
  public:

@@ -20,6 +20,16 @@ inline const char* kMaps[] = {"envmaps/courtyard.exr", "envmaps/interior.exr", "
 
 // A horizontal quad [x0,x1] x [z0,z1] at height y, facing +y: receivers and blockers of the planar
 // parallel configuration the filtered techniques are tested on.
+// A camera 3 m above the origin looking straight down at the floor (a hair off the vertical so
+// the up vector stays defined), vertical field of view fovyDeg.
+inline Camera topDownCamera(float fovyDeg) {
+  Camera cam;
+  cam.eye = {0, 3, 0.01f};
+  cam.target = {0, 0, 0};
+  cam.fovyDeg = fovyDeg;
+  return cam;
+}
+
 inline Mesh planarQuad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
   Mesh m;
   m.name = name;

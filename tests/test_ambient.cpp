@@ -275,10 +275,7 @@ TEST(Ambient, MedianCut32WithAmbientOnEveryMap) {
 TEST(Ambient, FrameAddsTheAmbientUnshadowed) {
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
-  Camera cam;
-  cam.eye = {0, 3, 0.01f};
-  cam.target = {0, 0, 0};
-  cam.fovyDeg = 30;
+  const Camera cam = topDownCamera(30);
   Environment env = loadEnvironment(data(kMaps[2]));
   ExtractOptions eo;
   eo.medianCut.lights = 8;
@@ -360,9 +357,7 @@ TEST(OclgrindAmbient, Projection) { expectProjectionMatches(synthetic(13, 7, 5),
 TEST(OclgrindAmbient, TinyFrameWithAmbient) {
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
-  Camera cam;
-  cam.eye = {0, 3, 0.01f};
-  cam.target = {0, 0, 0};
+  const Camera cam = topDownCamera(40);
   Environment env = synthetic(16, 8, 3);
   ExtractOptions eo;
   eo.medianCut.lights = 2;

@@ -470,10 +470,7 @@ TEST(PolygonLights, LightSetJsonRoundTripAndBadInput) {
 TEST(PolygonLights, RenderShadesPolygonExactlyAndEveryTechniqueRuns) {
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
-  Camera cam;
-  cam.eye = {0, 3, 0.01f};
-  cam.target = {0, 0, 0};
-  cam.fovyDeg = 30;
+  const Camera cam = topDownCamera(30);
   LightSet set;
   set.lights.push_back(rectLight(unit(1, 0.15, 0), 30, 12));
   Environment env = builtinEnvironment(64);
@@ -520,10 +517,7 @@ TEST(PolygonLights, EmbreeReferenceAgreesWithBruteForceOnAPolygonLight) {
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
   scene.meshes.push_back(planarQuad("blocker", -0.25f, 0.25f, -0.25f, 0.25f, 0.3f));
-  Camera cam;
-  cam.eye = {0, 3, 0.01f};
-  cam.target = {0, 0, 0};
-  cam.fovyDeg = 40;
+  const Camera cam = topDownCamera(40);
   LightSet set;
   set.lights.push_back(rectLight(unit(0.3, 1, 0.2), 25, 10, 0.4f));
   Environment env = builtinEnvironment(64);

@@ -86,16 +86,25 @@ bool sym(void* h, const char* name, F& out, std::string& error) {
   return out != nullptr;
 }
 
+// The libraries, each as (environment variable that overrides it, default file name).
+const char* const kEglLibrary[2] = {"PENUMBRA_EGL_LIBRARY", "libEGL.so.1"};
+const char* const kOSMesaLibrary[2] = {"PENUMBRA_OSMESA_LIBRARY", "libOSMesa.so.8"};
+
+// dlopen()s $envVar or `fallback` into l.handle; on failure l.error says which file and why.
+template <class Lib>
+bool openLibrary(Lib& l, const char* envVar, const char* fallback) {
+  l.file = envOr(envVar, fallback);
+  l.handle = dlopen(l.file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (l.handle) return true;
+  const char* e = dlerror();
+  l.error = "cannot load " + l.file + (e ? std::string(" (") + e + ")" : "");
+  return false;
+}
+
 EGLLib& eglLib() {
   static EGLLib lib = [] {
     EGLLib l;
-    l.file = envOr("PENUMBRA_EGL_LIBRARY", "libEGL.so.1");
-    l.handle = dlopen(l.file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!l.handle) {
-      const char* e = dlerror();
-      l.error = "cannot load " + l.file + (e ? std::string(" (") + e + ")" : "");
-      return l;
-    }
+    if (!openLibrary(l, kEglLibrary[0], kEglLibrary[1])) return l;
     std::string& e = l.error;
     bool ok = sym(l.handle, "eglGetProcAddress", l.getProcAddress, e) &&
               sym(l.handle, "eglQueryString", l.queryString, e) &&
@@ -120,13 +129,7 @@ EGLLib& eglLib() {
 OSMesaLib& osmesaLib() {
   static OSMesaLib lib = [] {
     OSMesaLib l;
-    l.file = envOr("PENUMBRA_OSMESA_LIBRARY", "libOSMesa.so.8");
-    l.handle = dlopen(l.file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!l.handle) {
-      const char* e = dlerror();
-      l.error = "cannot load " + l.file + (e ? std::string(" (") + e + ")" : "");
-      return l;
-    }
+    if (!openLibrary(l, kOSMesaLibrary[0], kOSMesaLibrary[1])) return l;
     std::string& e = l.error;
     bool ok = sym(l.handle, "OSMesaCreateContextAttribs", l.createContextAttribs, e) &&
               sym(l.handle, "OSMesaMakeCurrent", l.makeCurrent, e) &&
@@ -325,13 +328,13 @@ ProcLoader HeadlessContext::loader() const {
 
 ProcLoader currentContextLoader() {
   // Only libraries already loaded (by penumbra or the application) are asked.
-  std::string eglFile = envOr("PENUMBRA_EGL_LIBRARY", "libEGL.so.1");
+  std::string eglFile = envOr(kEglLibrary[0], kEglLibrary[1]);
   if (void* h = dlopen(eglFile.c_str(), RTLD_NOW | RTLD_NOLOAD)) {
     dlclose(h);
     EGLLib& l = eglLib();
     if (l.handle && l.getCurrentContext() != EGL_NO_CONTEXT) return eglLoader;
   }
-  std::string osFile = envOr("PENUMBRA_OSMESA_LIBRARY", "libOSMesa.so.8");
+  std::string osFile = envOr(kOSMesaLibrary[0], kOSMesaLibrary[1]);
   if (void* h = dlopen(osFile.c_str(), RTLD_NOW | RTLD_NOLOAD)) {
     dlclose(h);
     OSMesaLib& l = osmesaLib();

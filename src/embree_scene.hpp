@@ -1,0 +1,42 @@
+// Internal: a scene flattened for Embree (every mesh's triangles in one geometry, two-sided,
+// with the inputs checked) and the Embree scene built from it. Used by the references
+// (src/reference.cpp) and by the bitmask technique's shadow-ray checks (src/reference_samples.cpp).
+#pragma once
+#include <embree3/rtcore.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/scene.hpp"
+
+namespace penumbra::detail {
+
+struct FlatScene {
+  std::vector<float> positions;          // xyz per vertex, all meshes
+  std::vector<unsigned> indices;         // 3 per triangle, into `positions`
+  std::vector<std::uint32_t> triMesh;    // mesh index per triangle
+  std::vector<const Mesh*> meshes;
+  std::vector<std::uint32_t> meshFirstVertex;
+  float epsilon = 1e-4f;                 // shadow-ray origin offset
+};
+
+// Throws Error(BadInput) naming the mesh for non-finite vertices, indices out of range, no
+// triangles, or a scene too large for 32-bit indices.
+FlatScene flatten(const Scene& scene);
+
+class EmbreeScene {
+ public:
+  // threads: Embree's own build threads (0: its default, all hardware threads).
+  EmbreeScene(const FlatScene& f, int threads);
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+  RTCScene get() const { return scene_; }
+
+ private:
+  void check(const char* what);
+  RTCDevice device_ = nullptr;
+  RTCScene scene_ = nullptr;
+};
+
+}  // namespace penumbra::detail
