@@ -39,9 +39,6 @@
 // WORDS `in` words, then WORDS `out` words), so a look-up touches one cache line at 128 samples
 // instead of two far apart: the tables (2 MiB at 128 samples) do not fit the CPU's L2.
 #include "shared.h"
-#ifdef PB_PROFILE
-#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
-#endif
 
 #ifndef LUT_PHI
 #define LUT_PHI 128
@@ -106,17 +103,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
                               global const uint* gids, int npixels, global const uint* lut,
                               global const float2* disk, int stripes,
                               global const int* zfar, volatile global uint* masks,
-                              global const int* mesh_orient, float rot
-#ifdef PB_PROFILE
-                              , volatile global long* prof
-#endif
-                              ) {
-#ifdef PB_PROFILE
-  long pc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-#define PCOUNT(i) (pc[i]++)
-#else
-#define PCOUNT(i)
-#endif
+                              global const int* mesh_orient, float rot) {
   int tri = get_global_id(0), stripe = get_global_id(1), lb = get_global_id(2);
   if (tri >= ntris) return;
   int l = l0 + lb;
@@ -212,7 +199,6 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
       for (int s = 0; s < n; ++s) {
         // light-frame coordinates from the list itself (kernels/viewsamples.cl, vs_scatter)
         float4 entry = list[first + s];
-        PCOUNT(0);
         float3 q = entry.xyz;
         // The sample's own depth bounds the region exactly at that depth (radius
         // tan(alpha) (z_p - z_i) at vertex i): most samples of a texel leave here.
@@ -220,7 +206,6 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
         if (lside != 0.0f &&
             lside * (dot(pn, q) - pd) >= -1e-5f * pnl * (1.0f + fabs(q.x) + fabs(q.y) + fabs(q.z)))
           continue;
-        PCOUNT(1);
         {
           float pad = 1e-5f * (fabs(q.x) + fabs(q.y) + fabs(q.z));
           bool apart = false;
@@ -236,14 +221,12 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           if (apart) continue;
         }
         int px = as_int(entry.w);
-        PCOUNT(2);
         if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
         float3 p = gpos[px].xyz;
         float3 A = V[0] - p, B = V[1] - p, C = V[2] - p;
         float3 nrm[3] = {cross(A, B), cross(B, C), cross(C, A)};
         float det = dot(A, nrm[1]);
         if (det == 0.0f) continue;  // on the triangle's plane: the cone is flat
-        PCOUNT(3);
         float sg = det > 0.0f ? 1.0f : -1.0f;
 #ifdef HARD
         // the light's centre direction w: blocked iff w is inside the cone
@@ -268,8 +251,6 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           cell[partial++] = lut_cell(nx[e], ny[e], nz[e] / tr, rot);
         }
         if (none) continue;
-        PCOUNT(4);
-        if (partial == 0) PCOUNT(5);
         global volatile uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
         for (int k = 0; k < WORDS; ++k) {
           uint in = 0xffffffffu, out = 0xffffffffu;
@@ -294,10 +275,6 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
 #endif
       }
     }
-#ifdef PB_PROFILE
-  int mesh = min(t.w, 7);
-  for (int i = 0; i < 6; ++i) if (pc[i]) atom_add(&prof[mesh * 8 + i], pc[i]);
-#endif
 }
 
 // Global (pixels, lights of the batch), before bitmask_triangles. A view sample on a closed mesh
