@@ -32,12 +32,6 @@
 // the search box holds no blocker: the pixel is lit and z_avg is not defined.
 #define CSSM_MIN_BLOCKER 1e-3f
 
-#ifndef BOX_FROM_DISC
-// Width of the equal-area square of a disc of radius r is sqrt(pi) r: the box filter that stands
-// in for the disc-shaped light has half-width (sqrt(pi)/2) r (as kernels/moments.cl).
-#define BOX_FROM_DISC 0.88622692545f
-#endif
-
 // sin(c_k x), cos(c_k x) for k = 1..M by the angle-addition recurrence
 // c_{k+1} x = c_k x + 2 pi x, the step's sine and cosine by the double angle. One sincos instead
 // of 2M; the rotation's rounding grows by ~1 ulp per step (< 1e-5 at M = 32).

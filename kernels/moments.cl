@@ -302,10 +302,6 @@ static float mssm_blocker_depth(float zf, float blockers, float blocker_sum, flo
   return clamp((w0 * zf + blocker_sum) / (w0 + blockers), 0.0f, fmax(zf, 0.0f));
 }
 
-// Width of the equal-area square of a disc of radius r is sqrt(pi) r: the box filter that stands
-// in for the disc-shaped light has half-width (sqrt(pi)/2) r.
-#define BOX_FROM_DISC 0.88622692545f
-
 // What the filter boxes of one (pixel, light) need.
 typedef struct {
   float u, v;                     // shadow-map texel coordinates (row 0 at +ey)

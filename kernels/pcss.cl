@@ -11,10 +11,6 @@
 #include "shared.h"
 #include "filter.clh"
 
-// Width of the equal-area square of a disc of radius r is sqrt(pi) r (as kernels/moments.cl): the
-// box filter that stands in for the disc-shaped light has half-width (sqrt(pi)/2) r.
-#define BOX_FROM_DISC 0.88622692545f
-
 // A receiver as one depth map sees it.
 typedef struct {
   float u, v;       // continuous texel coordinates (column, row; row 0 at +ey), inside [0, size]
