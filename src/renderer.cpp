@@ -15,6 +15,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
+#include "bent_normals.hpp"
 #include "shadow_pass.hpp"
 #include "vec3.hpp"
 
@@ -264,6 +265,11 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(9, galb);
     ctx.launch("gbuffer/resolve", k, cl::NDRange(W, H));
   }
+  // I_bend per light and pixel for the shading (seed 001 §4.3), or a 1-float stand-in.
+  cl::Buffer bentB = opt.bentNormals && nl > 0
+                         ? detail::bentNormals(ctx, impl_->pool, pos, nrm, tris, posB, nrmB, lightB,
+                                               nl, cids, gpos, gnrm, npx)
+                         : impl_->pool.buffer("bent normals", 4);
 
   // --- visibility per light
   const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
@@ -362,6 +368,8 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
     }
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
+    k.setArg(16, bentB);
+    k.setArg(17, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
@@ -401,6 +409,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
     << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
     << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
+    << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")
     << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
     << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
     << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps

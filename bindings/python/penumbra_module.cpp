@@ -710,7 +710,11 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
       .def_readwrite("area_approx", &RenderOptions::areaApprox, "AreaApproxOptions.")
       .def_readwrite("environment_background", &RenderOptions::environmentBackground,
-                     "Show the map behind the geometry. Default True.");
+                     "Show the map behind the geometry. Default True.")
+      .def_readwrite("bent_normals", &RenderOptions::bentNormals,
+                     "Bent normals at light silhouettes (seed 001 §4.3): shading fades "
+                     "continuously to black on light-back-facing triangles. Meant for the "
+                     "bitmask techniques; not with the GL path. Default False.");
 
   py::class_<Frame>(m, "Frame", "A rendered frame.")
       .def_property_readonly(

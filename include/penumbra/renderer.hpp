@@ -180,6 +180,14 @@ struct RenderOptions {
   BitmaskOptions bitmask;
   AreaApproxOptions areaApprox;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
+  // Bent normals at light silhouettes (seed 001 §4.3; kernels/bent.cl, kernels/shade.cl). Exact
+  // shadows (bitmask, bitmask-hard) black out every light-back-facing triangle while the
+  // interpolated normal still sees the light, a hard edge along the light's silhouette on smooth
+  // meshes. On: each light's shading blends from normal shading (where every face around the
+  // triangle's vertices faces the light's centre at cos >= 1/3) to black on light-back-facing
+  // triangles, continuously, never brighter than without. A shading change, so every technique
+  // takes it; meant for the bitmask ones. Not in the GL path (refused). Default off.
+  bool bentNormals = false;
 };
 
 struct Frame {

@@ -1,0 +1,94 @@
+// Bent normals at light silhouettes (seed 001 §4.3, RenderOptions::bentNormals).
+//
+// Exact shadows (the bitmask techniques) make every triangle that faces away from a light shadow
+// itself, while the interpolated vertex normal still sees the light up to the shading normal's own
+// terminator: on a smooth mesh the shading jumps to black along the triangle edges of the light's
+// silhouette. Seed 001 §4.3 bends the shading there: per vertex v and light l,
+//   I_bend(v) = min over the faces F adjacent to v of n_F . l       (l: the light's centre),
+// interpolated over each triangle; kernels/shade.cl blends back to the normal illumination with
+// it. Every light-back-facing triangle has all three vertices at I_bend <= n_F . l < 0, so it is
+// black everywhere; the blend is continuous because I_bend is (one value per vertex).
+//
+// Faces count as adjacent to v when they share its welded index (src/bent_normals.cpp: vertices
+// with the same position and normal are one), and each face normal is oriented to the vertex
+// normal's side, so inconsistently wound meshes bend like consistent ones. Both the minimum and
+// the maximum are kept: a surface seen from behind (an open mesh; the G-buffer flips the shading
+// normal to the camera) shades with -n_F, whose minimum over the faces is -max(n_F . l).
+#include "shared.h"
+
+// Global (triangles, lights). bend: per (light, vertex) two ints (pb_float_to_ordered), the
+// minimum then the maximum of the oriented n_F . l, filled with INT_MAX / INT_MIN beforehand.
+kernel void bent_vertices(global const float4* pos, global const float4* nrm,
+                          global const int4* tris, int ntris, int nverts,
+                          global const pb_light* lights, volatile global int* bend) {
+  int t = get_global_id(0), l = get_global_id(1);
+  if (t >= ntris) return;
+  int4 tri = tris[t];
+  float3 a = pos[tri.x].xyz, b = pos[tri.y].xyz, c = pos[tri.z].xyz;
+  float3 n = cross(b - a, c - a);
+  float len = length(n);
+  if (!(len > 0.0f) || !isfinite(len)) return;  // degenerate: no plane, nothing to bend by
+  n /= len;
+  pb_light L = lights[l];
+  float d = dot(n, (float3)(L.dir[0], L.dir[1], L.dir[2]));
+  int v[3] = {tri.x, tri.y, tri.z};
+  for (int k = 0; k < 3; ++k) {
+    float4 nv = nrm[v[k]];
+    // Flat vertices (w = 0) have no side of their own: the winding's.
+    float s = nv.w > 0.0f && dot(n, nv.xyz) < 0.0f ? -d : d;
+    int o = pb_float_to_ordered(s);
+    volatile global int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
+    atomic_min(slot, o);
+    atomic_max(slot + 1, o);
+  }
+}
+
+// Global (pixels, lights): I_bend at each pixel, interpolated from its triangle's vertices at the
+// pixel's position (barycentrics of the G-buffer position in the triangle's plane). 1 (no bending:
+// the blend keeps the normal shading at I_bend >= 1/PB_BEND_C) on the background and on
+// triangles shaded by their geometric normal (a vertex without a normal, w = 0): those have no
+// interpolated normal, so no silhouette mismatch.
+kernel void bent_pixels(global const float4* pos, global const float4* nrm,
+                        global const int4* tris, int nverts, global const uint* gids,
+                        global const float4* gpos, global const float4* gnrm, int npixels,
+                        global const int* bend, global float* out) {
+  int px = get_global_id(0), l = get_global_id(1);
+  if (px >= npixels) return;
+  size_t o = (size_t)l * npixels + px;
+  uint id = gids[px];
+  if (id == PB_ID_EMPTY) {
+    out[o] = 1.0f;
+    return;
+  }
+  int4 tri = tris[id];
+  float4 na = nrm[tri.x], nb = nrm[tri.y], nc = nrm[tri.z];
+  if (!(na.w > 0.0f && nb.w > 0.0f && nc.w > 0.0f)) {
+    out[o] = 1.0f;
+    return;
+  }
+  float3 a = pos[tri.x].xyz, b = pos[tri.y].xyz, c = pos[tri.z].xyz, p = gpos[px].xyz;
+  // p - a = w1 (b - a) + w2 (c - a): w1 = ((p - a) x e2) . n / |n|^2, w2 = (e1 x (p - a)) . n / |n|^2.
+  float3 e1 = b - a, e2 = c - a, q = p - a, n = cross(e1, e2);
+  float nn = dot(n, n);
+  float w1 = nn > 0.0f ? dot(cross(q, e2), n) / nn : 0.0f;
+  float w2 = nn > 0.0f ? dot(cross(e1, q), n) / nn : 0.0f;
+  // The rasterizer accepts hits a hair outside the triangle (RASTER_EPS): clamp onto it.
+  w1 = clamp(w1, 0.0f, 1.0f);
+  w2 = clamp(w2, 0.0f, 1.0f - w1);
+  float w0 = 1.0f - w1 - w2;
+  // The G-buffer's shading normal is the interpolated vertex normal turned to the camera: the
+  // pixel shows the surface's back side where the two disagree.
+  float3 s = w0 * na.xyz + w1 * nb.xyz + w2 * nc.xyz;
+  int back = dot(s, gnrm[px].xyz) < 0.0f;
+  int v[3] = {tri.x, tri.y, tri.z};
+  float w[3] = {w0, w1, w2};
+  float ib = 0.0f;
+  for (int k = 0; k < 3; ++k) {
+    global const int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
+    // A vertex no face reached (only degenerate faces) bends nothing.
+    float x = slot[0] == INT_MAX ? 1.0f
+                                 : (back ? -pb_ordered_to_float(slot[1]) : pb_ordered_to_float(slot[0]));
+    ib += w[k] * x;
+  }
+  out[o] = ib;
+}
