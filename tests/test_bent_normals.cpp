@@ -396,12 +396,14 @@ TEST(BentNormals, ReportRecordsTheOption) {
 
 TEST(OclgrindBentNormals, VerticesAndTinyFrame) {
   expectVerticesMatch({octahedron(), strip()}, "octahedron and strip");
-  // A 7x5 frame of the octahedron, bent normals on, no shadows: on a light-back-facing face the
-  // result is black, as in the full-size test above.
+  // A 7x5 frame of the octahedron seen from between +x and +z, no shadows, with and without bent
+  // normals: bending only darkens, it darkens something (the faces towards -x, which face away
+  // from the light, are lit by their interpolated normals without it), and the pixels around the
+  // +x vertex, whose faces all face the light, stay lit.
   Scene s;
   s.meshes.push_back(octahedron());
   Camera cam;
-  cam.eye = {0.2f, 0.3f, 4};
+  cam.eye = {2.5f, 0.8f, 2.5f};
   cam.target = {0, 0, 0};
   cam.fovyDeg = 40;
   AreaLight a;
@@ -416,15 +418,20 @@ TEST(OclgrindBentNormals, VerticesAndTinyFrame) {
   o.width = 7;
   o.height = 5;
   o.shadows = ShadowTechnique::None;
+  const Environment env = builtinEnvironment(16);
+  const Image off = r.render(s, cam, ls, env, o).image;
   o.bentNormals = true;
-  Image im = r.render(s, cam, ls, builtinEnvironment(16), o).image;
-  // The faces towards -x face away from the light (n_F . l = -0.4): black; those towards +x lit.
-  int black = 0, lit = 0;
-  for (std::size_t i = 0; i < im.pixels.size(); i += 4) {
-    EXPECT_TRUE(std::isfinite(im.pixels[i]) && im.pixels[i] >= 0);
-    if (im.pixels[i + 3] < 0.5f) continue;
-    (im.pixels[i] > 0 ? lit : black) += 1;
+  const Image on = r.render(s, cam, ls, env, o).image;
+  int darker = 0, lit = 0;
+  for (std::size_t i = 0; i < on.pixels.size(); i += 4) {
+    if (on.pixels[i + 3] < 0.5f) continue;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_TRUE(std::isfinite(on.pixels[i + c]) && on.pixels[i + c] >= 0);
+      EXPECT_LE(on.pixels[i + c], off.pixels[i + c]);
+    }
+    darker += on.pixels[i] < off.pixels[i];
+    lit += on.pixels[i] > 0;
   }
-  EXPECT_GT(black, 0);
+  EXPECT_GT(darker, 0);
   EXPECT_GT(lit, 0);
 }
