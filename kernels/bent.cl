@@ -43,27 +43,23 @@ kernel void bent_vertices(global const float4* pos, global const float4* nrm,
   }
 }
 
-// Global (pixels, lights): I_bend at each pixel, interpolated from its triangle's vertices at the
-// pixel's position (barycentrics of the G-buffer position in the triangle's plane). 1 (no bending:
-// the blend keeps the normal shading at I_bend >= 1/PB_BEND_C) on the background and on
+// Global (pixels): I_bend at each pixel for every light, interpolated from its triangle's
+// vertices at the pixel's position (barycentrics of the G-buffer position in the triangle's
+// plane); the geometry is worked out once per pixel, then each light costs three reads. 1 (no
+// bending: the blend keeps the normal shading at I_bend >= 1/c) on the background and on
 // triangles shaded by their geometric normal (a vertex without a normal, w = 0): those have no
 // interpolated normal, so no silhouette mismatch.
 kernel void bent_pixels(global const float4* pos, global const float4* nrm,
                         global const int4* tris, int nverts, global const uint* gids,
                         global const float4* gpos, global const float4* gnrm, int npixels,
-                        global const int* bend, global float* out) {
-  int px = get_global_id(0), l = get_global_id(1);
+                        int nlights, global const int* bend, global float* out) {
+  int px = get_global_id(0);
   if (px >= npixels) return;
-  size_t o = (size_t)l * npixels + px;
   uint id = gids[px];
-  if (id == PB_ID_EMPTY) {
-    out[o] = 1.0f;
-    return;
-  }
-  int4 tri = tris[id];
+  int4 tri = id == PB_ID_EMPTY ? (int4)(0) : tris[id];
   float4 na = nrm[tri.x], nb = nrm[tri.y], nc = nrm[tri.z];
-  if (!(na.w > 0.0f && nb.w > 0.0f && nc.w > 0.0f)) {
-    out[o] = 1.0f;
+  if (id == PB_ID_EMPTY || !(na.w > 0.0f && nb.w > 0.0f && nc.w > 0.0f)) {
+    for (int l = 0; l < nlights; ++l) out[(size_t)l * npixels + px] = 1.0f;
     return;
   }
   float3 a = pos[tri.x].xyz, b = pos[tri.y].xyz, c = pos[tri.z].xyz, p = gpos[px].xyz;
@@ -82,13 +78,15 @@ kernel void bent_pixels(global const float4* pos, global const float4* nrm,
   int back = dot(s, gnrm[px].xyz) < 0.0f;
   int v[3] = {tri.x, tri.y, tri.z};
   float w[3] = {w0, w1, w2};
-  float ib = 0.0f;
-  for (int k = 0; k < 3; ++k) {
-    global const int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
-    // A vertex no face reached (only degenerate faces) bends nothing.
-    float x = slot[0] == INT_MAX ? 1.0f
-                                 : (back ? -pb_ordered_to_float(slot[1]) : pb_ordered_to_float(slot[0]));
-    ib += w[k] * x;
+  for (int l = 0; l < nlights; ++l) {
+    float ib = 0.0f;
+    for (int k = 0; k < 3; ++k) {
+      global const int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
+      // A vertex no face reached (only degenerate faces) bends nothing.
+      float x = slot[0] == INT_MAX ? 1.0f
+                                   : (back ? -pb_ordered_to_float(slot[1]) : pb_ordered_to_float(slot[0]));
+      ib += w[k] * x;
+    }
+    out[(size_t)l * npixels + px] = ib;
   }
-  out[o] = ib;
 }

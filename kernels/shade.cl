@@ -6,7 +6,8 @@
 // added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
 // bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by the
-// per-light, per-pixel I_bend of kernels/bent.cl in `bend` (RenderOptions::bentNormals).
+// per-light, per-pixel I_bend of kernels/bent.cl in `bend` (RenderOptions::bentNormals), with
+// the blend's scale bend_c.
 #include "shared.h"
 
 kernel void shade(global const float4* gpos, global const float4* gnrm, global const float4* galb,
@@ -14,7 +15,8 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
                   int npixels, global const pb_view* camera, global const float* equirect,
                   int env_w, int env_h, float env_shift, int background,
                   global float4* out, global const float4* ambient,
-                  global const float4* polys, global const float* bend, int bent) {
+                  global const float4* polys, global const float* bend, int bent,
+                  float bend_c) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   if (gpos[px].w == 0.0f) {
@@ -60,7 +62,7 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     }
     if (bent) {
       // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
-      // c = 3, with I_bend (kernels/bent.cl, interpolated) the smallest n_F . l around the
+      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl, interpolated) the smallest n_F . l around the
       // triangle's vertices. In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the
       // light's irradiance at normal incidence: on flat geometry (n = n_F, light above the horizon)
       // that is e itself, so the blend changes nothing there. We take min(e, e0 max(I_bend, 0)) as
@@ -69,7 +71,7 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
       // wherever I_bend >= 1/c, and 0 wherever I_bend <= 0, so on every light-back-facing
       // triangle, whose own n_F . l < 0 bounds all three of its vertices' I_bend.
       float ib = bend[(size_t)l * npixels + px];
-      float a = clamp(PB_BEND_C * ib, 0.0f, 1.0f);
+      float a = clamp(bend_c * ib, 0.0f, 1.0f);
       e = a * e + (1.0f - a) * fmin(e, e0 * fmax(ib, 0.0f));
     }
     if (e <= 0.0f) continue;

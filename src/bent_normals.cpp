@@ -114,9 +114,10 @@ cl::Buffer& bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_flo
   k.setArg(5, gpos);
   k.setArg(6, gnrm);
   k.setArg(7, cl_int(npixels));
-  k.setArg(8, bend);
-  k.setArg(9, out);
-  ctx.launch("bent-normals/pixels", k, cl::NDRange(std::size_t(npixels), std::size_t(nlights)));
+  k.setArg(8, cl_int(nlights));
+  k.setArg(9, bend);
+  k.setArg(10, out);
+  ctx.launch("bent-normals/pixels", k, cl::NDRange(std::size_t(npixels)));
   return out;
 }
 

@@ -184,6 +184,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   if (!(mo.minFilterTexels > 0) || !(mo.maxFilterTexels >= mo.minFilterTexels))
     badInput("filter sizes must satisfy 0 < min <= max");
   if (scene.triangleCount() == 0) badInput("scene has no triangles");
+  if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
+    badInput("--bent-normals-scale must be finite and > 0, got " +
+             std::to_string(opt.bentNormalsScale));
   if (env.equirect.empty()) badInput("environment map is empty");
 
   // --- scene upload
@@ -370,6 +373,7 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
     k.setArg(16, bentB);
     k.setArg(17, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
+    k.setArg(18, cl_float(opt.bentNormalsScale));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
@@ -410,6 +414,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
     << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
     << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")
+    << ",\n  \"bent_normals_scale\": " << opt.bentNormalsScale
     << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
     << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
     << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps

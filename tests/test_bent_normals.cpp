@@ -11,6 +11,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "../src/bent_normals.hpp"
@@ -221,9 +223,10 @@ struct SphereFrame {
     lights.lights = {a};
     lights.method = "user";
   }
-  Image render(ShadowTechnique t, bool bent) const {
+  Image render(ShadowTechnique t, bool bent, float scale = RenderOptions{}.bentNormalsScale) const {
     Renderer r(ctx());
     RenderOptions o;
+    o.bentNormalsScale = scale;
     o.width = kW;
     o.height = kH;
     o.shadows = t;
@@ -314,9 +317,12 @@ TEST(BentNormals, BlackOnLightBackFacingTrianglesUnchangedWhereAllFacesFaceTheLi
   // I_bend per vertex, from the reference.
   Uploaded u = upload({m});
   const auto bend = detail::bentVerticesReference(u.pos, u.nrm, u.tris, {f.l});
-  for (ShadowTechnique t : {ShadowTechnique::BitmaskHard, ShadowTechnique::None}) {
-    SCOPED_TRACE(toString(t));
-    const Image off = f.render(t, false), on = f.render(t, true);
+  // The default scale c = 3 with bitmask-hard and without shadows, and a sharper c = 10.
+  const float c0 = RenderOptions{}.bentNormalsScale;
+  for (auto [t, c] : {std::pair{ShadowTechnique::BitmaskHard, c0}, std::pair{ShadowTechnique::None, c0},
+                      std::pair{ShadowTechnique::BitmaskHard, 10.0f}}) {
+    SCOPED_TRACE(std::string(toString(t)) + ", c = " + std::to_string(c));
+    const Image off = f.render(t, false), on = f.render(t, true, c);
     int back = 0, backLitBefore = 0, front = 0, changed = 0;
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) {
@@ -332,7 +338,7 @@ TEST(BentNormals, BlackOnLightBackFacingTrianglesUnchangedWhereAllFacesFaceTheLi
         float minBend = 1;
         for (int k = 0; k < 3; ++k) minBend = std::min(minBend, bend[m.triangles[h.tri][k]][0]);
         // 1/c plus a margin for the device's float interpolation of the vertices' values.
-        if (minBend >= 1.0f / PB_BEND_C + 1e-4f) {
+        if (minBend >= 1.0f / c + 1e-4f) {
           ++front;
           for (int c = 0; c < 4; ++c) EXPECT_EQ(p[c], q[c]) << "pixel " << x << "," << y;
         } else {
@@ -340,9 +346,9 @@ TEST(BentNormals, BlackOnLightBackFacingTrianglesUnchangedWhereAllFacesFaceTheLi
         }
       }
     // Both sets are large: the light's silhouette crosses the picture's middle.
-    std::printf("%s: %d light-back-facing pixels, %d with every face around at cos >= 1/3, %d "
-                "of the others changed; %d back-facing pixels lit without bent normals\n",
-                toString(t), back, front, changed, backLitBefore);
+    std::printf("%s, c = %g: %d light-back-facing pixels, %d with every face around at cos >= "
+                "1/c, %d of the others changed; %d back-facing pixels lit without bent normals\n",
+                toString(t), c, back, front, changed, backLitBefore);
     EXPECT_GT(back, 1000);
     EXPECT_GT(front, 1000);
     EXPECT_GT(changed, 300);  // and the band between them does change
@@ -374,6 +380,30 @@ TEST(BentNormals, ContinuousAcrossTheTerminatorWhereBitmaskHardJumps) {
   // n_F . l ~ 0.1 on this 32 x 16 sphere: ~1.3 times the unshadowed Lambert slope (1.34 here).
   EXPECT_GT(jOff, 5 * jOn);
   EXPECT_LT(jOn, 1.6f * jNone);
+  // A sharper blend (c = 10) fades over a third of the I_bend range, so its steps are steeper, yet
+  // well below the hard edge (measured 0.00356: 1.6 times the c = 3 step, a quarter of the edge).
+  const float jSharp = maxJump(f.render(ShadowTechnique::BitmaskHard, true, 10.0f), hits, m, f.l);
+  std::printf("max neighbour jump with c = 10: %.5f\n", jSharp);
+  EXPECT_GT(jSharp, jOn);
+  EXPECT_LT(2 * jSharp, jOff);
+}
+
+TEST(BentNormals, ScaleMustBePositiveAndFinite) {
+  SphereFrame f;
+  Renderer r(ctx());
+  RenderOptions o;
+  o.width = o.height = 8;
+  o.bentNormals = true;
+  for (float bad : {0.0f, -1.0f, std::nanf(""), std::numeric_limits<float>::infinity()}) {
+    o.bentNormalsScale = bad;
+    try {
+      r.render(f.scene, f.cam, f.lights, f.env, o);
+      ADD_FAILURE() << "scale " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_NE(std::string(e.what()).find("--bent-normals-scale"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(BentNormals, ReportRecordsTheOption) {
@@ -388,6 +418,7 @@ TEST(BentNormals, ReportRecordsTheOption) {
   Frame fr = r.render(f.scene, f.cam, f.lights, f.env, o);
   const std::string j = renderReportJson("dev", f.lights, f.env, o, fr);
   EXPECT_NE(j.find("\"bent_normals\": true"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"bent_normals_scale\": 3"), std::string::npos) << j;
   EXPECT_NE(j.find("\"bent-normals/pixels\""), std::string::npos) << j;
   o.bentNormals = false;
   EXPECT_NE(renderReportJson("dev", f.lights, f.env, o, fr).find("\"bent_normals\": false"),

@@ -267,11 +267,8 @@ typedef struct {
   int width, height, ortho, pad;
 } pb_view;
 
-/* Bent normals (seed 001 §4.3, RenderOptions::bentNormals): the blend factor a = min(1, max(c
- * I_bend, 0)) reaches normal shading at I_bend = 1/c; the paper found c = 3 "works well". */
-#define PB_BEND_C 3.0f
 /* Floats as ints that order like the floats (negative ones with their magnitude bits flipped),
- * so kernels/bent.cl takes per-vertex minima and maxima with integer atomics. */
+ * so kernels/bent.cl takes per-vertex minima and maxima of floats with integer atomics. */
 #ifdef __OPENCL_VERSION__
 PB_INLINE int pb_float_to_ordered(float f) { int i = as_int(f); return i < 0 ? i ^ 0x7fffffff : i; }
 PB_INLINE float pb_ordered_to_float(int i) { return as_float(i < 0 ? i ^ 0x7fffffff : i); }
