@@ -16,10 +16,11 @@
 // normal to the camera) shades with -n_F, whose minimum over the faces is -max(n_F . l).
 #include "shared.h"
 
-// Global (triangles, lights). bend: per (light, vertex) two ints (pb_float_to_ordered), the
-// minimum then the maximum of the oriented n_F . l, filled with INT_MAX / INT_MIN beforehand.
+// Global (triangles, lights). bend: per (vertex, light), vertex-major so that a pixel's three
+// vertices hold every light's values together, two ints (pb_float_to_ordered): the minimum then
+// the maximum of the oriented n_F . l, filled with INT_MAX / INT_MIN beforehand.
 kernel void bent_vertices(global const float4* pos, global const float4* nrm,
-                          global const int4* tris, int ntris, int nverts,
+                          global const int4* tris, int ntris, int nlights,
                           global const pb_light* lights, volatile global int* bend) {
   int t = get_global_id(0), l = get_global_id(1);
   if (t >= ntris) return;
@@ -37,29 +38,30 @@ kernel void bent_vertices(global const float4* pos, global const float4* nrm,
     // Flat vertices (w = 0) have no side of their own: the winding's.
     float s = nv.w > 0.0f && dot(n, nv.xyz) < 0.0f ? -d : d;
     int o = pb_float_to_ordered(s);
-    volatile global int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
+    volatile global int* slot = bend + 2 * ((size_t)v[k] * nlights + l);
     atomic_min(slot, o);
     atomic_max(slot + 1, o);
   }
 }
 
-// Global (pixels): I_bend at each pixel for every light, interpolated from its triangle's
-// vertices at the pixel's position (barycentrics of the G-buffer position in the triangle's
-// plane); the geometry is worked out once per pixel, then each light costs three reads. 1 (no
-// bending: the blend keeps the normal shading at I_bend >= 1/c) on the background and on
-// triangles shaded by their geometric normal (a vertex without a normal, w = 0): those have no
-// interpolated normal, so no silhouette mismatch.
+// Global (pixels): what kernels/shade.cl needs to interpolate I_bend at each pixel, for every
+// light: the pixel's triangle's three welded vertices (vert.xyz; w = 1 where the pixel shows the
+// surface's back side, whose I_bend is minus the maximum) and their barycentric weights at the
+// G-buffer position (weight.xyz). vert.x = -1: no bending (the blend keeps the normal shading)
+// on the background and on triangles shaded by their geometric normal (a vertex without a
+// normal, w = 0): those have no interpolated normal, so no silhouette mismatch.
 kernel void bent_pixels(global const float4* pos, global const float4* nrm,
-                        global const int4* tris, int nverts, global const uint* gids,
+                        global const int4* tris, global const uint* gids,
                         global const float4* gpos, global const float4* gnrm, int npixels,
-                        int nlights, global const int* bend, global float* out) {
+                        global int4* vert, global float4* weight) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   uint id = gids[px];
   int4 tri = id == PB_ID_EMPTY ? (int4)(0) : tris[id];
   float4 na = nrm[tri.x], nb = nrm[tri.y], nc = nrm[tri.z];
   if (id == PB_ID_EMPTY || !(na.w > 0.0f && nb.w > 0.0f && nc.w > 0.0f)) {
-    for (int l = 0; l < nlights; ++l) out[(size_t)l * npixels + px] = 1.0f;
+    vert[px] = (int4)(-1, 0, 0, 0);
+    weight[px] = (float4)(0.0f);
     return;
   }
   float3 a = pos[tri.x].xyz, b = pos[tri.y].xyz, c = pos[tri.z].xyz, p = gpos[px].xyz;
@@ -71,22 +73,10 @@ kernel void bent_pixels(global const float4* pos, global const float4* nrm,
   // The rasterizer accepts hits a hair outside the triangle (RASTER_EPS): clamp onto it.
   w1 = clamp(w1, 0.0f, 1.0f);
   w2 = clamp(w2, 0.0f, 1.0f - w1);
-  float w0 = 1.0f - w1 - w2;
   // The G-buffer's shading normal is the interpolated vertex normal turned to the camera: the
   // pixel shows the surface's back side where the two disagree.
+  float w0 = 1.0f - w1 - w2;
   float3 s = w0 * na.xyz + w1 * nb.xyz + w2 * nc.xyz;
-  int back = dot(s, gnrm[px].xyz) < 0.0f;
-  int v[3] = {tri.x, tri.y, tri.z};
-  float w[3] = {w0, w1, w2};
-  for (int l = 0; l < nlights; ++l) {
-    float ib = 0.0f;
-    for (int k = 0; k < 3; ++k) {
-      global const int* slot = bend + 2 * ((size_t)l * nverts + v[k]);
-      // A vertex no face reached (only degenerate faces) bends nothing.
-      float x = slot[0] == INT_MAX ? 1.0f
-                                   : (back ? -pb_ordered_to_float(slot[1]) : pb_ordered_to_float(slot[0]));
-      ib += w[k] * x;
-    }
-    out[(size_t)l * npixels + px] = ib;
-  }
+  vert[px] = (int4)(tri.x, tri.y, tri.z, dot(s, gnrm[px].xyz) < 0.0f ? 1 : 0);
+  weight[px] = (float4)(w0, w1, w2, 0.0f);
 }

@@ -5,17 +5,19 @@
 // The ambient residual (9 RGB SH coefficients of radiance, zeros when the light set has none) is
 // added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
-// bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by the
-// per-light, per-pixel I_bend of kernels/bent.cl in `bend` (RenderOptions::bentNormals), with
-// the blend's scale bend_c.
+// bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by I_bend,
+// interpolated from kernels/bent.cl's per-vertex values (bend) with its per-pixel vertices and
+// weights (RenderOptions::bentNormals), with the blend's scale bend_c.
 #include "shared.h"
+#include "bent.clh"
 
 kernel void shade(global const float4* gpos, global const float4* gnrm, global const float4* galb,
                   global const pb_light* lights, int nlights, global const float* vis,
                   int npixels, global const pb_view* camera, global const float* equirect,
                   int env_w, int env_h, float env_shift, int background,
                   global float4* out, global const float4* ambient,
-                  global const float4* polys, global const float* bend, int bent,
+                  global const float4* polys, global const int4* bend_vert,
+                  global const float4* bend_weight, global const int* bend, int bent,
                   float bend_c) {
   int px = get_global_id(0);
   if (px >= npixels) return;
@@ -70,7 +72,7 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
       // only computed where e > 0), it is still continuous (e, I_bend and min are), it is e
       // wherever I_bend >= 1/c, and 0 wherever I_bend <= 0, so on every light-back-facing
       // triangle, whose own n_F . l < 0 bounds all three of its vertices' I_bend.
-      float ib = bend[(size_t)l * npixels + px];
+      float ib = pb_bent_value(bend_vert[px], bend_weight[px], bend, nlights, l);
       float a = clamp(bend_c * ib, 0.0f, 1.0f);
       e = a * e + (1.0f - a) * fmin(e, e0 * fmax(ib, 0.0f));
     }

@@ -60,7 +60,7 @@ void bentVertices(Context& ctx, const cl::Buffer& pos, const cl::Buffer& nrm,
   k.setArg(1, nrm);
   k.setArg(2, tris);
   k.setArg(3, cl_int(ntris));
-  k.setArg(4, cl_int(nverts));
+  k.setArg(4, cl_int(nlights));
   k.setArg(5, lights);
   k.setArg(6, bend);
   ctx.launch("bent-normals/vertices", k, cl::NDRange(std::size_t(ntris), std::size_t(nlights)));
@@ -84,7 +84,7 @@ std::vector<std::array<float, 2>> bentVerticesReference(
       for (int k = 0; k < 3; ++k) {
         const cl_float4& vn = nrm[t.s[k]];
         const float s = vn.s[3] > 0 && dot(n, xyz(vn.s)) < 0 ? -d : d;
-        auto& e = out[l * nv + std::size_t(t.s[k])];
+        auto& e = out[std::size_t(t.s[k]) * lightDirs.size() + l];
         e[0] = std::min(e[0], s);
         e[1] = std::max(e[1], s);
       }
@@ -92,7 +92,7 @@ std::vector<std::array<float, 2>> bentVerticesReference(
   return out;
 }
 
-cl::Buffer& bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
+BentBuffers bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
                         const std::vector<cl_float4>& nrm, const std::vector<cl_int4>& tris,
                         const cl::Buffer& posB, const cl::Buffer& nrmB, const cl::Buffer& lights,
                         int nlights, const cl::Buffer& gids, const cl::Buffer& gpos,
@@ -102,23 +102,20 @@ cl::Buffer& bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_flo
   cl::Buffer& bend = pool.buffer("bent normals per vertex",
                                  std::max<std::size_t>(1, std::size_t(nlights) * nverts) * 8);
   bentVertices(ctx, posB, nrmB, welded, ntris, nverts, lights, nlights, bend);
-  cl::Buffer& out =
-      pool.buffer("bent normals", std::max<std::size_t>(1, std::size_t(nlights) * npixels) * 4);
-  if (nlights == 0) return out;
+  cl::Buffer& vert = pool.buffer("bent normals: pixel vertices", std::size_t(npixels) * 16);
+  cl::Buffer& weight = pool.buffer("bent normals: pixel weights", std::size_t(npixels) * 16);
   cl::Kernel k = ctx.kernel("bent.cl", "bent_pixels");
   k.setArg(0, posB);
   k.setArg(1, nrmB);
   k.setArg(2, welded);
-  k.setArg(3, cl_int(nverts));
-  k.setArg(4, gids);
-  k.setArg(5, gpos);
-  k.setArg(6, gnrm);
-  k.setArg(7, cl_int(npixels));
-  k.setArg(8, cl_int(nlights));
-  k.setArg(9, bend);
-  k.setArg(10, out);
+  k.setArg(3, gids);
+  k.setArg(4, gpos);
+  k.setArg(5, gnrm);
+  k.setArg(6, cl_int(npixels));
+  k.setArg(7, vert);
+  k.setArg(8, weight);
   ctx.launch("bent-normals/pixels", k, cl::NDRange(std::size_t(npixels)));
-  return out;
+  return {bend, vert, weight};
 }
 
 }  // namespace penumbra::detail

@@ -18,23 +18,29 @@ std::vector<cl_int4> weldedTriangles(const std::vector<cl_float4>& pos,
                                      const std::vector<cl_float4>& nrm,
                                      const std::vector<cl_int4>& tris);
 
-// Per (light, vertex) minimum and maximum over the adjacent faces of the oriented n_F . l
+// Per (vertex, light), vertex-major, minimum and maximum over the adjacent faces of the oriented n_F . l
 // (kernels/bent.cl's bent_vertices) into `bend` (2 ints per entry, pb_float_to_ordered; INT_MAX /
 // INT_MIN where no face reached the vertex). tris must be welded. Stage "bent-normals/vertices".
 void bentVertices(Context& ctx, const cl::Buffer& pos, const cl::Buffer& nrm,
                   const cl::Buffer& tris, int ntris, int nverts, const cl::Buffer& lights,
                   int nlights, cl::Buffer& bend);
 
-// The same on the host (the kernel's reference): {min, max} per light-major (light, vertex);
+// The same on the host (the kernel's reference): {min, max} per (vertex, light), vertex-major;
 // {+inf, -inf} where no face reached the vertex. lightDirs: unit directions towards the lights.
 std::vector<std::array<float, 2>> bentVerticesReference(const std::vector<cl_float4>& pos,
                                                         const std::vector<cl_float4>& nrm,
                                                         const std::vector<cl_int4>& tris,
                                                         const std::vector<std::array<float, 3>>& lightDirs);
 
-// The frame's I_bend per light and pixel (light-major, float) into pool buffer "bent normals":
-// welds, runs bent_vertices and bent_pixels (stage "bent-normals/pixels"), returns the buffer.
-cl::Buffer& bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
+// What the shading reads (kernels/shade.cl, kernels/bent.clh): per vertex and light the minimum
+// and maximum (bentVertices), per pixel its triangle's welded vertices and their weights.
+struct BentBuffers {
+  cl::Buffer bend, vert, weight;
+};
+
+// The frame's bent-normal inputs to the shading, in pool buffers: welds, runs bent_vertices and
+// bent_pixels (stage "bent-normals/pixels").
+BentBuffers bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
                         const std::vector<cl_float4>& nrm, const std::vector<cl_int4>& tris,
                         const cl::Buffer& posB, const cl::Buffer& nrmB, const cl::Buffer& lights,
                         int nlights, const cl::Buffer& gids, const cl::Buffer& gpos,

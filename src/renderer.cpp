@@ -268,11 +268,14 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(9, galb);
     ctx.launch("gbuffer/resolve", k, cl::NDRange(W, H));
   }
-  // I_bend per light and pixel for the shading (seed 001 §4.3), or a 1-float stand-in.
-  cl::Buffer bentB = opt.bentNormals && nl > 0
-                         ? detail::bentNormals(ctx, impl_->pool, pos, nrm, tris, posB, nrmB, lightB,
-                                               nl, cids, gpos, gnrm, npx)
-                         : impl_->pool.buffer("bent normals", 4);
+  // What the shading needs to bend normals (seed 001 §4.3), or small stand-ins it never reads.
+  const detail::BentBuffers bent =
+      opt.bentNormals && nl > 0
+          ? detail::bentNormals(ctx, impl_->pool, pos, nrm, tris, posB, nrmB, lightB, nl, cids,
+                                gpos, gnrm, npx)
+          : detail::BentBuffers{impl_->pool.buffer("bent normals off", 16),
+                                impl_->pool.buffer("bent normals off", 16),
+                                impl_->pool.buffer("bent normals off", 16)};
 
   // --- visibility per light
   const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
@@ -371,9 +374,11 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
     }
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
-    k.setArg(16, bentB);
-    k.setArg(17, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
-    k.setArg(18, cl_float(opt.bentNormalsScale));
+    k.setArg(16, bent.vert);
+    k.setArg(17, bent.weight);
+    k.setArg(18, bent.bend);
+    k.setArg(19, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
+    k.setArg(20, cl_float(opt.bentNormalsScale));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
