@@ -60,12 +60,12 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     } else {
       float cb = n.x * L.dir[0] + n.y * L.dir[1] + n.z * L.dir[2];
       e = pb_cap_irradiance(L.dir[3], cb);
-      e0 = pb_cap_irradiance(L.dir[3], 1.0f);
+      if (bent) e0 = pb_cap_irradiance(L.dir[3], 1.0f);
     }
     if (bent) {
       // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
-      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl, interpolated) the smallest n_F . l around the
-      // triangle's vertices. In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the
+      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl,
+      // interpolated) the smallest n_F . l around the triangle's vertices. In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the
       // light's irradiance at normal incidence: on flat geometry (n = n_F, light above the horizon)
       // that is e itself, so the blend changes nothing there. We take min(e, e0 max(I_bend, 0)) as
       // the second term: the result is then never brighter than the unbent shading (visibility is
