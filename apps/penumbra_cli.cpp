@@ -342,6 +342,8 @@ int cmdRender(int argc, char** argv) {
       {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | bitmask | bitmask-hard | area-approx | none"},
       {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
       {"front-back", false, "average front- and back-face depths in the shadow maps"},
+      {"bent-normals", false, "bend shading at light silhouettes to black on light-back-facing triangles (seed 001 §4.3; for bitmask, bitmask-hard)"},
+      {"bent-normals-scale", true, "bent normals: c of the blend, shading unchanged where every face around faces the light at cos >= 1/c (default 3)"},
       {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
       {"moment-bias", true, "MSSM moment bias (default 3e-5)"},
       {"depth-bias", true, "MSSM depth bias, normalized depth (default 0.002)"},
@@ -418,6 +420,11 @@ int cmdRender(int argc, char** argv) {
   if (accumulate > 1 && ro.shadows != ShadowTechnique::Bitmask)
     badInput("--accumulate needs --shadows bitmask (the only technique with jittered samples)");
   ro.frontBackFaces = has(a, "front-back");
+  ro.bentNormals = has(a, "bent-normals");
+  if (has(a, "bent-normals-scale")) {
+    if (!ro.bentNormals) badInput("--bent-normals-scale needs --bent-normals");
+    ro.bentNormalsScale = parseFloat("bent-normals-scale", get(a, "bent-normals-scale", ""));
+  }
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
   if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
   if (has(a, "slope-bias")) ro.mssm.slopeBias = parseFloat("slope-bias", get(a, "slope-bias", ""));

@@ -5,14 +5,20 @@
 // The ambient residual (9 RGB SH coefficients of radiance, zeros when the light set has none) is
 // added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
+// bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by I_bend,
+// interpolated from kernels/bent.cl's per-vertex values (bend) with its per-pixel vertices and
+// weights (RenderOptions::bentNormals), with the blend's scale bend_c.
 #include "shared.h"
+#include "bent.clh"
 
 kernel void shade(global const float4* gpos, global const float4* gnrm, global const float4* galb,
                   global const pb_light* lights, int nlights, global const float* vis,
                   int npixels, global const pb_view* camera, global const float* equirect,
                   int env_w, int env_h, float env_shift, int background,
                   global float4* out, global const float4* ambient,
-                  global const float4* polys) {
+                  global const float4* polys, global const int4* bend_vert,
+                  global const float4* bend_weight, global const int* bend, int bent,
+                  float bend_c) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   if (gpos[px].w == 0.0f) {
@@ -41,7 +47,7 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     // polys: PB_MAX_POLY_VERTS float4 per light, w of the first = vertex count, 0 for a cap.
     global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
     int nv = (int)pv[0].w;
-    float e;
+    float e, e0 = 0.0f;
     if (nv >= 3) {
       float v[3 * PB_MAX_POLY_VERTS];
       for (int i = 0; i < nv && i < PB_MAX_POLY_VERTS; ++i) {
@@ -50,9 +56,25 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
         v[3 * i + 2] = pv[i].z;
       }
       e = pb_polygon_irradiance(v, min(nv, PB_MAX_POLY_VERTS), n.x, n.y, n.z);
+      if (bent) e0 = pb_polygon_irradiance(v, min(nv, PB_MAX_POLY_VERTS), L.dir[0], L.dir[1], L.dir[2]);
     } else {
       float cb = n.x * L.dir[0] + n.y * L.dir[1] + n.z * L.dir[2];
       e = pb_cap_irradiance(L.dir[3], cb);
+      if (bent) e0 = pb_cap_irradiance(L.dir[3], 1.0f);
+    }
+    if (bent) {
+      // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
+      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl,
+      // interpolated) the smallest n_F . l around the triangle's vertices. In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the
+      // light's irradiance at normal incidence: on flat geometry (n = n_F, light above the horizon)
+      // that is e itself, so the blend changes nothing there. We take min(e, e0 max(I_bend, 0)) as
+      // the second term: the result is then never brighter than the unbent shading (visibility is
+      // only computed where e > 0), it is still continuous (e, I_bend and min are), it is e
+      // wherever I_bend >= 1/c, and 0 wherever I_bend <= 0, so on every light-back-facing
+      // triangle, whose own n_F . l < 0 bounds all three of its vertices' I_bend.
+      float ib = pb_bent_value(bend_vert[px], bend_weight[px], bend, nlights, l);
+      float a = clamp(bend_c * ib, 0.0f, 1.0f);
+      e = a * e + (1.0f - a) * fmin(e, e0 * fmax(ib, 0.0f));
     }
     if (e <= 0.0f) continue;
     float V = vis[(size_t)l * npixels + px];

@@ -15,6 +15,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
+#include "bent_normals.hpp"
 #include "shadow_pass.hpp"
 #include "vec3.hpp"
 
@@ -183,6 +184,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   if (!(mo.minFilterTexels > 0) || !(mo.maxFilterTexels >= mo.minFilterTexels))
     badInput("filter sizes must satisfy 0 < min <= max");
   if (scene.triangleCount() == 0) badInput("scene has no triangles");
+  if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
+    badInput("--bent-normals-scale must be finite and > 0, got " +
+             std::to_string(opt.bentNormalsScale));
   if (env.equirect.empty()) badInput("environment map is empty");
 
   // --- scene upload
@@ -264,6 +268,14 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(9, galb);
     ctx.launch("gbuffer/resolve", k, cl::NDRange(W, H));
   }
+  // What the shading needs to bend normals (seed 001 §4.3), or small stand-ins it never reads.
+  const detail::BentBuffers bent =
+      opt.bentNormals && nl > 0
+          ? detail::bentNormals(ctx, impl_->pool, pos, nrm, tris, posB, nrmB, lightB, nl, cids,
+                                gpos, gnrm, npx)
+          : detail::BentBuffers{impl_->pool.buffer("bent normals off", 16),
+                                impl_->pool.buffer("bent normals off", 16),
+                                impl_->pool.buffer("bent normals off", 16)};
 
   // --- visibility per light
   const std::size_t visBytes = std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4;
@@ -362,6 +374,11 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
     }
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
+    k.setArg(16, bent.vert);
+    k.setArg(17, bent.weight);
+    k.setArg(18, bent.bend);
+    k.setArg(19, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
+    k.setArg(20, cl_float(opt.bentNormalsScale));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
@@ -401,6 +418,8 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
     << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
     << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
+    << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")
+    << ",\n  \"bent_normals_scale\": " << opt.bentNormalsScale
     << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
     << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
     << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps

@@ -314,6 +314,9 @@ TEST(GLInterop, ChecksTextureFormatsAndSizes) {
   RenderOptions brute = opt;
   brute.shadows = ShadowTechnique::Brute;
   expectBadInput([&] { shade(maps, g, out, lights, brute); }, {"--shadows brute"});
+  RenderOptions bent = opt;
+  bent.bentNormals = true;
+  expectBadInput([&] { shade(maps, g, out, lights, bent); }, {"--bent-normals", "without --gl"});
   // After all the refusals the valid frame still works.
   EXPECT_NO_THROW(shade(maps, g, out, lights, opt));
 }

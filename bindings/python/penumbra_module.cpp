@@ -710,7 +710,14 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
       .def_readwrite("area_approx", &RenderOptions::areaApprox, "AreaApproxOptions.")
       .def_readwrite("environment_background", &RenderOptions::environmentBackground,
-                     "Show the map behind the geometry. Default True.");
+                     "Show the map behind the geometry. Default True.")
+      .def_readwrite("bent_normals", &RenderOptions::bentNormals,
+                     "Bent normals at light silhouettes (seed 001 §4.3): shading fades "
+                     "continuously to black on light-back-facing triangles. Meant for the "
+                     "bitmask techniques; not with the GL path. Default False.")
+      .def_readwrite("bent_normals_scale", &RenderOptions::bentNormalsScale,
+                     "c of the bent-normal blend min(1, max(c I_bend, 0)): shading unchanged "
+                     "where I_bend >= 1/c. Finite, > 0. Default 3 (seed 001 §4.3).");
 
   py::class_<Frame>(m, "Frame", "A rendered frame.")
       .def_property_readonly(

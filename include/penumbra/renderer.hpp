@@ -180,6 +180,18 @@ struct RenderOptions {
   BitmaskOptions bitmask;
   AreaApproxOptions areaApprox;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
+  // Bent normals at light silhouettes (seed 001 §4.3; kernels/bent.cl, kernels/shade.cl). Exact
+  // shadows (bitmask, bitmask-hard) black out every light-back-facing triangle while the
+  // interpolated normal still sees the light, a hard edge along the light's silhouette on smooth
+  // meshes. On: each light's shading blends from normal shading (where every face around the
+  // triangle's vertices faces the light's centre at cos >= 1/bentNormalsScale) to black on light-back-facing
+  // triangles, continuously, never brighter than without. A shading change, so every technique
+  // takes it; meant for the bitmask ones. Not in the GL path (refused). Default off.
+  bool bentNormals = false;
+  // c of seed 001 §4.3's blend a = min(1, max(c I_bend, 0)): shading is unchanged where I_bend
+  // >= 1/c and fades to black over I_bend in (0, 1/c). Larger: a narrower, steeper fade. Default 3
+  // (the paper: "c := 3 works well"); finite and > 0.
+  float bentNormalsScale = 3.0f;
 };
 
 struct Frame {

@@ -267,4 +267,24 @@ typedef struct {
   int width, height, ortho, pad;
 } pb_view;
 
+/* Floats as ints that order like the floats (negative ones with their magnitude bits flipped),
+ * so kernels/bent.cl takes per-vertex minima and maxima of floats with integer atomics. */
+#ifdef __OPENCL_VERSION__
+PB_INLINE int pb_float_to_ordered(float f) { int i = as_int(f); return i < 0 ? i ^ 0x7fffffff : i; }
+PB_INLINE float pb_ordered_to_float(int i) { return as_float(i < 0 ? i ^ 0x7fffffff : i); }
+#else
+#include <string.h>
+PB_INLINE int pb_float_to_ordered(float f) {
+  int i;
+  memcpy(&i, &f, sizeof i);
+  return i < 0 ? i ^ 0x7fffffff : i;
+}
+PB_INLINE float pb_ordered_to_float(int i) {
+  float f;
+  i = i < 0 ? i ^ 0x7fffffff : i;
+  memcpy(&f, &i, sizeof f);
+  return f;
+}
+#endif
+
 #endif

@@ -226,6 +226,9 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
              "hold at most " + std::to_string(m.maxLights));
   if (options.frontBackFaces)
     badInput("GL interop: --front-back needs back-face depth maps, which the interop does not take");
+  if (options.bentNormals)
+    badInput("GL interop: --bent-normals needs the scene's triangles and the OpenCL shading, "
+             "which the interop does not take; render without --gl");
   if (env.equirect.empty()) badInput("environment map is empty");
 
   // --- formats and sizes: the output texture fixes W x H, the first depth map S

@@ -110,3 +110,22 @@ def test_animation(ctx, camera, renderer):
         images.append(renderer.render(penumbra.builtin_scene(0.5 * i), camera, ls, env,
                                       small_options()).image.copy())
     assert not np.array_equal(images[0], images[1])
+
+
+def test_bent_normals(scene, camera, lights, env, renderer, ctx):
+    o = penumbra.RenderOptions()
+    assert not o.bent_normals and o.bent_normals_scale == 3  # off by default; the paper's c
+    off = renderer.render(scene, camera, lights, env, small_options(technique="bitmask-hard"))
+    opt = small_options(technique="bitmask-hard", bent_normals=True)
+    frame = renderer.render(scene, camera, lights, env, opt)
+    img = frame.image
+    assert np.isfinite(img).all()
+    # Shading only ever darkens (kernels/shade.cl), and the option does something on the sphere's
+    # and torus's silhouettes.
+    assert (img[..., :3] <= off.image[..., :3] + 1e-6).all()
+    assert (img[..., :3] < off.image[..., :3]).any()
+    report = json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))
+    assert report["bent_normals"] is True and report["bent_normals_scale"] == 3
+    with pytest.raises(penumbra.BadInput, match="bent-normals-scale"):
+        renderer.render(scene, camera, lights, env,
+                        small_options(bent_normals=True, bent_normals_scale=0.0))
