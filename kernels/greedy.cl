@@ -87,7 +87,8 @@ static long2 row_seed(global const long* lum, global const uchar* covered, int m
 
 // energy: 3 planes (R, G, B) of 6*m*m fixed-point energies; on return it holds what the lights
 // did not take (the remaining map). covered: 6*m*m bytes, cleared by the host.
-// Scratch, per face f: lum (m*m: the luminance of the current energies), row_sum and col_sum
+// Scratch, per face f: lum (m*m: the luminance of the current energies) and lum_t (the same,
+// column by column, so that redoing a column's sums reads contiguous memory), row_sum and col_sum
 // (m*(m+1) each: row_sum[y*(m+1) + x] = sum of lum over [0, x) of row y; col_sum[x*(m+1) + y] the
 // same down column x), row_open (m*(m+1): prefix counts of uncovered texels per row), row_best
 // (m: row_seed of each row), all at offset f times their per-face size.
@@ -96,9 +97,10 @@ static long2 row_seed(global const long* lum, global const uchar* covered, int m
 //   out_power = removed (R, G, B, Y);
 //   out_moment = removed sum of Y * (unit texel direction), (x, y, z, 0), rounded per texel.
 // Local memory: `red` 2 long4 per work-item (the work-group size must be a power of two),
-// `col_dirty` m ints.
+// `col_dirty` m ints (per column, the first row the removal changed; m: none).
 kernel void greedy_fit(global long* energy, global uchar* covered, int m, float t, int square,
-                       int capacity, global long* lum_all, global long* row_sum_all,
+                       int capacity, global long* lum_all, global long* lum_t_all,
+                       global long* row_sum_all,
                        global long* col_sum_all, global int* row_open_all,
                        global long2* row_best_all, global int4* out_rect, global long4* out_power,
                        global long4* out_moment, global int* out_count, local long4* red,
@@ -109,6 +111,7 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
   const size_t pbase = (size_t)f * m * (m + 1);  // a face's prefix arrays
   const int n_texels = m * m;
   global long* lum = lum_all + base;
+  global long* lum_t = lum_t_all + base;
   global long* row_sum = row_sum_all + pbase;
   global long* col_sum = col_sum_all + pbase;
   global int* row_open = row_open_all + pbase;
@@ -126,8 +129,9 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
   for (int i = lid; i < n_texels; i += wg) {
     acc += (long4)(energy[base + i], energy[plane + base + i], energy[2 * plane + base + i], 0);
     lum[i] = texel_lum(energy, plane, base + i);
+    lum_t[(size_t)(i % m) * m + i / m] = lum[i];
   }
-  for (int x = lid; x < m; x += wg) col_dirty[x] = 0;
+  for (int x = lid; x < m; x += wg) col_dirty[x] = m;
   reduce_sum2(red, &acc, &unused);
   const long4 face_sum = acc;
   const long avg_r = face_sum.x / n_texels, avg_g = face_sum.y / n_texels,
@@ -147,7 +151,7 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
     long s = 0;
     col_sum[(size_t)x * (m + 1)] = 0;
     for (int y = 0; y < m; ++y) {
-      s += lum[(size_t)y * m + x];
+      s += lum_t[(size_t)x * m + y];
       col_sum[(size_t)x * (m + 1) + y + 1] = s;
     }
   }
@@ -227,6 +231,7 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
       const size_t ro = (size_t)y * (m + 1);
       if (row_open[ro + x1] == row_open[ro + x0]) continue;  // no uncovered texel under the light
       bool best_taken = false;
+      int first = x1;  // the first texel of the row that changes
       for (int x = x0; x < x1; ++x) {
         size_t i = base + (size_t)y * m + x;
         if (covered[i]) continue;
@@ -235,7 +240,7 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
         energy[i] = kr;
         energy[plane + i] = kg;
         energy[2 * plane + i] = kb;
-        lum[(size_t)y * m + x] = PB_LUM_FIXED(kr, kg, kb);
+        lum[(size_t)y * m + x] = lum_t[(size_t)x * m + y] = PB_LUM_FIXED(kr, kg, kb);
         long dr = r - kr, dg = g - kg, db = b - kb;
         long dy = PB_LUM_FIXED(dr, dg, db);
         p += (long4)(dr, dg, db, dy);
@@ -246,12 +251,13 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
         mom += (long4)((long)rint(fy * dx_ * inv), (long)rint(fy * dy_ * inv),
                        (long)rint(fy * dz_ * inv), 1);
         covered[i] = 1;
-        atomic_or(&col_dirty[x], 1);
+        atomic_min(&col_dirty[x], y);
+        first = min(first, x);
         best_taken = best_taken || row_best[y].y == (long)y * m + x;
       }
-      long s = row_sum[ro + x0];
-      int open = row_open[ro + x0];
-      for (int x = x0; x < m; ++x) {
+      long s = row_sum[ro + first];
+      int open = row_open[ro + first];
+      for (int x = first; x < m; ++x) {
         size_t i = (size_t)y * m + x;
         s += lum[i];
         open += covered[base + i] ? 0 : 1;
@@ -264,12 +270,13 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
     }
     reduce_sum2(red, &p, &mom);
     for (int x = x0 + lid; x < x1; x += wg) {
-      if (!col_dirty[x]) continue;
-      col_dirty[x] = 0;
+      const int first = col_dirty[x];
+      if (first == m) continue;
+      col_dirty[x] = m;
       const size_t co = (size_t)x * (m + 1);
-      long s = col_sum[co + y0];
-      for (int y = y0; y < m; ++y) {
-        s += lum[(size_t)y * m + x];
+      long s = col_sum[co + first];
+      for (int y = first; y < m; ++y) {
+        s += lum_t[(size_t)x * m + y];
         col_sum[co + y + 1] = s;
       }
     }

@@ -25,10 +25,11 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
   cl::Buffer covered = ctx.buffer(texels, "greedy covered flags");
   cl_uchar zero = 0;
   ctx.fill(covered, &zero, 1, texels, "greedy covered flags");
-  // The kernel's per-face scratch: luminance, row and column prefix sums, uncovered counts per
+  // The kernel's per-face scratch: luminance (by row and by column), row and column prefix sums, uncovered counts per
   // row, the seed of each row (kernels/greedy.cl, greedy_fit).
   const std::size_t prefix = 6ull * m * (m + 1);
   cl::Buffer lum = ctx.buffer(texels * sizeof(cl_long), "greedy luminance");
+  cl::Buffer lumT = ctx.buffer(texels * sizeof(cl_long), "greedy luminance by column");
   cl::Buffer rowSum = ctx.buffer(prefix * sizeof(cl_long), "greedy row sums");
   cl::Buffer colSum = ctx.buffer(prefix * sizeof(cl_long), "greedy column sums");
   cl::Buffer rowOpen = ctx.buffer(prefix * sizeof(cl_int), "greedy uncovered counts");
@@ -43,8 +44,8 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
   // One work-group per face. Most of the fit is serial (one work-item grows each light); the
   // work-group shares out the seed search, the removal's rows and the prefix-sum updates. On a
   // GPU 256 work-items keep those short; on a CPU a work-group's items run one after another on
-  // one core and every barrier costs a pass over all of them, so there 1 is fastest (measured in
-  // bench/results/extract.md).
+  // one core and every barrier costs a pass over all of them, so there 1 is best (measured with
+  // PoCL on 2 cores, face 512, square: fit 0.53-0.56 s at 1 item, 0.52-0.57 s at 4, 1.17 s at 256).
   if (workGroupSize & (workGroupSize - 1))
     badInput("greedy work-group size must be a power of two, got " + std::to_string(workGroupSize));
   const bool cpu = ctx.device().getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU;
@@ -60,6 +61,7 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
   k.setArg(a++, cl_int(square ? 1 : 0));
   k.setArg(a++, cl_int(capacity));
   k.setArg(a++, lum);
+  k.setArg(a++, lumT);
   k.setArg(a++, rowSum);
   k.setArg(a++, colSum);
   k.setArg(a++, rowOpen);
