@@ -22,7 +22,7 @@ struct GreedyRect {
 // with 24-54% of its texels covered. A texel dimmer than the face's mean gives nothing when
 // covered, so where the map is dim it does not change, and each new seed beside a light regrows
 // nearly the same ~100-texel square, covering a few new texels (measured with the reference of
-// tests/test_greedy.cpp: about 100 growth steps and 10^4 texels per light, 8-16 of them new).
+// tests/test_greedy.cpp: about 100 growth steps and 10^4 texels per light, 4-9 of them new).
 constexpr int kGreedyMaxPerFace = 16384;
 
 // Runs greedy_fit on `energy` (3 planes of 6*m*m cl_long, replaced by the remaining map). Lights
