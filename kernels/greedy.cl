@@ -100,9 +100,9 @@ static long2 row_seed(global const long* lum, global const uchar* covered, int m
 // `col_dirty` m ints (per column, the first row the removal changed; m: none).
 kernel void greedy_fit(global long* energy, global uchar* covered, int m, float t, int square,
                        int capacity, global long* lum_all, global long* lum_t_all,
-                       global long* row_sum_all,
-                       global long* col_sum_all, global int* row_open_all,
-                       global long2* row_best_all, global int4* out_rect, global long4* out_power,
+                       global long* row_sum_all, global long* col_sum_all,
+                       global int* row_open_all, global long2* row_best_all,
+                       global int4* out_rect, global long4* out_power,
                        global long4* out_moment, global int* out_count, local long4* red,
                        local int* col_dirty) {
   const int f = get_group_id(0), lid = get_local_id(0), wg = get_local_size(0);
@@ -125,14 +125,14 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
   // notes lights may overlap), and what every light leaves behind is a map no brighter than the
   // face's mean, which the ambient residual carries. A texel dimmer than the mean keeps all of
   // its energy (it has nothing above the mean to give).
-  long4 acc = (long4)(0), unused = (long4)(0);
+  long4 acc = (long4)(0), none = (long4)(0);  // one sum wanted; reduce_sum2 takes two
   for (int i = lid; i < n_texels; i += wg) {
     acc += (long4)(energy[base + i], energy[plane + base + i], energy[2 * plane + base + i], 0);
     lum[i] = texel_lum(energy, plane, base + i);
     lum_t[(size_t)(i % m) * m + i / m] = lum[i];
   }
   for (int x = lid; x < m; x += wg) col_dirty[x] = m;
-  reduce_sum2(red, &acc, &unused);
+  reduce_sum2(red, &acc, &none);
   const long4 face_sum = acc;
   const long avg_r = face_sum.x / n_texels, avg_g = face_sum.y / n_texels,
              avg_b = face_sum.z / n_texels;
