@@ -1,22 +1,34 @@
 // Light extraction by method, on the built-in sky at 1024x512 (ambient residual left out, timed on
 // its own). Device time per stage family from OpenCL profiling events, as counters in ms per
 // extraction:
-//   resample_ms  equirect -> cube of fixed-point energies (env/resample)
+//   resample_ms  equirect -> cube of fixed-point energies (env/resample; median cut and greedy)
 //   sat_ms       SAT inputs and the two summed-area tables (env/sat-inputs, env/sat/...)
 //   cut_ms       the median-cut partition itself (extract/median-cut), one work-group
 //   resolve_ms   regions -> lights (extract/resolve)
-//   device_ms    every stage together; other methods' stages by their first name component
-// Seed 003 (§5) reports median cut as logarithmic in the light count with the SATs dominating:
-// `cut_per_round_ms` divides cut_ms by the number of splitting rounds, ceil(log2(lights / 6)) + 1,
-// so a flat column across light counts is logarithmic growth; `sat_fraction` is sat_ms / device_ms.
+//   fit_ms       greedy's fit (extract/greedy), one work-group per face
+//   cs_*_ms      center-surround's stages (center-surround/resample, prefix, candidates, ...)
+//   device_ms    every stage together
+// Seed 003 (§5) reports median cut as logarithmic in the light count with the SATs dominating.
+// Three answers, each within one run of this program (the machine is shared, so ratios of
+// neighbouring measurements mean more than times):
+//   cut_vs_half     cut_ms at N lights over cut_ms at N/2 (same face size, median of N/2's
+//                   repetitions): (rounds at N) / (rounds at N/2), 1.17-1.5, when the cut is
+//                   logarithmic with a fixed cost per round; 2 when linear
+//   device_vs_half  the same for the whole extraction's device time
+//   cut_per_round_ms  cut_ms / (ceil(log2(lights / 6)) + 1), the number of splitting rounds: a
+//                   flat column across light counts is logarithmic growth
+//   sat_fraction    sat_ms / device_ms
 // Every benchmark runs one extraction first (kernel compilation, buffer allocation) untimed.
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 using namespace penumbra;
 
@@ -52,13 +64,15 @@ void timeExtraction(benchmark::State& state, F&& extract) {
     LightSet set = extract(s);
     lights += double(set.lights.size());
     for (auto& [stage, ms] : s.ctx.stageTimesMs()) {
-      // Other methods' stages by their first name component: extract_ms (greedy's fit),
-      // center-surround_ms, ambient_ms.
+      // Other stages by their first name component (ambient_ms).
       const std::string family = startsWith(stage, "env/resample")      ? "resample_ms"
                                  : startsWith(stage, "env/sat")         ? "sat_ms"
                                  : startsWith(stage, "extract/median")  ? "cut_ms"
                                  : startsWith(stage, "extract/resolve") ? "resolve_ms"
-                                 : stage.substr(0, stage.find('/')) + "_ms";
+                                 : startsWith(stage, "extract/greedy")  ? "fit_ms"
+                                 : startsWith(stage, "center-surround/")
+                                     ? "cs_" + stage.substr(stage.find('/') + 1) + "_ms"
+                                     : stage.substr(0, stage.find('/')) + "_ms";
       sum[family] += ms;
       sum["device_ms"] += ms;
     }
@@ -69,6 +83,23 @@ void timeExtraction(benchmark::State& state, F&& extract) {
   if (sum["device_ms"] > 0) state.counters["sat_fraction"] = sum["sat_ms"] / sum["device_ms"];
 }
 
+// cut_ms and device_ms of every repetition run so far per (face size, light count), for the
+// _vs_half ratios against the median of N/2's (Google Benchmark runs a benchmark's repetitions
+// before the next one, and medianCutArgs orders the light counts upwards; a median, because one
+// slow repetition on the shared machine moves a mean of three by a factor of 3).
+struct Runs {
+  std::vector<double> cut, device;
+};
+std::map<std::pair<int, int>, Runs>& medianCutRuns() {
+  static std::map<std::pair<int, int>, Runs> m;
+  return m;
+}
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 void BM_MedianCut(benchmark::State& state) {
   MedianCutOptions mo;
   mo.lights = int(state.range(0));
@@ -76,16 +107,29 @@ void BM_MedianCut(benchmark::State& state) {
   timeExtraction(state, [&](Setup& s) { return extractMedianCut(s.ctx, s.env, mo); });
   const double rounds = std::ceil(std::log2(std::max(1.0, mo.lights / 6.0))) + 1;
   state.counters["cut_per_round_ms"] = state.counters["cut_ms"] / rounds;
+  Runs& mine = medianCutRuns()[{mo.faceSize, mo.lights}];
+  mine.cut.push_back(state.counters["cut_ms"]);
+  mine.device.push_back(state.counters["device_ms"]);
+  auto half = medianCutRuns().find({mo.faceSize, mo.lights / 2});
+  if (half != medianCutRuns().end() && !half->second.cut.empty()) {
+    state.counters["cut_vs_half"] = state.counters["cut_ms"] / median(half->second.cut);
+    state.counters["device_vs_half"] = state.counters["device_ms"] / median(half->second.device);
+  }
   state.SetItemsProcessed(std::int64_t(state.iterations()) * 6 * mo.faceSize * mo.faceSize);
 }
 
+// Greedy fitting (seed 000 §4.2) at face size range(0), squares (range(1) = 1, the default) or
+// rectangles; `lights` is what is kept (GreedyOptions::maxLights, 64), not what was fitted.
 void BM_Greedy(benchmark::State& state) {
   GreedyOptions go;
   go.faceSize = int(state.range(0));
+  go.square = state.range(1) != 0;
   timeExtraction(state, [&](Setup& s) { return extractGreedy(s.ctx, s.env, go); });
   state.SetItemsProcessed(std::int64_t(state.iterations()) * 6 * go.faceSize * go.faceSize);
 }
 
+// Center-surround (seed 004) at working width range(0) (range(0) x range(0)/2; 1024 is the map's
+// own size, which the issue bounds at 1 s), the default 20 filter sizes.
 void BM_CenterSurround(benchmark::State& state) {
   CenterSurroundOptions co;
   co.width = int(state.range(0));
@@ -106,6 +150,7 @@ void BM_AmbientResidual(benchmark::State& state) {
 }
 
 void medianCutArgs(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"lights", "face"});
   for (int face : {64, 128, 256, 512})
     for (int lights : {8, 16, 32, 64, 128, 256}) b->Args({lights, face});
 }
@@ -113,9 +158,12 @@ void medianCutArgs(benchmark::internal::Benchmark* b) {
 }  // namespace
 
 BENCHMARK(BM_MedianCut)->Apply(medianCutArgs)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
-// Face 512 is left out: on the 2-core CPU device its warm-up alone ran past 5 minutes.
-BENCHMARK(BM_Greedy)->Arg(64)->Arg(128)->Arg(256)->UseRealTime()->Unit(benchmark::kMillisecond)
+BENCHMARK(BM_Greedy)
+    ->ArgsProduct({{64, 128, 256, 512}, {1, 0}})
+    ->ArgNames({"face", "square"})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
-BENCHMARK(BM_CenterSurround)->Arg(1024)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_CenterSurround)->Arg(512)->Arg(1024)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_AmbientResidual)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 BENCHMARK_MAIN();

@@ -134,9 +134,9 @@ std::vector<RefLight> referenceGreedy(std::vector<i64>& e, int m, float t, bool 
 // Runs the device fit on `energy` and the reference on a copy; expects identical rectangles,
 // taken energies and remaining maps, and moments within the per-texel rounding.
 void expectDeviceMatchesReference(const std::vector<i64>& energy, int m, float t, bool square,
-                                  const std::string& what) {
+                                  const std::string& what, std::size_t workGroupSize = 0) {
   cl::Buffer buf = ctx().upload(energy, "test energy");
-  std::vector<GreedyRect> dev = detail::greedyFit(ctx(), buf, m, t, square);
+  std::vector<GreedyRect> dev = detail::greedyFit(ctx(), buf, m, t, square, workGroupSize);
   auto devRemaining = ctx().download<i64>(buf, energy.size(), "remaining");
   std::vector<i64> ref = energy;
   std::vector<RefLight> host = referenceGreedy(ref, m, t, square);
@@ -163,7 +163,9 @@ std::vector<i64> mapEnergy(const Environment& env, int m) {
 }
 
 // Heavy-tailed random energies: most texels dim, a few very bright, some exactly zero and some
-// ties, which exercise the seed tie-break and the 0/0 growth rule.
+// ties, which exercise the seed tie-break and the 0/0 growth rule. The tail is cut at 10^12 (like
+// the real fixed-point energies, bounded so that a face's sums and the luminance's 10^4 x
+// products fit in 64 bits; uncut, a u near 0 gave values whose sums overflowed from 97^2 faces).
 std::vector<i64> randomEnergy(int m, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
@@ -171,7 +173,7 @@ std::vector<i64> randomEnergy(int m, unsigned seed) {
   const std::size_t plane = 6ull * m * m;
   for (std::size_t i = 0; i < plane; ++i) {
     double r = u(rng);
-    i64 base = r < 0.1 ? 0 : r < 0.2 ? 5000 : i64(std::pow(u(rng), -3.0) * 1000);
+    i64 base = r < 0.1 ? 0 : r < 0.2 ? 5000 : i64(std::min(std::pow(u(rng), -3.0), 1e9) * 1000);
     for (int c = 0; c < 3; ++c) e[c * plane + i] = base * (2 + c) / 3;
   }
   return e;
@@ -206,13 +208,19 @@ double lumOf(const std::array<float, 3>& p) { return PB_LUM_R * p[0] + PB_LUM_G 
 }  // namespace
 
 TEST(GreedyKernel, MatchesHostReferenceOnAwkwardSizes) {
+  // Faces of 1 texel up to 97 (odd, more rows and columns than a work-group of 32 or 64 has
+  // items), at the device's own work-group size (1 on a CPU) and at 32 and 256: the work-group
+  // shares out rows and columns, which must change nothing.
   Environment sky = builtinEnvironment(256);
-  for (int m : {1, 3, 17, 64})
-    for (bool square : {true, false}) {
-      std::string what = "m " + std::to_string(m) + (square ? " square" : " rect");
-      expectDeviceMatchesReference(mapEnergy(sky, m), m, 0.02f, square, what + " sky");
-      expectDeviceMatchesReference(randomEnergy(m, 7 + m), m, 0.02f, square, what + " random");
-    }
+  for (int m : {1, 3, 17, 64, 97})
+    for (bool square : {true, false})
+      for (std::size_t wg : {0, 32, 256}) {
+        std::string what = "m " + std::to_string(m) + (square ? " square" : " rect") + " wg " +
+                           std::to_string(wg);
+        expectDeviceMatchesReference(mapEnergy(sky, m), m, 0.02f, square, what + " sky", wg);
+        expectDeviceMatchesReference(randomEnergy(m, 7 + m), m, 0.02f, square, what + " random",
+                                     wg);
+      }
   // a larger threshold: many small lights
   expectDeviceMatchesReference(randomEnergy(17, 3), 17, 0.3f, true, "t 0.3 square");
   expectDeviceMatchesReference(randomEnergy(17, 3), 17, 0.3f, false, "t 0.3 rect");
@@ -444,7 +452,11 @@ TEST(Greedy, DeviceTime) {
 }
 
 TEST(OclgrindGreedy, TinyMap) {
-  // m = 3 with ties and zeros, both variants, against the reference.
+  // m = 3 with ties and zeros, both variants, against the reference; m = 5 with a work-group of
+  // 4, so rows and columns are shared out and some items get two (the race checks see the
+  // barriers and the column flags at work).
   expectDeviceMatchesReference(randomEnergy(3, 11), 3, 0.02f, true, "oclgrind square");
   expectDeviceMatchesReference(randomEnergy(3, 11), 3, 0.1f, false, "oclgrind rect");
+  expectDeviceMatchesReference(randomEnergy(5, 13), 5, 0.1f, true, "oclgrind square wg 4", 4);
+  expectDeviceMatchesReference(randomEnergy(5, 13), 5, 0.1f, false, "oclgrind rect wg 4", 4);
 }
