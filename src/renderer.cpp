@@ -362,6 +362,12 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
     }
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
+    // The ambient's irradiance map when it has one (else amap_w = 0: the SH9 above).
+    const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
+    k.setArg(16, impl_->pool.upload("ambient irradiance map",
+                                    amap ? lightSet.ambientMap.rgb : std::vector<float>(3, 0.0f)));
+    k.setArg(17, cl_int(amap ? lightSet.ambientMap.width : 0));
+    k.setArg(18, cl_int(amap ? lightSet.ambientMap.height : 0));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);
