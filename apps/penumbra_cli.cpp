@@ -233,7 +233,7 @@ const std::vector<OptionSpec> kExtractSpecs = {
     {"ambient", true, "the residual as map (default: its pre-integrated irradiance map, seed 004) "
                       "| sh9 (9 spherical-harmonic coefficients only)"},
     {"ambient-size", true, "--ambient map: the irradiance map's size WxH, each 1..1024 (default "
-                           "64x32)"},
+                           "128x64)"},
     {"light-shape", true, "median-cut: cap (default) | polygon (a light from one region is that "
                           "region's exact cube-face quadrilateral)"},
 };

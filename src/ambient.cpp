@@ -293,6 +293,11 @@ std::array<double, 3> LightSet::ambientIrradiance(const std::array<float, 3>& n)
   std::array<double, 3> e{0, 0, 0};
   if (!hasAmbient) return e;
   if (!ambientMap.empty()) {
+    if (ambientMap.rgb.size() != std::size_t(ambientMap.width) * ambientMap.height * 3)
+      badInput("LightSet::ambientMap: " + std::to_string(ambientMap.width) + "x" +
+               std::to_string(ambientMap.height) + " texels need " +
+               std::to_string(std::size_t(ambientMap.width) * ambientMap.height * 3) +
+               " values, got " + std::to_string(ambientMap.rgb.size()));
     int idx[4];
     float wt[4];
     pb_ambient_map_taps(n[0], n[1], n[2], ambientMap.width, ambientMap.height, idx, wt);

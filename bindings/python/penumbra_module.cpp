@@ -583,9 +583,9 @@ PYBIND11_MODULE(penumbra, m) {
   ao.def_readwrite("model", &AmbientOptions::model,
                    "AmbientModel.IRRADIANCE_MAP (default) or SH9.")
       .def_readwrite("map_width", &AmbientOptions::mapWidth,
-                     "Irradiance map width, 1..1024. Default 64.")
+                     "Irradiance map width, 1..1024. Default 128.")
       .def_readwrite("map_height", &AmbientOptions::mapHeight,
-                     "Irradiance map height, 1..1024. Default 32.");
+                     "Irradiance map height, 1..1024. Default 64.");
 
   py::class_<ExtractOptions> eo(m, "ExtractOptions", "Options of extract_lights.");
   initFromFields<ExtractOptions>(eo);
@@ -598,7 +598,7 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
       .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
       .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
-                     "AmbientOptions: its representation (default: a 64x32 irradiance map).");
+                     "AmbientOptions: its representation (default: a 128x64 irradiance map).");
 
   m.def(
       "extract_lights",
