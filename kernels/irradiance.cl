@@ -83,8 +83,11 @@ kernel void irradiance_cells(global const float* equirect, int W, int H, int CW,
 // cells n's horizon crosses), then over the lights, and reduce in local memory (3 floats per
 // work-item; local size a power of two). lights: 2 float4 per light, (direction, cos alpha) and
 // (radiance, vertex count: 0 for a cap); polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's
-// layout). table: TW x TH x RGB.
-kernel void irradiance_table(global const float4* cells, int cellsX, int cellsY,
+// layout). table: TW x TH x RGB. The cells are visited in world order: world cell column x is map
+// cell column x + cell_shift (the rotation in whole cells, 0 unless it is one), so a map turned by
+// whole cells sums exactly the same numbers in the same order as the map with its columns shifted,
+// and gives the same table bit for bit (tests/test_animation.cpp renders both).
+kernel void irradiance_table(global const float4* cells, int cellsX, int cellsY, int cell_shift,
                              global const float* equirect, int W, int H, int CW, int CH,
                              global const float8* rows, global const float8* cols,
                              global const float4* lights, int nlights, global const float4* polys,
@@ -96,14 +99,15 @@ kernel void irradiance_table(global const float4* cells, int cellsX, int cellsY,
   const float3 n = (float3)(nx, ny, nz);
   float3 acc = (float3)(0.0f);
   const int ncells = cellsX * cellsY;
-  for (int k = lid; k < ncells; k += wg) {
-    global const float4* cell = cells + (size_t)k * CELL_RECORD;
+  for (int kw = lid; kw < ncells; kw += wg) {
+    const int cy = kw / cellsX, wx = kw - cy * cellsX;
+    const int cx = wx + cell_shift >= cellsX ? wx + cell_shift - cellsX : wx + cell_shift;
+    global const float4* cell = cells + ((size_t)cy * cellsX + cx) * CELL_RECORD;
     const float4 cap = cell[3];
     const float d = dot(n, cap.xyz);
     if (d >= cap.w) {
       acc += (float3)(dot(n, cell[0].xyz), dot(n, cell[1].xyz), dot(n, cell[2].xyz));
     } else if (d > -cap.w) {
-      const int cy = k / cellsX, cx = k - cy * cellsX;
       const int r0 = cy * CH, r1 = min(r0 + CH, H), c0 = cx * CW, c1 = min(c0 + CW, W);
       for (int r = r0; r < r1; ++r) {
         const float8 T = rows[r];
