@@ -229,7 +229,11 @@ const std::vector<OptionSpec> kExtractSpecs = {
     {"stop", true, "center-surround: stop when a light carries less than this fraction of the "
                    "lights so far (default 0.02)"},
     {"sizes", true, "center-surround: filter sizes from 4.5 to 45 degrees (default 20)"},
-    {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
+    {"no-ambient", false, "no ambient residual (default: the residual the lights miss)"},
+    {"ambient", true, "the residual as map (default: its pre-integrated irradiance map, seed 004) "
+                      "| sh9 (9 spherical-harmonic coefficients only)"},
+    {"ambient-size", true, "--ambient map: the irradiance map's size WxH, each 1..1024 (default "
+                           "128x64)"},
     {"light-shape", true, "median-cut: cap (default) | polygon (a light from one region is that "
                           "region's exact cube-face quadrilateral)"},
 };
@@ -292,6 +296,20 @@ ExtractOptions parseExtractOptions(const Args& a) {
     else badInput("--light-shape must be cap or polygon, got '" + shape + "'");
   }
   eo.ambient = !has(a, "no-ambient");
+  if (has(a, "ambient")) eo.ambientOptions.model = parseAmbientModel(get(a, "ambient", ""));
+  if (has(a, "ambient-size")) {
+    if (eo.ambientOptions.model != AmbientModel::IrradianceMap)
+      badInput("--ambient-size applies to --ambient map, not sh9");
+    const std::string text = get(a, "ambient-size", "");
+    const auto x = text.find('x');
+    if (x == std::string::npos)
+      badInput("--ambient-size must look like WIDTHxHEIGHT, got '" + text + "'");
+    eo.ambientOptions.mapWidth = int(parseInt("ambient-size", text.substr(0, x), 1, 1024));
+    eo.ambientOptions.mapHeight = int(parseInt("ambient-size", text.substr(x + 1), 1, 1024));
+  }
+  if (!eo.ambient && (has(a, "ambient") || has(a, "ambient-size")))
+    badInput(std::string("--") + (has(a, "ambient") ? "ambient" : "ambient-size") +
+             " cannot be combined with --no-ambient");
   return eo;
 }
 
@@ -626,7 +644,8 @@ int cmdLights(int argc, char** argv) {
     printHelp("penumbra lights [options]",
               "Extracts area lights from an environment map and writes them as JSON: each light's "
               "direction, half-angle, radiance and power, then the ambient residual (9 RGB "
-              "spherical-harmonic coefficients of radiance, \"ambient_sh\", and its power).",
+              "spherical-harmonic coefficients of radiance, \"ambient_sh\", and its power; with "
+              "--ambient map, the default, also its irradiance map, \"ambient_map\").",
               specs);
     return 0;
   }

@@ -137,7 +137,8 @@ void BM_CenterSurround(benchmark::State& state) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * co.width * (co.width / 2));
 }
 
-// The ambient residual every method adds (SH9 of the map minus the lights' caps).
+// The ambient residual every method adds (SH9 of the map minus the lights, and by default the
+// irradiance map: BM_AmbientMap).
 void BM_AmbientResidual(benchmark::State& state) {
   const LightSet lights = extractMedianCut(setup().ctx, setup().env, MedianCutOptions{});
   timeExtraction(state, [&](Setup& s) {
@@ -147,6 +148,32 @@ void BM_AmbientResidual(benchmark::State& state) {
   });
   const Image& eq = setup().env.equirect;
   state.SetItemsProcessed(std::int64_t(state.iterations()) * eq.width * eq.height);
+}
+
+// The ambient as seed 004's pre-integrated irradiance map (kernels/irradiance.cl) at a table of
+// range(0) x range(0)/2, on median cut's 32 lights: map_ms is the map's two kernels
+// (ambient/map-cells, ambient/map-table), sh_ms the SH projection every model also runs, and
+// map_to_sh their ratio in the same run.
+void BM_AmbientMap(benchmark::State& state) {
+  const LightSet lights = extractMedianCut(setup().ctx, setup().env, MedianCutOptions{});
+  AmbientOptions ao;
+  ao.mapWidth = int(state.range(0));
+  ao.mapHeight = int(state.range(0) / 2);
+  double mapMs = 0, shMs = 0;
+  timeExtraction(state, [&](Setup& s) {
+    LightSet set = lights;
+    addAmbientResidual(s.ctx, s.env, set, ao);
+    for (auto& [stage, ms] : s.ctx.stageTimesMs()) {
+      if (startsWith(stage, "ambient/map")) mapMs += ms;
+      if (startsWith(stage, "ambient/sh")) shMs += ms;
+    }
+    return set;
+  });
+  const double n = double(state.iterations()) + 1;  // the warm-up run is counted too
+  state.counters["map_ms"] = mapMs / n;
+  state.counters["sh_ms"] = shMs / n;
+  if (shMs > 0) state.counters["map_to_sh"] = mapMs / shMs;
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * ao.mapWidth * ao.mapHeight);
 }
 
 void medianCutArgs(benchmark::internal::Benchmark* b) {
@@ -166,4 +193,6 @@ BENCHMARK(BM_Greedy)
     ->Iterations(3);
 BENCHMARK(BM_CenterSurround)->Arg(512)->Arg(1024)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_AmbientResidual)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BM_AmbientMap)->Arg(32)->Arg(64)->Arg(96)->Arg(128)->UseRealTime()
+    ->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_MAIN();

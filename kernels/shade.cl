@@ -2,8 +2,9 @@
 // eqs. 15-18, with the horizon-clipped closed form of shared.h; a polygon: Lambert's formula on
 // the horizon-clipped polygon, shared.h's pb_polygon_irradiance) times its visibility, times
 // albedo / pi. Background pixels show the environment (nearest texel) with alpha 0.
-// The ambient residual (9 RGB SH coefficients of radiance, zeros when the light set has none) is
-// added unshadowed, as seed 004 §3 applies it: its irradiance is R&H 2001's sum of
+// The ambient residual is added unshadowed, as seed 004 §3 applies it: from its pre-integrated
+// irradiance map (amap, amap_w x amap_h RGB, LightSet::ambientMap) when amap_w > 0, else from its
+// 9 RGB SH coefficients of radiance (zeros when the light set has none) as R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
 // bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by I_bend,
 // interpolated from kernels/bent.cl's per-vertex values (bend) with its per-pixel vertices and
@@ -16,9 +17,9 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
                   int npixels, global const pb_view* camera, global const float* equirect,
                   int env_w, int env_h, float env_shift, int background,
                   global float4* out, global const float4* ambient,
-                  global const float4* polys, global const int4* bend_vert,
-                  global const float4* bend_weight, global const int* bend, int bent,
-                  float bend_c) {
+                  global const float4* polys, global const float* amap, int amap_w,
+                  int amap_h, global const int4* bend_vert, global const float4* bend_weight,
+                  global const int* bend, int bent, float bend_c) {
   int px = get_global_id(0);
   if (px >= npixels) return;
   if (gpos[px].w == 0.0f) {
@@ -80,9 +81,17 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     float V = vis[(size_t)l * npixels + px];
     acc += e * V * (float3)(L.radiance[0], L.radiance[1], L.radiance[2]);
   }
-  float Y[9];
-  pb_sh9(n.x, n.y, n.z, Y);
-  for (int k = 0; k < 9; ++k) acc += PB_SH_AHAT(k) * Y[k] * ambient[k].xyz;
+  if (amap_w > 0) {
+    // The pre-integrated irradiance map (seed 004 §3), bilinear as LightSet::ambientIrradiance.
+    int idx[4];
+    float wt[4];
+    pb_ambient_map_taps(n.x, n.y, n.z, amap_w, amap_h, idx, wt);
+    for (int k = 0; k < 4; ++k) acc += wt[k] * vload3(idx[k], amap);
+  } else {
+    float Y[9];
+    pb_sh9(n.x, n.y, n.z, Y);
+    for (int k = 0; k < 9; ++k) acc += PB_SH_AHAT(k) * Y[k] * ambient[k].xyz;
+  }
   // A residual can be negative in places (a cap brighter than the texels it replaced); where the
   // lights are shadowed that could leave a negative sum, which no irradiance is.
   acc = fmax(acc, (float3)(0.0f));

@@ -1,10 +1,14 @@
 // The ambient residual of a light set (seed 004 §3; Ramamoorthi & Hanrahan 2001): what the lights
-// do not carry, the map minus the lights (caps or polygons), as 9 spherical-harmonic coefficients of order <= 2,
-// applied unshadowed. Also the extraction-method dispatcher (extractLights) and the LightSet
+// do not carry, the map minus the lights (caps or polygons), applied unshadowed. Always as 9
+// spherical-harmonic coefficients of order <= 2 (its power, the JSON, AmbientModel::SH9), and by
+// default also as seed 004's pre-integrated irradiance map (kernels/irradiance.cl), which is what
+// shading then reads. Also the extraction-method dispatcher (extractLights) and the LightSet
 // methods that concern the ambient.
 //
 // The map's projection runs on the device (kernels/sh.cl, exact per lat-long texel); each cap's
-// projection is analytic (below), each polygon's a quadrature on the host, so the residual costs one pass over the map whatever the method.
+// projection is analytic (below), each polygon's a quadrature on the host, so the residual costs
+// one pass over the map whatever the method. The irradiance map subtracts each light's exact
+// irradiance per table normal on the device.
 #include <algorithm>
 #include <cmath>
 
@@ -24,6 +28,10 @@ constexpr int kCoeffs = 9;
 // reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
 constexpr std::size_t kTexelsPerItem = 16;
 constexpr std::size_t kMaxGroups = 1024;
+// Irradiance map: cells of 8 x 8 map texels (a 1024 x 512 map gives 8192 cells, and a normal's
+// horizon crosses a few hundred of them), and 64 work-items per table normal.
+constexpr int kCellTexels = 8;
+constexpr std::size_t kTableGroup = 64;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
 
@@ -66,28 +74,41 @@ void shTables(int W, int H, double shift, std::vector<cl_float8>& rows,
   }
 }
 
-// The map's 9 x RGB coefficients, integral of L(w) Y_lm(w) dw, on the device.
-SH9 projectMap(Context& ctx, const Environment& env) {
+// The map and its row/column integrals on the device, shared by the SH projection and the
+// irradiance map.
+struct DeviceMap {
+  int W = 0, H = 0;
+  cl::Buffer eq, rows, cols;
+};
+
+DeviceMap uploadMap(Context& ctx, const Environment& env) {
   const Image& eq = env.equirect;
   if (eq.empty() || eq.channels != 3) badInput(env.source + ": environment has no RGB pixels");
-  const int W = eq.width, H = eq.height;
+  DeviceMap m;
+  m.W = eq.width;
+  m.H = eq.height;
   std::vector<cl_float8> rows, cols;
-  shTables(W, H, double(env.rotationColumns()), rows, cols);
-  cl::Buffer eqB = ctx.upload(eq.pixels, "environment map (SH projection)");
-  cl::Buffer rowB = ctx.upload(rows, "SH row integrals");
-  cl::Buffer colB = ctx.upload(cols, "SH column integrals");
+  shTables(m.W, m.H, double(env.rotationColumns()), rows, cols);
+  m.eq = ctx.upload(eq.pixels, "environment map (ambient)");
+  m.rows = ctx.upload(rows, "SH row integrals");
+  m.cols = ctx.upload(cols, "SH column integrals");
+  return m;
+}
 
+// The map's 9 x RGB coefficients, integral of L(w) Y_lm(w) dw, on the device.
+SH9 projectMap(Context& ctx, const DeviceMap& m) {
+  const int W = m.W, H = m.H;
   cl::Kernel k = ctx.kernel("sh.cl", "sh_project");
   const std::size_t wg = ctx.workGroupSize(k, 256);
   const std::size_t n = std::size_t(W) * H;
   const std::size_t perGroup = wg * kTexelsPerItem;
   const std::size_t groups = std::clamp<std::size_t>((n + perGroup - 1) / perGroup, 1, kMaxGroups);
   cl::Buffer partB = ctx.buffer(groups * 3 * kCoeffs * sizeof(cl_float), "SH partial sums");
-  k.setArg(0, eqB);
+  k.setArg(0, m.eq);
   k.setArg(1, cl_int(W));
   k.setArg(2, cl_int(H));
-  k.setArg(3, rowB);
-  k.setArg(4, colB);
+  k.setArg(3, m.rows);
+  k.setArg(4, m.cols);
   k.setArg(5, cl::Local(wg * sizeof(cl_float)));
   k.setArg(6, partB);
   ctx.launch("ambient/sh-project", k, cl::NDRange(groups * wg), cl::NDRange(wg));
@@ -97,6 +118,82 @@ SH9 projectMap(Context& ctx, const Environment& env) {
     for (int i = 0; i < kCoeffs; ++i)
       for (int c = 0; c < 3; ++c) sh[i][c] += double(part[g * 3 * kCoeffs + 3 * i + c]);
   return sh;
+}
+
+// The residual's irradiance table on the device (kernels/irradiance.cl): the map reduced into
+// cells of kCellTexels^2 texels, then one work-group per table normal.
+AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
+                         const std::vector<AreaLight>& lights, int TW, int TH) {
+  const int cellsX = (m.W + kCellTexels - 1) / kCellTexels;
+  const int cellsY = (m.H + kCellTexels - 1) / kCellTexels;
+  const std::size_t ncells = std::size_t(cellsX) * cellsY;
+  cl::Buffer cellB = ctx.buffer(ncells * 4 * sizeof(cl_float4), "ambient map cells");
+  {
+    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_cells");
+    k.setArg(0, m.eq);
+    k.setArg(1, cl_int(m.W));
+    k.setArg(2, cl_int(m.H));
+    k.setArg(3, cl_int(kCellTexels));
+    k.setArg(4, cl_int(kCellTexels));
+    k.setArg(5, cl_int(cellsX));
+    k.setArg(6, cl_int(cellsY));
+    k.setArg(7, m.rows);
+    k.setArg(8, m.cols);
+    k.setArg(9, cl_float(shift));
+    k.setArg(10, cellB);
+    ctx.launch("ambient/map-cells", k, cl::NDRange(ncells));
+  }
+  // Lights as shade.cl reads them: (direction, cos alpha), (radiance, polygon vertex count).
+  const int nl = int(lights.size());
+  std::vector<cl_float4> lightV(std::max<std::size_t>(1, 2 * std::size_t(nl)),
+                                cl_float4{{0, 0, 0, 0}});
+  std::vector<cl_float4> polyV(std::max<std::size_t>(1, std::size_t(nl) * PB_MAX_POLY_VERTS),
+                               cl_float4{{0, 0, 0, 0}});
+  for (int l = 0; l < nl; ++l) {
+    const AreaLight& a = lights[l];
+    const int nv = a.shape == LightShape::Polygon
+                       ? int(std::min<std::size_t>(a.vertices.size(), PB_MAX_POLY_VERTS))
+                       : 0;
+    lightV[2 * l] = cl_float4{{a.direction[0], a.direction[1], a.direction[2], a.cosAlpha}};
+    lightV[2 * l + 1] = cl_float4{{a.radiance[0], a.radiance[1], a.radiance[2], float(nv)}};
+    for (int i = 0; i < nv; ++i)
+      for (int c = 0; c < 3; ++c)
+        polyV[std::size_t(l) * PB_MAX_POLY_VERTS + i].s[c] = a.vertices[i][c];
+  }
+  cl::Buffer lightB = ctx.upload(lightV, "ambient map lights");
+  cl::Buffer polyB = ctx.upload(polyV, "ambient map polygon vertices");
+  AmbientMap out;
+  out.width = TW;
+  out.height = TH;
+  const std::size_t texels = std::size_t(TW) * TH;
+  cl::Buffer tableB = ctx.buffer(texels * 3 * sizeof(cl_float), "ambient irradiance map");
+  cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_table");
+  const std::size_t wg = ctx.workGroupSize(k, kTableGroup);
+  // The rotation in whole cells when it is one (irradiance_table visits cells in world order).
+  int cellShift = 0;
+  if (shift == std::floor(shift) && m.W % kCellTexels == 0 && int(shift) % kCellTexels == 0)
+    cellShift = int(shift) / kCellTexels;
+  k.setArg(0, cellB);
+  k.setArg(1, cl_int(cellsX));
+  k.setArg(2, cl_int(cellsY));
+  k.setArg(3, cl_int(cellShift));
+  k.setArg(4, m.eq);
+  k.setArg(5, cl_int(m.W));
+  k.setArg(6, cl_int(m.H));
+  k.setArg(7, cl_int(kCellTexels));
+  k.setArg(8, cl_int(kCellTexels));
+  k.setArg(9, m.rows);
+  k.setArg(10, m.cols);
+  k.setArg(11, lightB);
+  k.setArg(12, cl_int(nl));
+  k.setArg(13, polyB);
+  k.setArg(14, cl_int(TW));
+  k.setArg(15, cl_int(TH));
+  k.setArg(16, cl::Local(3 * wg * sizeof(cl_float)));
+  k.setArg(17, tableB);
+  ctx.launch("ambient/map-table", k, cl::NDRange(texels * wg), cl::NDRange(wg));
+  out.rgb = ctx.download<cl_float>(tableB, texels * 3, "ambient irradiance map");
+  return out;
 }
 
 // A uniform cap of radiance L, half-angle alpha (c = cos alpha) around unit d, projected onto SH.
@@ -147,8 +244,28 @@ void subtractPolygon(const AreaLight& l, SH9& sh) {
 
 }  // namespace
 
-void addAmbientResidual(Context& ctx, const Environment& env, LightSet& set) {
-  SH9 sh = projectMap(ctx, env);
+AmbientModel parseAmbientModel(const std::string& name) {
+  for (AmbientModel m : {AmbientModel::IrradianceMap, AmbientModel::SH9})
+    if (name == toString(m)) return m;
+  badInput("--ambient: unknown model '" + name + "' (accepted: map, sh9)");
+}
+
+const char* toString(AmbientModel m) {
+  return m == AmbientModel::SH9 ? "sh9" : "map";
+}
+
+void addAmbientResidual(Context& ctx, const Environment& env, LightSet& set,
+                        const AmbientOptions& opt) {
+  const bool map = opt.model == AmbientModel::IrradianceMap;
+  if (map && (opt.mapWidth < 1 || opt.mapWidth > 1024 || opt.mapHeight < 1 ||
+              opt.mapHeight > 1024))
+    badInput("ambient map size must be 1..1024 x 1..1024 texels, got " +
+             std::to_string(opt.mapWidth) + "x" + std::to_string(opt.mapHeight));
+  const DeviceMap m = uploadMap(ctx, env);
+  SH9 sh = projectMap(ctx, m);
+  set.ambientMap = map ? irradianceMap(ctx, m, env.rotationColumns(), set.lights, opt.mapWidth,
+                                       opt.mapHeight)
+                       : AmbientMap{};
   for (const AreaLight& l : set.lights) {
     if (l.shape == LightShape::Polygon)
       subtractPolygon(l, sh);
@@ -180,6 +297,19 @@ std::array<double, 3> LightSet::ambientPower() const {
 std::array<double, 3> LightSet::ambientIrradiance(const std::array<float, 3>& n) const {
   std::array<double, 3> e{0, 0, 0};
   if (!hasAmbient) return e;
+  if (!ambientMap.empty()) {
+    if (ambientMap.rgb.size() != std::size_t(ambientMap.width) * ambientMap.height * 3)
+      badInput("LightSet::ambientMap: " + std::to_string(ambientMap.width) + "x" +
+               std::to_string(ambientMap.height) + " texels need " +
+               std::to_string(std::size_t(ambientMap.width) * ambientMap.height * 3) +
+               " values, got " + std::to_string(ambientMap.rgb.size()));
+    int idx[4];
+    float wt[4];
+    pb_ambient_map_taps(n[0], n[1], n[2], ambientMap.width, ambientMap.height, idx, wt);
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < 3; ++c) e[c] += double(wt[k]) * ambientMap.rgb[3 * std::size_t(idx[k]) + c];
+    return e;
+  }
   float Y[kCoeffs];
   pb_sh9(n[0], n[1], n[2], Y);
   for (int i = 0; i < kCoeffs; ++i)
@@ -213,7 +343,7 @@ LightSet extractLights(Context& ctx, const Environment& env, const ExtractOption
       set = extractCenterSurround(ctx, env, opt.centerSurround);
       break;
   }
-  if (opt.ambient) addAmbientResidual(ctx, env, set);
+  if (opt.ambient) addAmbientResidual(ctx, env, set, opt.ambientOptions);
   return set;
 }
 

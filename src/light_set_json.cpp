@@ -289,6 +289,39 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
     const Json* flag = doc.get("ambient");
     set.hasAmbient = !flag || flag->kind != Json::Bool || flag->b;
   }
+  // The pre-integrated irradiance map (LightSet::ambientMap); without it the SH9 above shades.
+  if (const Json* a = doc.get("ambient_map")) {
+    if (a->kind != Json::Object)
+      badInput(source + ": \"ambient_map\" must be an object with width, height, irradiance");
+    auto size = [&](const char* field) {
+      const Json* v = a->get(field);
+      if (!v || v->kind != Json::Number || !(v->num >= 1 && v->num <= 1024) ||
+          v->num != std::floor(v->num))
+        badInput(source + ": \"ambient_map." + field + "\" must be an integer in 1..1024" +
+                 (v && v->kind == Json::Number ? ", got " + std::to_string(v->num) : ""));
+      return int(v->num);
+    };
+    AmbientMap m;
+    m.width = size("width");
+    m.height = size("height");
+    const Json* e = a->get("irradiance");
+    const std::size_t want = std::size_t(m.width) * m.height * 3;
+    if (!e || e->kind != Json::Array || e->items.size() != want)
+      badInput(source + ": \"ambient_map.irradiance\" must hold width * height * 3 = " +
+               std::to_string(want) + " numbers" +
+               (e && e->kind == Json::Array ? ", got " + std::to_string(e->items.size()) : ""));
+    m.rgb.resize(want);
+    for (std::size_t i = 0; i < want; ++i) {
+      const Json& x = e->items[i];
+      if (x.kind != Json::Number || !std::isfinite(x.num) || !std::isfinite(float(x.num)))
+        badInput(source + ": \"ambient_map.irradiance\" must hold finite numbers (entry " +
+                 std::to_string(i) + ")");
+      m.rgb[i] = float(x.num);
+    }
+    set.ambientMap = std::move(m);
+    const Json* flag = doc.get("ambient");
+    set.hasAmbient = !flag || flag->kind != Json::Bool || flag->b;
+  }
   return set;
 }
 

@@ -289,7 +289,16 @@ std::string LightSet::toJson() const {
   for (int i = 0; i < 9; ++i)
     o << (i ? ", " : "") << "[" << ambientSH[i][0] << ", " << ambientSH[i][1] << ", "
       << ambientSH[i][2] << "]";
-  o << "],\n  \"ambient_power\": [" << ap[0] << ", " << ap[1] << ", " << ap[2] << "]\n}\n";
+  o << "],\n  \"ambient_power\": [" << ap[0] << ", " << ap[1] << ", " << ap[2] << "]";
+  // The pre-integrated irradiance map (lights.hpp AmbientMap), when the set has one.
+  if (!ambientMap.empty()) {
+    o << ",\n  \"ambient_map\": {\"width\": " << ambientMap.width
+      << ", \"height\": " << ambientMap.height << ", \"irradiance\": [";
+    for (std::size_t i = 0; i < ambientMap.rgb.size(); ++i)
+      o << (i ? (i % 3 ? ", " : ",\n    ") : "") << ambientMap.rgb[i];
+    o << "]}";
+  }
+  o << "\n}\n";
   return o.str();
 }
 

@@ -374,11 +374,18 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
       poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
     }
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
-    k.setArg(16, bent.vert);
-    k.setArg(17, bent.weight);
-    k.setArg(18, bent.bend);
-    k.setArg(19, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
-    k.setArg(20, cl_float(opt.bentNormalsScale));
+    // The ambient's irradiance map when it has one (else amap_w = 0: the SH9 above).
+    const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
+    if (amap) lightSet.ambientIrradiance({0, 1, 0});  // throws BadInput for a table of the wrong size
+    k.setArg(16, impl_->pool.upload("ambient irradiance map",
+                                    amap ? lightSet.ambientMap.rgb : std::vector<float>(3, 0.0f)));
+    k.setArg(17, cl_int(amap ? lightSet.ambientMap.width : 0));
+    k.setArg(18, cl_int(amap ? lightSet.ambientMap.height : 0));
+    k.setArg(19, bent.vert);
+    k.setArg(20, bent.weight);
+    k.setArg(21, bent.bend);
+    k.setArg(22, cl_int(opt.bentNormals && nl > 0 ? 1 : 0));
+    k.setArg(23, cl_float(opt.bentNormalsScale));
     ctx.launch("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg));
   }
   frame.image = Image(W, H, 4);

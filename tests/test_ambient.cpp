@@ -74,8 +74,14 @@ std::vector<std::array<float, 3>> normals26() {
   return out;
 }
 
+AmbientOptions sh9Options() {
+  AmbientOptions o;
+  o.model = AmbientModel::SH9;
+  return o;
+}
+
 SH9 ambientOf(const Environment& env, LightSet set = {}) {
-  addAmbientResidual(ctx(), env, set);
+  addAmbientResidual(ctx(), env, set, sh9Options());
   EXPECT_TRUE(set.hasAmbient);
   SH9 sh{};
   for (int k = 0; k < 9; ++k)
@@ -114,8 +120,8 @@ TEST(Ambient, ProjectionMatchesHostQuadratureOnAwkwardSizes) {
                             std::to_string(s[0]) + "x" + std::to_string(s[1]));
 }
 
-TEST(Ambient, ConstantMapIrradianceIsPiL) {
-  // Exact per-texel integration: a constant map of any size projects onto Y_00 alone, and its
+TEST(Ambient, ConstantMapSH9IrradianceIsPiL) {
+  // AmbientModel::SH9. Exact per-texel integration: a constant map of any size projects onto Y_00 alone, and its
   // irradiance is pi L on every normal. 1e-5: float sums of the texel integrals.
   const float L[3] = {0.5f, 1.0f, 2.0f};
   for (auto& s : std::vector<std::array<int, 2>>{{1, 1}, {4, 2}, {37, 19}, {512, 256}}) {
@@ -124,7 +130,7 @@ TEST(Ambient, ConstantMapIrradianceIsPiL) {
     env.equirect = Image(s[0], s[1], 3);
     for (std::size_t i = 0; i < env.equirect.pixels.size(); ++i) env.equirect.pixels[i] = L[i % 3];
     LightSet set;
-    addAmbientResidual(ctx(), env, set);
+    addAmbientResidual(ctx(), env, set, sh9Options());
     const std::string what = std::to_string(s[0]) + "x" + std::to_string(s[1]);
     auto ap = set.ambientPower();
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(ap[c], 4 * M_PI * L[c], 1e-5 * 4 * M_PI * L[c]) << what;
@@ -196,6 +202,9 @@ TEST(Ambient, Deterministic) {
   EXPECT_TRUE(a.hasAmbient);
   for (int k = 0; k < 9; ++k)
     for (int c = 0; c < 3; ++c) EXPECT_EQ(a.ambientSH[k][c], b.ambientSH[k][c]);
+  ASSERT_EQ(a.ambientMap.width, AmbientOptions{}.mapWidth);
+  ASSERT_EQ(a.ambientMap.height, AmbientOptions{}.mapHeight);
+  EXPECT_EQ(a.ambientMap.rgb, b.ambientMap.rgb);
 }
 
 TEST(Ambient, RotationIsTheRotatedMapsProjection) {
@@ -231,7 +240,9 @@ TEST(Ambient, RotationIsTheRotatedMapsProjection) {
 // any regression of the residual. (The per-channel bound was 8% before median cut's square
 // regions chose their cut axis by a rotation-consistent rule: the light set changed, courtyard's
 // worst channel went from 6.7% to 8.6% while its luminance error fell from 1.9% to 1.6%.)
-TEST(Ambient, MedianCut32WithAmbientOnEveryMap) {
+// This is the SH9 model (AmbientModel::SH9); the default irradiance map meets the 2%:
+// IrradianceMapMeetsIssue4OnEveryMethodAndMap below.
+TEST(Ambient, MedianCut32WithSH9AmbientOnEveryMap) {
   std::vector<Environment> envs;
   for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
   envs.push_back(builtinEnvironment());
@@ -239,8 +250,10 @@ TEST(Ambient, MedianCut32WithAmbientOnEveryMap) {
   for (auto& env : envs) {
     ExtractOptions eo;
     eo.medianCut.lights = 32;
+    eo.ambientOptions = sh9Options();
     LightSet set = extractLights(ctx(), env, eo);
     ASSERT_TRUE(set.hasAmbient);
+    ASSERT_TRUE(set.ambientMap.empty());
     double p[3];
     env.power(p);
     auto sp = set.power();
@@ -272,7 +285,10 @@ TEST(Ambient, MedianCut32WithAmbientOnEveryMap) {
 
 // A rendered frame with the ambient differs from the same frame without it by exactly the
 // ambient's irradiance times albedo / pi on a surface nothing occludes: one quad facing +y.
+// Both models: the irradiance map (default) and SH9.
 TEST(Ambient, FrameAddsTheAmbientUnshadowed) {
+  for (AmbientModel model : {AmbientModel::IrradianceMap, AmbientModel::SH9}) {
+  SCOPED_TRACE(toString(model));
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
   const Camera cam = topDownCamera(30);
@@ -280,7 +296,9 @@ TEST(Ambient, FrameAddsTheAmbientUnshadowed) {
   ExtractOptions eo;
   eo.medianCut.lights = 8;
   eo.medianCut.faceSize = 32;
+  eo.ambientOptions.model = model;
   LightSet with = extractLights(ctx(), env, eo);
+  ASSERT_EQ(with.ambientMap.empty(), model == AmbientModel::SH9);
   LightSet without = with;
   without.hasAmbient = false;
   Renderer r(ctx());
@@ -322,6 +340,7 @@ TEST(Ambient, FrameAddsTheAmbientUnshadowed) {
         EXPECT_NEAR(ra.at(x, y, c) - rb.at(x, y, c), albedo[c] / M_PI * amb[c],
                     1e-5 * std::fabs(ra.at(x, y, c)) + 1e-7);
     }
+  }
 }
 
 TEST(Ambient, ExtractionMethodNames) {
@@ -363,6 +382,8 @@ TEST(OclgrindAmbient, TinyFrameWithAmbient) {
   eo.medianCut.lights = 2;
   eo.medianCut.faceSize = 4;
   eo.medianCut.supersample = 1;
+  eo.ambientOptions.mapWidth = 6;  // small for the simulator; the table read is what is tested
+  eo.ambientOptions.mapHeight = 4;
   LightSet set = extractLights(ctx(), env, eo);
   RenderOptions ro;
   ro.width = 8;
@@ -383,3 +404,380 @@ TEST(OclgrindAmbient, TinyFrameWithAmbient) {
     }
   EXPECT_GT(geometry, 0);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The pre-integrated irradiance map (AmbientModel::IrradianceMap, kernels/irradiance.cl).
+
+namespace {
+
+struct HostMap {
+  std::vector<double> rgb;    // TW x TH x RGB, as AmbientMap
+  std::vector<double> scale;  // per texel: sum of the map terms' magnitudes (float tolerances)
+  double lightScale = 0;      // sum of the lights' radiance x solid angle (their largest E)
+};
+
+// Plain C++ reference of the table: at every table normal (pb_ambient_map_normal), every map
+// texel's L_t max(0, n.m_t) with its exact first moment m_t in double, minus each light's
+// AreaLight::irradiance (the shading's formulas). No cells: the kernel's cell shortcut must give
+// the same sum.
+HostMap hostAmbientMap(const Environment& env, const std::vector<AreaLight>& lights, int TW,
+                       int TH) {
+  const Image& im = env.equirect;
+  const int W = im.width, H = im.height;
+  const double shift = env.rotationColumns();
+  std::vector<std::array<double, 3>> m(std::size_t(W) * H);
+  for (int r = 0; r < H; ++r) {
+    const double a = M_PI * r / H, b = M_PI * (r + 1) / H;
+    const double s2 = 0.5 * (b - a) - 0.25 * (std::sin(2 * b) - std::sin(2 * a));
+    const double cs = 0.5 * (std::sin(b) * std::sin(b) - std::sin(a) * std::sin(a));
+    for (int c = 0; c < W; ++c) {
+      // map column c lies at world column c - shift (modulo W; Environment::rotationColumns)
+      const double p = ((c - shift) / W - 0.5) * 2 * M_PI, q = ((c + 1 - shift) / W - 0.5) * 2 * M_PI;
+      m[std::size_t(r) * W + c] = {s2 * (std::cos(p) - std::cos(q)), cs * (q - p),
+                                   -s2 * (std::sin(q) - std::sin(p))};
+    }
+  }
+  HostMap out;
+  out.rgb.assign(std::size_t(TW) * TH * 3, 0.0);
+  out.scale.assign(std::size_t(TW) * TH, 0.0);
+  for (int j = 0; j < TH; ++j)
+    for (int i = 0; i < TW; ++i) {
+      float nx, ny, nz;
+      pb_ambient_map_normal(i, j, TW, TH, &nx, &ny, &nz);
+      const std::size_t o = std::size_t(j) * TW + i;
+      for (std::size_t t = 0; t < m.size(); ++t) {
+        const double e = nx * m[t][0] + ny * m[t][1] + nz * m[t][2];
+        const double lum = im.pixels[3 * t] + im.pixels[3 * t + 1] + im.pixels[3 * t + 2];
+        out.scale[o] += lum * std::sqrt(m[t][0] * m[t][0] + m[t][1] * m[t][1] + m[t][2] * m[t][2]);
+        if (e > 0)
+          for (int c = 0; c < 3; ++c) out.rgb[3 * o + c] += e * im.pixels[3 * t + c];
+      }
+      for (const AreaLight& l : lights) {
+        const auto e = l.irradiance({nx, ny, nz});
+        for (int c = 0; c < 3; ++c) out.rgb[3 * o + c] -= e[c];
+      }
+    }
+  for (const AreaLight& l : lights)
+    for (int c = 0; c < 3; ++c) out.lightScale += double(l.radiance[c]) * l.solidAngle();
+  return out;
+}
+
+// A cap and a polygon light somewhere on the sphere, so that the subtraction is tested on both.
+std::vector<AreaLight> twoLights() {
+  AreaLight cap;
+  cap.direction = {0.48f, 0.6f, -0.64f};
+  cap.cosAlpha = float(std::cos(12 * M_PI / 180));
+  cap.radiance = {3.0f, 2.0f, 1.0f};
+  AreaLight poly = makePolygonLight({{0.1f, -0.2f, 1.0f}, {0.5f, -0.2f, 0.9f}, {0.4f, 0.3f, 0.9f}},
+                                    {1.0f, 1.5f, 2.0f});
+  return {cap, poly};
+}
+
+// The device table against the host reference. The kernel sums float terms (cells of 64 texels,
+// then a work-group of partial sums), and both sides evaluate the lights' float formulas, whose
+// rounding scales with the light's size, not with its (possibly tiny, clipped) irradiance.
+// Measured worst |error| / (map scale + light scale) over the cases below: see the [ measured ]
+// line (~1e-7); 2e-6 leaves margin for other devices' rounding. Returns the worst ratio.
+double expectMapMatchesHost(const Environment& env, int TW, int TH, const std::string& what) {
+  LightSet set;
+  set.lights = twoLights();
+  AmbientOptions o;
+  o.mapWidth = TW;
+  o.mapHeight = TH;
+  addAmbientResidual(ctx(), env, set, o);
+  EXPECT_EQ(set.ambientMap.width, TW) << what;
+  EXPECT_EQ(set.ambientMap.height, TH) << what;
+  EXPECT_EQ(set.ambientMap.rgb.size(), std::size_t(TW) * TH * 3) << what;
+  if (set.ambientMap.rgb.size() != std::size_t(TW) * TH * 3) return 1;
+  const HostMap host = hostAmbientMap(env, set.lights, TW, TH);
+  double worst = 0;
+  for (std::size_t o2 = 0; o2 < host.scale.size(); ++o2)
+    for (int c = 0; c < 3; ++c) {
+      const double err = std::fabs(set.ambientMap.rgb[3 * o2 + c] - host.rgb[3 * o2 + c]);
+      const double scale = host.scale[o2] + host.lightScale;
+      const double tol = 2e-6 * scale;
+      worst = std::max(worst, err / scale);
+      EXPECT_LE(err, tol) << what << " texel " << o2 << " channel " << c << ": device "
+                          << set.ambientMap.rgb[3 * o2 + c] << ", host " << host.rgb[3 * o2 + c];
+    }
+  return worst;
+}
+
+// The 26 normals plus `extra` random ones (uniform on the sphere, fixed seed).
+std::vector<std::array<float, 3>> testNormals(int extra) {
+  auto out = normals26();
+  std::mt19937 rng(4);
+  std::normal_distribution<float> g;
+  for (int i = 0; i < extra; ++i) {
+    float x = g(rng), y = g(rng), z = g(rng), l = std::sqrt(x * x + y * y + z * z);
+    out.push_back({x / l, y / l, z / l});
+  }
+  return out;
+}
+
+double lumOf(const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2]; }
+
+}  // namespace
+
+TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
+  // Maps: 1x1 (a constant sphere), one row, one column, sizes that are no multiple of the 8x8
+  // cells, one with more cells than a work-group (257x129: 33x17 cells), a rotated one. Tables:
+  // 1x1, 1x3 (one column: the three nodes pole, equator, pole), 5x3, 67x33 (more texels than a
+  // work-group, odd).
+  const int maps[][2] = {{1, 1}, {7, 1}, {1, 9}, {37, 19}, {257, 129}};
+  const int tables[][2] = {{1, 1}, {1, 3}, {5, 3}, {67, 33}};
+  unsigned seed = 11;
+  double worst = 0;
+  for (auto& ms : maps) {
+    Environment env = synthetic(ms[0], ms[1], seed++);
+    for (auto& ts : tables)
+      worst = std::max(worst, expectMapMatchesHost(env, ts[0], ts[1],
+                                                   std::to_string(ms[0]) + "x" +
+                                                       std::to_string(ms[1]) + " map, " +
+                                                       std::to_string(ts[0]) + "x" +
+                                                       std::to_string(ts[1]) + " table"));
+  }
+  Environment rot = synthetic(64, 32, 99);
+  rot.rotationYDeg = 33.0f;
+  worst = std::max(worst, expectMapMatchesHost(rot, 67, 33, "64x32 map turned 33 degrees"));
+  std::printf("[ measured ] irradiance map kernel vs host reference: worst |error| / scale %.2g\n",
+              worst);
+}
+
+TEST(AmbientMap, MatchesHostReferenceOnARealMap) {
+  // A real map (1024x512): most cells are taken whole, a great circle's worth texel by texel.
+  Environment env = loadEnvironment(data(kMaps[0]));
+  env.rotationYDeg = -71.0f;
+  const double worst = expectMapMatchesHost(env, 12, 7, "courtyard, 12x7 table");
+  std::printf("[ measured ] courtyard 12x7: worst |error| / scale %.2g\n", worst);
+}
+
+TEST(AmbientMap, TableHoldsTheMapsIrradianceAtItsNormals) {
+  // Without lights the table is E_map itself: against Environment::irradiance (4x4 sub-samples
+  // per texel) at the table's own normals. They differ only on the texels a normal's horizon cuts
+  // (the kernel clamps each texel's exact first moment, the host sub-samples): measured worst
+  // 0.011% on the 1024x512 maps; 0.1% bounds it.
+  for (const char* rel : kMaps) {
+    Environment env = loadEnvironment(data(rel));
+    LightSet set;
+    AmbientOptions o;
+    o.mapWidth = 6;
+    o.mapHeight = 5;
+    addAmbientResidual(ctx(), env, set, o);
+    double worst = 0;
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 6; ++i) {
+        float n[3];
+        pb_ambient_map_normal(i, j, 6, 5, &n[0], &n[1], &n[2]);
+        double e[3];
+        env.irradiance(n, e);
+        for (int c = 0; c < 3; ++c) {
+          const double got = set.ambientMap.rgb[3 * (std::size_t(j) * 6 + i) + c];
+          worst = std::max(worst, std::fabs(got / e[c] - 1));
+          EXPECT_NEAR(got, e[c], 1e-3 * e[c]) << rel << " texel " << i << "," << j;
+        }
+        // the lookup at a table normal returns that texel (nodes in latitude, centres in
+        // longitude): the same value through LightSet::ambientIrradiance
+        auto a = set.ambientIrradiance({n[0], n[1], n[2]});
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(a[c], set.ambientMap.rgb[3 * (std::size_t(j) * 6 + i) + c], 1e-4 * e[c]);
+      }
+    std::printf("[ measured ] %s: table vs host irradiance at its normals, worst %.4f%%\n", rel,
+                100 * worst);
+  }
+}
+
+TEST(AmbientMap, ConstantMapGivesPiL) {
+  // Every table normal sees pi L. Exact for texels wholly above or below the horizon; the texels
+  // the horizon cuts are clamped whole, an error of about the texel's angular size squared:
+  // measured 3e-5 (512x256) and 6e-3 (37x19) relative; bounds 1e-4 and 2e-2.
+  const float L[3] = {0.5f, 1.0f, 2.0f};
+  for (auto& s : std::vector<std::array<int, 3>>{{512, 256, 1}, {37, 19, 200}}) {
+    Environment env;
+    env.source = "constant";
+    env.equirect = Image(s[0], s[1], 3);
+    for (std::size_t i = 0; i < env.equirect.pixels.size(); ++i) env.equirect.pixels[i] = L[i % 3];
+    LightSet set;
+    addAmbientResidual(ctx(), env, set);
+    double worst = 0;
+    for (auto& n : testNormals(50)) {
+      auto e = set.irradiance(n);
+      for (int c = 0; c < 3; ++c) {
+        worst = std::max(worst, std::fabs(e[c] / (M_PI * L[c]) - 1));
+        EXPECT_NEAR(e[c], M_PI * L[c], 1e-4 * s[2] * M_PI * L[c]) << s[0] << "x" << s[1];
+      }
+    }
+    std::printf("[ measured ] constant %dx%d map: worst relative error %.2g\n", s[0], s[1], worst);
+  }
+}
+
+TEST(AmbientMap, RotationIsTheRotatedMapsTable) {
+  // A quarter turn shifts the map by width/4 columns exactly, a whole number of 8-texel cells
+  // here; the table is in world directions and the kernel visits cells in world order, so the
+  // turned map's table is the shifted map's bit for bit. A 33-degree turn against the nearest-
+  // column resampling of withRotationApplied: a shift of under half a texel.
+  Environment env = loadEnvironment(data(kMaps[1]));
+  ASSERT_EQ(env.equirect.width % 32, 0);
+  Environment rot = env;
+  rot.rotationYDeg = 90.0f;
+  LightSet a, b;
+  addAmbientResidual(ctx(), rot, a);
+  addAmbientResidual(ctx(), rot.withRotationApplied(), b);
+  ASSERT_EQ(a.ambientMap.rgb.size(), b.ambientMap.rgb.size());
+  double p[3];
+  env.power(p);
+  EXPECT_TRUE(a.ambientMap.rgb == b.ambientMap.rgb);
+  rot.rotationYDeg = 33.0f;
+  LightSet c, d;
+  addAmbientResidual(ctx(), rot, c);
+  addAmbientResidual(ctx(), rot.withRotationApplied(), d);
+  // The half-texel resampling moves bright texels by up to 0.18 degrees: E moves by up to about
+  // its gradient (<= the power) times 0.003 rad. Measured 3.3e-4 of the power; bound 2e-3 as in
+  // the SH9 test above.
+  double worst = 0;
+  for (std::size_t i = 0; i < c.ambientMap.rgb.size(); ++i) {
+    worst = std::max(worst, std::fabs(c.ambientMap.rgb[i] - d.ambientMap.rgb[i]) / p[i % 3]);
+    EXPECT_NEAR(c.ambientMap.rgb[i], d.ambientMap.rgb[i], 2e-3 * p[i % 3]) << i;
+  }
+  std::printf("[ measured ] 33-degree turn vs resampled map: worst table difference %.2g of the "
+              "power\n", worst);
+}
+
+TEST(AmbientMap, BadSizesAreRefused) {
+  Environment env = synthetic(8, 4, 1);
+  for (auto& s : std::vector<std::array<int, 2>>{{0, 32}, {64, 0}, {1025, 8}, {-3, 4}}) {
+    LightSet set;
+    AmbientOptions o;
+    o.mapWidth = s[0];
+    o.mapHeight = s[1];
+    try {
+      addAmbientResidual(ctx(), env, set, o);
+      ADD_FAILURE() << "accepted " << s[0] << "x" << s[1];
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_NE(std::string(e.what()).find(std::to_string(s[0]) + "x" + std::to_string(s[1])),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  // A table whose values do not fill its size is refused where it is read.
+  LightSet wrong;
+  wrong.hasAmbient = true;
+  wrong.ambientMap.width = 2;
+  wrong.ambientMap.height = 2;
+  wrong.ambientMap.rgb.assign(3, 0.0f);
+  try {
+    wrong.ambientIrradiance({0, 1, 0});
+    ADD_FAILURE() << "read a 2x2 table of 3 values";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("2x2 texels need 12 values, got 3"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(parseAmbientModel("map"), AmbientModel::IrradianceMap);
+  EXPECT_EQ(parseAmbientModel("sh9"), AmbientModel::SH9);
+  EXPECT_THROW(parseAmbientModel("SH"), Error);
+}
+
+TEST(AmbientMap, JsonRoundTripAndBadFields) {
+  LightSet set;
+  set.lights = twoLights();
+  set.hasAmbient = true;
+  set.ambientSH[0] = {0.5f, 0.25f, 0.125f};
+  set.ambientMap.width = 3;
+  set.ambientMap.height = 2;
+  for (int i = 0; i < 18; ++i) set.ambientMap.rgb.push_back(0.1f * i - 0.35f + 1e-7f * i);
+  LightSet back = lightSetFromJson(set.toJson(), "round trip");
+  EXPECT_TRUE(back.hasAmbient);
+  EXPECT_EQ(back.ambientMap.width, 3);
+  EXPECT_EQ(back.ambientMap.height, 2);
+  EXPECT_EQ(back.ambientMap.rgb, set.ambientMap.rgb);  // 9 digits: floats come back exactly
+  for (auto& n : testNormals(20)) {
+    auto a = set.ambientIrradiance(n), b = back.ambientIrradiance(n);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(a[c], b[c]);
+  }
+  // Without "ambient_map" the file shades with its SH9.
+  LightSet sh = set;
+  sh.ambientMap = {};
+  LightSet shBack = lightSetFromJson(sh.toJson(), "sh9 only");
+  EXPECT_TRUE(shBack.ambientMap.empty());
+  EXPECT_TRUE(shBack.hasAmbient);
+  EXPECT_EQ(sh.toJson().find("ambient_map"), std::string::npos);
+  // Bad shapes and values, each named.
+  const std::string head = "{\"lights\": [], \"ambient_sh\": [[0,0,0],[0,0,0],[0,0,0],[0,0,0],"
+                           "[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0]], \"ambient_map\": ";
+  const std::pair<const char*, const char*> bad[] = {
+      {"[1, 2]", "\"ambient_map\""},
+      {"{\"height\": 1, \"irradiance\": [0, 0, 0]}", "ambient_map.width"},
+      {"{\"width\": 0, \"height\": 1, \"irradiance\": []}", "ambient_map.width"},
+      {"{\"width\": 1.5, \"height\": 1, \"irradiance\": [0, 0, 0]}", "ambient_map.width"},
+      {"{\"width\": 1, \"height\": 2000, \"irradiance\": [0, 0, 0]}", "ambient_map.height"},
+      {"{\"width\": 2, \"height\": 1, \"irradiance\": [0, 0, 0]}", "ambient_map.irradiance"},
+      {"{\"width\": 1, \"height\": 1, \"irradiance\": [0, \"x\", 0]}", "ambient_map.irradiance"},
+      {"{\"width\": 1, \"height\": 1, \"irradiance\": [0, 1e39, 0]}", "ambient_map.irradiance"},
+      {"{\"width\": 1, \"height\": 1}", "ambient_map.irradiance"},
+  };
+  for (auto& [text, field] : bad) {
+    try {
+      lightSetFromJson(head + text + "}", "bad.json");
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("bad.json"), std::string::npos) << msg;
+      EXPECT_NE(msg.find(field), std::string::npos) << text << ": " << msg;
+    }
+  }
+}
+
+// Issue 4's criterion with the default ambient, the irradiance map: for every method (median cut
+// at 32 lights, greedy and center-surround at their defaults) and every test map plus the
+// built-in sky, lights + ambient conserve the map's power within 1% and give its irradiance
+// within 2% on the 26 normals, in luminance and in each RGB channel; and the same on 200 random
+// normals (the table is not tuned to the 26: most random normals fall between its texels).
+// Measured worst at 128x64 (the default): see the [ measured ] lines and the report of issue 4
+// (worst 1.43%, interior center-surround on a random normal; the size was chosen by this
+// measurement, lights.hpp).
+TEST(AmbientMap, IrradianceMapMeetsIssue4OnEveryMethodAndMap) {
+  std::vector<Environment> envs;
+  for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
+  envs.push_back(builtinEnvironment());
+  const auto normals = testNormals(200);
+  for (const Environment& env : envs) {
+    std::vector<std::array<double, 3>> ref(normals.size());
+    for (std::size_t i = 0; i < normals.size(); ++i) env.irradiance(normals[i].data(), ref[i].data());
+    double p[3];
+    env.power(p);
+    for (ExtractionMethod method :
+         {ExtractionMethod::MedianCut, ExtractionMethod::Greedy, ExtractionMethod::CenterSurround}) {
+      ExtractOptions eo;
+      eo.method = method;
+      eo.medianCut.lights = 32;
+      LightSet set = extractLights(ctx(), env, eo);
+      ASSERT_FALSE(set.ambientMap.empty());
+      const auto sp = set.power();
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(sp[c] / p[c], 1.0, 0.01) << env.source << " " << toString(method);
+      double worst[2] = {0, 0}, worstLum[2] = {0, 0};  // [0]: the 26 normals, [1]: random ones
+      for (std::size_t i = 0; i < normals.size(); ++i) {
+        const int k = i < 26 ? 0 : 1;
+        const auto e = set.irradiance(normals[i]);
+        for (int c = 0; c < 3; ++c) worst[k] = std::max(worst[k], std::fabs(e[c] / ref[i][c] - 1));
+        worstLum[k] = std::max(worstLum[k], std::fabs(lumOf(e.data()) / lumOf(ref[i].data()) - 1));
+      }
+      std::printf("[ measured ] %s %s (%zu lights), 128x64 irradiance map: worst irradiance error "
+                  "luminance / any channel: 26 normals %.2f%% / %.2f%%, 200 random normals "
+                  "%.2f%% / %.2f%%\n",
+                  env.source.c_str(), toString(method), set.lights.size(), 100 * worstLum[0],
+                  100 * worst[0], 100 * worstLum[1], 100 * worst[1]);
+      for (int k = 0; k < 2; ++k) {
+        EXPECT_LT(worstLum[k], 0.02) << env.source << " " << toString(method) << " set " << k;
+        EXPECT_LT(worst[k], 0.02) << env.source << " " << toString(method) << " set " << k;
+      }
+    }
+  }
+}
+
+// Under oclgrind (CTest oclgrind_kernels): both irradiance-map kernels on a small awkward map
+// (6x2 cells of 8x8, the last ones partial; wide enough that cells are taken whole) and table, with a cap and a polygon light.
+TEST(OclgrindAmbient, IrradianceMap) { expectMapMatchesHost(synthetic(41, 13, 7), 5, 3, "41x13"); }

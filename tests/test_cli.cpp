@@ -30,6 +30,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/lights.hpp"
 
 extern char** environ;
 
@@ -610,6 +611,31 @@ TEST_F(CliLights, BadExtractionOptions) {
   expectFailure({"lights", "--extract", "greedy", "--threshold", "1.5"}, {"--threshold", "1.5"});
   expectFailure({"lights", "--extract", "center-surround", "--stop", "-1"}, {"--stop"});
   expectFailure({"lights", "--extract", "center-surround", "--sizes", "0"}, {"--sizes"});
+}
+
+// --ambient map (default) writes the irradiance map, --ambient sh9 only the coefficients,
+// --ambient-size sets the table; bad values and contradictions exit 2 naming the option.
+TEST_F(CliLights, AmbientModelAndSize) {
+  Result d = run({"lights", "--lights", "4", "--face-size", "16"});
+  ASSERT_EQ(d.code, 0) << describe(d);
+  EXPECT_NE(d.out.find("\"ambient_map\": {\"width\": 128, \"height\": 64"), std::string::npos);
+  Result s = run({"lights", "--lights", "4", "--face-size", "16", "--ambient", "sh9"});
+  ASSERT_EQ(s.code, 0) << describe(s);
+  EXPECT_EQ(s.out.find("ambient_map"), std::string::npos);
+  EXPECT_NE(s.out.find("\"ambient_sh\": [["), std::string::npos);
+  Result m = run({"lights", "--lights", "4", "--face-size", "16", "--ambient", "map",
+                  "--ambient-size", "5x3", "--out", "l.json"});
+  ASSERT_EQ(m.code, 0) << describe(m);
+  penumbra::LightSet back = penumbra::loadLightSet(path("l.json"));
+  EXPECT_EQ(back.ambientMap.width, 5);
+  EXPECT_EQ(back.ambientMap.height, 3);
+  EXPECT_EQ(back.ambientMap.rgb.size(), 45u);
+  fs::remove(dir_ / "l.json");  // the failures below must leave nothing behind
+  expectFailure({"lights", "--ambient", "sh2"}, {"--ambient", "sh2", "map", "sh9"});
+  expectFailure({"lights", "--ambient-size", "0x3"}, {"--ambient-size", "0"});
+  expectFailure({"lights", "--ambient-size", "64"}, {"--ambient-size", "64"});
+  expectFailure({"lights", "--ambient", "sh9", "--ambient-size", "8x4"}, {"--ambient-size", "sh9"});
+  expectFailure({"lights", "--no-ambient", "--ambient", "map"}, {"--ambient", "--no-ambient"});
 }
 
 TEST_F(CliLights, TruncatedEnvironmentFails) {

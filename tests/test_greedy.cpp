@@ -318,7 +318,9 @@ TEST(Greedy, BrightDiscOnMapGivesStrongestLightAtIt) {
   EXPECT_EQ(l.regions[0][0], 4);  // +Z face
 }
 
-TEST(Greedy, ConservesPowerAndIrradianceWithAmbient) {
+// AmbientModel::SH9 (the default irradiance map is tested for every method in
+// tests/test_ambient.cpp, IrradianceMapMeetsIssue4OnEveryMethodAndMap).
+TEST(Greedy, ConservesPowerAndIrradianceWithSH9Ambient) {
   // The issue's bounds: power within 1% (asserted: the ambient's l = 0 term carries exactly what
   // the lights do not), irradiance on 26 normals within 2% of the map's. The second is NOT met
   // and is not asserted at 2%: measured at the defaults (t = 0.02, 64^2 faces, 64 lights) the
@@ -336,7 +338,9 @@ TEST(Greedy, ConservesPowerAndIrradianceWithAmbient) {
     Environment env = environmentFrom(path);
     LightSet set = extractGreedy(ctx(), env, {});
     LightSet bare = set;
-    addAmbientResidual(ctx(), env, set);
+    AmbientOptions sh9;
+    sh9.model = AmbientModel::SH9;
+    addAmbientResidual(ctx(), env, set, sh9);
     double p[3];
     env.power(p);
     auto lp = set.power();

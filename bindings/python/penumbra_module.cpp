@@ -11,6 +11,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -454,6 +455,31 @@ PYBIND11_MODULE(penumbra, m) {
           },
           "Ambient residual, float32 (9, 3): SH coefficients (l,m) = (0,0) (1,-1) (1,0) (1,1) "
           "(2,-2) (2,-1) (2,0) (2,1) (2,2) by RGB (a copy; assign to change).")
+      .def_property(
+          "ambient_map",
+          [](const LightSet& s) {
+            const AmbientMap& a = s.ambientMap;
+            py::array_t<float> out({py::ssize_t(a.empty() ? 0 : a.height),
+                                    py::ssize_t(a.empty() ? 0 : a.width), py::ssize_t(3)});
+            if (!a.empty()) std::memcpy(out.mutable_data(), a.rgb.data(), a.rgb.size() * 4);
+            return out;
+          },
+          [](LightSet& s, const FloatArray& a) {
+            if (a.ndim() != 3 || a.shape(2) != 3 || a.shape(0) > 1024 || a.shape(1) > 1024)
+              badInput("ambient_map: expected shape (H, W, 3) with H, W <= 1024");
+            AmbientMap m;
+            if (a.shape(0) > 0 && a.shape(1) > 0) {
+              m.height = int(a.shape(0));
+              m.width = int(a.shape(1));
+              m.rgb.assign(a.data(), a.data() + a.size());
+              for (float v : m.rgb)
+                if (!std::isfinite(v)) badInput("ambient_map: non-finite value");
+            }
+            s.ambientMap = std::move(m);
+          },
+          "The ambient residual's pre-integrated irradiance map, float32 (H, W, 3): row 0 is "
+          "the +y pole, row H-1 the -y pole, columns as the equirect map's (a copy; assign to "
+          "change; an empty (0, 0, 3) array means SH9 shading from ambient_sh).")
       .def_property_readonly(
           "directions", [](const LightSet& s) { return rows3(s.lights, [](const AreaLight& l) { return l.direction; }); },
           "Light directions, float32 (N, 3).")
@@ -547,6 +573,20 @@ PYBIND11_MODULE(penumbra, m) {
                      "Stop when a light carries less than this of those so far. Default 0.02.")
       .def_readwrite("max_lights", &CenterSurroundOptions::maxLights, "Most lights. Default 256.");
 
+  py::enum_<AmbientModel>(m, "AmbientModel", "How the ambient residual is shaded.")
+      .value("IRRADIANCE_MAP", AmbientModel::IrradianceMap,
+             "Its pre-integrated irradiance map (seed 004 §3; default).")
+      .value("SH9", AmbientModel::SH9, "Its 9 spherical-harmonic coefficients only.");
+
+  py::class_<AmbientOptions> ao(m, "AmbientOptions", "Options of the ambient residual.");
+  initFromFields<AmbientOptions>(ao);
+  ao.def_readwrite("model", &AmbientOptions::model,
+                   "AmbientModel.IRRADIANCE_MAP (default) or SH9.")
+      .def_readwrite("map_width", &AmbientOptions::mapWidth,
+                     "Irradiance map width, 1..1024. Default 128.")
+      .def_readwrite("map_height", &AmbientOptions::mapHeight,
+                     "Irradiance map height, 1..1024. Default 64.");
+
   py::class_<ExtractOptions> eo(m, "ExtractOptions", "Options of extract_lights.");
   initFromFields<ExtractOptions>(eo);
   eo.def_property(
@@ -556,7 +596,9 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("median_cut", &ExtractOptions::medianCut, "MedianCutOptions.")
       .def_readwrite("greedy", &ExtractOptions::greedy, "GreedyOptions.")
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
-      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.");
+      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
+      .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
+                     "AmbientOptions: its representation (default: a 128x64 irradiance map).");
 
   m.def(
       "extract_lights",
@@ -591,8 +633,10 @@ PYBIND11_MODULE(penumbra, m) {
         "options"_a = CenterSurroundOptions{}, py::call_guard<py::gil_scoped_release>(),
         "Center-surround filter bank on the sphere (seed 004 §3), without the ambient.");
   m.def("add_ambient_residual", &addAmbientResidual, "ctx"_a, "env"_a, "lights"_a,
-        py::call_guard<py::gil_scoped_release>(),
-        "Sets lights.ambient_sh to the map's SH9 minus the lights' and has_ambient to True.");
+        "options"_a = AmbientOptions{}, py::call_guard<py::gil_scoped_release>(),
+        "Sets lights.ambient_sh to the map's SH9 minus the lights', lights.ambient_map to the "
+        "residual's irradiance map (options.model IRRADIANCE_MAP, the default; emptied for SH9) "
+        "and has_ambient to True. Raises BadInput for a map size outside 1..1024.");
   m.def("write_light_overlay", &writeLightOverlay, "path"_a, "env"_a, "lights"_a,
         py::call_guard<py::gil_scoped_release>(),
         "Writes a PNG of the tone-mapped map with every light's region or cap outlined.");

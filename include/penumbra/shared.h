@@ -222,6 +222,46 @@ PB_INLINE void pb_sh9(float x, float y, float z, float* b) {
   b[8] = PB_SH_K22 * (x * x - y * y);
 }
 
+/* Bilinear taps of the ambient irradiance map (lights.hpp AmbientMap, kernels/irradiance.cl) of
+ * w x h texels at unit normal (x, y, z): four texel indices (row-major) and their weights, read
+ * the same way by LightSet::ambientIrradiance, kernels/shade.cl and src/gl/shaders/shade.frag
+ * (whose GL_LINEAR texture, GL_REPEAT in s and clamped in t, takes these taps).
+ * Parameterization: columns are the equirect's (texel centres at phi = ((i + 0.5) / w - 0.5) 2 pi,
+ * wrapping), rows are nodes theta_j = j pi / (h - 1), so row 0 is the +y pole itself and row h - 1
+ * the -y pole. With texel-centred rows instead the pole would lie half a row inside the first row,
+ * where a bilinear lookup returns one ring texel's value, not the pole's: an error of the
+ * irradiance's gradient times pi / (2h), first order, ~2.5% of E on an up-facing floor with a 32-row
+ * table where the ambient is half the light (center-surround). Node rows are exact at the poles and
+ * interpolate between a pole and the next ring near them. Latitude is clamped (never needed
+ * inside [0, pi]); a 1-row table holds the equator's ring (theta = pi / 2) for every normal. */
+PB_INLINE void pb_ambient_map_taps(float x, float y, float z, int w, int h, int* idx, float* wt) {
+  float s, t;
+  pb_dir_equirect(x, y, z, (float)w, 1.0f, &s, &t); /* s in [0, w], t = theta / pi in [0, 1] */
+  float u = s - 0.5f, v = h > 1 ? t * (float)(h - 1) : 0.0f;
+  float fu = floor(u), fv = floor(v);
+  float a = u - fu, b = v - fv;
+  int i0 = (int)fu % w;
+  if (i0 < 0) i0 += w; /* also catches a non-finite normal's undefined conversion */
+  int i1 = i0 + 1 == w ? 0 : i0 + 1;
+  int j0 = (int)fv, j1 = j0 + 1;
+  j0 = j0 < 0 ? 0 : (j0 > h - 1 ? h - 1 : j0);
+  j1 = j1 < 0 ? 0 : (j1 > h - 1 ? h - 1 : j1);
+  idx[0] = j0 * w + i0;
+  idx[1] = j0 * w + i1;
+  idx[2] = j1 * w + i0;
+  idx[3] = j1 * w + i1;
+  wt[0] = (1.0f - a) * (1.0f - b);
+  wt[1] = a * (1.0f - b);
+  wt[2] = (1.0f - a) * b;
+  wt[3] = a * b;
+}
+
+/* The normal of ambient-map texel (i, j) (the parameterization above). */
+PB_INLINE void pb_ambient_map_normal(int i, int j, int w, int h, float* x, float* y, float* z) {
+  pb_equirect_dir((float)i + 0.5f, h > 1 ? (float)j : 0.5f, (float)w, h > 1 ? (float)(h - 1) : 1.0f,
+                  x, y, z);
+}
+
 /* One light as the kernels see it (16-byte aligned floats only, identical layout on both sides). */
 typedef struct {
   float dir[4];      /* unit direction towards the light (world), w: cos(alpha) */

@@ -51,8 +51,11 @@ struct Interop::Impl {
   std::vector<std::pair<std::string, double>> timings;
   GLuint programs[2] = {0, 0}, program = 0;  // shade.frag without, with polygon lights
   GLuint vao = 0, fbo = 0, sampler = 0, lightUbo = 0;
+  // The ambient irradiance map's sampler: bilinear between texel centres, wrapping in longitude,
+  // clamped in latitude, as shared.h's pb_ambient_map_taps reads it in OpenCL.
+  GLuint ambientSampler = 0;
   int maxLights = PB_MAX_LIGHTS;
-  GLuint visTex = 0, envTex = 0, polyTex = 0;
+  GLuint visTex = 0, envTex = 0, polyTex = 0, ambientTex = 0;
   int visW = 0, visH = 0, visL = 0;
   std::vector<float> hostGL, hostVis;
 
@@ -82,20 +85,27 @@ struct Interop::Impl {
     // and read as zeros.
     gl.SamplerParameteri(sampler, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     gl.SamplerParameteri(sampler, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    GLuint t[3];
-    gl.GenTextures(3, t);
+    gl.GenSamplers(1, &ambientSampler);
+    gl.SamplerParameteri(ambientSampler, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl.SamplerParameteri(ambientSampler, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl.SamplerParameteri(ambientSampler, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    gl.SamplerParameteri(ambientSampler, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    GLuint t[4];
+    gl.GenTextures(4, t);
     visTex = t[0];
     envTex = t[1];
     polyTex = t[2];
+    ambientTex = t[3];
     gl.check("creating the interop's GL objects");
   }
   ~Impl() {
     // The context may be gone already (an application tearing down in another order); deleting
     // names then is harmless to skip, so only do it while some context is current.
     if (!currentContextLoader()) return;
-    GLuint t[3] = {visTex, envTex, polyTex};
-    gl.DeleteTextures(3, t);
+    GLuint t[4] = {visTex, envTex, polyTex, ambientTex};
+    gl.DeleteTextures(4, t);
     gl.DeleteSamplers(1, &sampler);
+    gl.DeleteSamplers(1, &ambientSampler);
     gl.DeleteBuffers(1, &lightUbo);
     gl.DeleteFramebuffers(1, &fbo);
     gl.DeleteVertexArrays(1, &vao);
@@ -154,10 +164,10 @@ struct Interop::Impl {
     }
   }
 
-  void bind(int unit, GLenum target, GLuint tex, const char* name) {
+  void bind(int unit, GLenum target, GLuint tex, const char* name, GLuint withSampler = 0) {
     gl.ActiveTexture(GL_TEXTURE0 + unit);
     gl.BindTexture(target, tex);
-    gl.BindSampler(unit, sampler);
+    gl.BindSampler(unit, withSampler ? withSampler : sampler);
     gl.Uniform1i(gl.GetUniformLocation(program, name), unit);
   }
 };
@@ -397,6 +407,14 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   gl.BindTexture(GL_TEXTURE_2D, m.envTex);
   gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, env.equirect.width, env.equirect.height, 0, GL_RGB,
                 GL_FLOAT, env.equirect.pixels.data());
+  // The ambient's irradiance map (LightSet::ambientMap), a 1x1 black texel when it has none.
+  const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
+  if (amap) lightSet.ambientIrradiance({0, 1, 0});  // throws BadInput for a table of the wrong size
+  const float black[3] = {0, 0, 0};
+  gl.BindTexture(GL_TEXTURE_2D, m.ambientTex);
+  gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, amap ? lightSet.ambientMap.width : 1,
+                amap ? lightSet.ambientMap.height : 1, 0, GL_RGB, GL_FLOAT,
+                amap ? lightSet.ambientMap.rgb.data() : black);
   gl.check("uploading lights and environment");
 
   // The application's state this pass changes, restored after it.
@@ -430,6 +448,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   gl.BindBufferBase(GL_UNIFORM_BUFFER, 0, m.lightUbo);
   m.bind(5, GL_TEXTURE_2D, m.envTex, "uEnv");
   m.bind(6, GL_TEXTURE_2D, m.polyTex, "uPolys");
+  m.bind(7, GL_TEXTURE_2D, m.ambientTex, "uAmbientMap", m.ambientSampler);
   auto loc = [&](const char* n) { return gl.GetUniformLocation(m.program, n); };
   gl.Uniform1i(loc("uLightCount"), nl);
   gl.Uniform1i(loc("uBackground"), opt.environmentBackground ? 1 : 0);
@@ -447,10 +466,12 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
     for (int c = 0; c < 3; ++c) amb[i * 3 + c] = lightSet.ambientSH[i][c];
   gl.Uniform3fv(loc("uAmbient"), 9, amb);
+  gl.Uniform1i(loc("uAmbientMapW"), amap ? lightSet.ambientMap.width : 0);
+  gl.Uniform1i(loc("uAmbientMapH"), amap ? lightSet.ambientMap.height : 0);
   gl.BindVertexArray(m.vao);
   gl.DrawArrays(GL_TRIANGLES, 0, 3);
   gl.BindVertexArray(GLuint(prevVao));
-  for (int u = 6; u >= 0; --u) gl.BindSampler(u, 0);
+  for (int u = 7; u >= 0; --u) gl.BindSampler(u, 0);
   gl.ActiveTexture(GLenum(prevUnit));
   gl.UseProgram(GLuint(prevProgram));
   gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, 0, 0);

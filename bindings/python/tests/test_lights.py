@@ -127,3 +127,37 @@ def test_polygon_lights_and_light_set_files(ctx, tmp_path):
     opt = penumbra.MedianCutOptions()
     opt.shape = penumbra.LightShape.POLYGON
     assert opt.shape == penumbra.LightShape.POLYGON
+
+
+def test_ambient_irradiance_map(ctx, env):
+    # The default ambient is the pre-integrated irradiance map: H x W x 3 float32, 128 x 64.
+    o = penumbra.AmbientOptions()
+    assert o.model == penumbra.AmbientModel.IRRADIANCE_MAP and (o.map_width, o.map_height) == (128, 64)
+    s = penumbra.extract_lights(ctx, env, lights=4, ambient=False)
+    penumbra.add_ambient_residual(ctx, env, s, penumbra.AmbientOptions(map_width=7, map_height=5))
+    m = s.ambient_map
+    assert m.shape == (5, 7, 3) and m.dtype == np.float32 and np.isfinite(m).all()
+    # Row 0 is the +y pole: every texel of it holds the irradiance on (0, 1, 0), which lights +
+    # ambient make the map's (to the host quadrature's sub-sampling).
+    assert np.allclose(m[0], m[0, 0], rtol=1e-6)
+    assert np.allclose(s.ambient_irradiance((0.0, 1.0, 0.0)), m[0, 0], rtol=1e-5)
+    assert np.allclose(s.irradiance((0.0, 1.0, 0.0)), env.irradiance((0.0, 1.0, 0.0)), rtol=1e-3)
+    doc = json.loads(s.to_json())
+    assert doc["ambient_map"]["width"] == 7 and len(doc["ambient_map"]["irradiance"]) == 105
+    back = penumbra.light_set_from_json(s.to_json())
+    assert np.array_equal(back.ambient_map, m)
+    # SH9: no table; the ambient is the SH irradiance again.
+    penumbra.add_ambient_residual(ctx, env, s, penumbra.AmbientOptions(model=penumbra.AmbientModel.SH9))
+    assert s.ambient_map.shape == (0, 0, 3) and "ambient_map" not in json.loads(s.to_json())
+    eo = penumbra.ExtractOptions()
+    eo.ambient_options.model = penumbra.AmbientModel.SH9
+    assert penumbra.extract_lights(ctx, env, lights=4, options=eo).ambient_map.size == 0
+    # Assigning a table: shape and values are checked.
+    s.ambient_map = np.ones((2, 3, 3), np.float32)
+    assert np.allclose(s.ambient_irradiance((1.0, 0.0, 0.0)), 1.0)
+    with pytest.raises(penumbra.BadInput):
+        s.ambient_map = np.ones((2, 3), np.float32)
+    with pytest.raises(penumbra.BadInput):
+        s.ambient_map = np.full((1, 1, 3), np.nan, np.float32)
+    with pytest.raises(penumbra.BadInput):
+        penumbra.add_ambient_residual(ctx, env, s, penumbra.AmbientOptions(map_width=0))

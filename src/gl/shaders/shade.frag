@@ -3,7 +3,8 @@
 // irradiance (a cap: seed 003 eqs. 15-18 with the horizon-clipped closed form of Snyder 1996,
 // pb_cap_irradiance in include/penumbra/shared.h; a polygon: Lambert's formula on the polygon
 // clipped at the horizon, pb_polygon_irradiance) times the visibility OpenCL computed, plus the
-// unshadowed SH9 ambient residual (Ramamoorthi & Hanrahan 2001 eqs. 3, 7-9: pb_sh9, PB_SH_AHAT),
+// unshadowed ambient residual (its pre-integrated irradiance map, seed 004 §3, or its SH9,
+// Ramamoorthi & Hanrahan 2001 eqs. 3, 7-9: pb_sh9, PB_SH_AHAT),
 // clamped at 0, times albedo / pi; background pixels show the environment's nearest texel with
 // alpha 0. Texel (x, y) of the G-buffer textures is GL's (bottom-up); visibility rows are
 // penumbra's (top-down), so they are read at row H - 1 - y.
@@ -23,6 +24,10 @@ uniform float uEnvShift;
 uniform vec3 uFwd, uRight, uUp;  // camera basis; uTan: tan of the half-angles
 uniform vec2 uTan;
 uniform vec3 uAmbient[9];
+// The ambient's pre-integrated irradiance map (uAmbientMapW x H RGB32F; 0: use uAmbient's SH9):
+// GL_LINEAR, GL_REPEAT in s, clamped in t, read at pb_ambient_map_taps's coordinates.
+uniform sampler2D uAmbientMap;
+uniform int uAmbientMapW, uAmbientMapH;
 out vec4 fragColor;
 
 const float PI = 3.14159265358979323846;
@@ -126,11 +131,20 @@ void main() {
     float V = texelFetch(uVis, ivec3(p.x, row, l), 0).r;
     acc += e * V * rad.rgb;
   }
-  float Y[9];
-  sh9(n, Y);
-  for (int k = 0; k < 9; ++k) {
-    float ahat = k == 0 ? 3.14159265358979 : (k < 4 ? 2.09439510239320 : 0.785398163397448);
-    acc += ahat * Y[k] * uAmbient[k];
+  if (uAmbientMapW > 0) {
+    // pb_ambient_map_taps: column s = (phi / 2 pi + 0.5) W (texel centres at i + 0.5, as GL's),
+    // node row v = theta / pi (H - 1), which is GL's texel centre v + 0.5.
+    float cy = clamp(n.y / length(n), -1.0, 1.0);
+    float s = atan(n.x, -n.z) / (2.0 * PI) + 0.5;
+    float v = uAmbientMapH > 1 ? acos(cy) / PI * float(uAmbientMapH - 1) : 0.0;
+    acc += texture(uAmbientMap, vec2(s, (v + 0.5) / float(uAmbientMapH))).rgb;
+  } else {
+    float Y[9];
+    sh9(n, Y);
+    for (int k = 0; k < 9; ++k) {
+      float ahat = k == 0 ? 3.14159265358979 : (k < 4 ? 2.09439510239320 : 0.785398163397448);
+      acc += ahat * Y[k] * uAmbient[k];
+    }
   }
   acc = max(acc, vec3(0.0));
   fragColor = vec4(acc * texelFetch(uAlb, p, 0).rgb * (1.0 / PI), 1.0);
