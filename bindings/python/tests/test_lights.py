@@ -127,3 +127,46 @@ def test_polygon_lights_and_light_set_files(ctx, tmp_path):
     opt = penumbra.MedianCutOptions()
     opt.shape = penumbra.LightShape.POLYGON
     assert opt.shape == penumbra.LightShape.POLYGON
+
+
+def test_ellipse_and_textured_lights(tmp_path):
+    a, b = np.radians(30.0), np.radians(10.0)
+    el = penumbra.make_ellipse_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, b), (1.0, 1.0, 1.0))
+    assert el.shape == penumbra.LightShape.POLYGON and el.outline == penumbra.LightOutline.ELLIPSE
+    assert len(el.vertices) == 32
+    assert el.tan_half[0] == pytest.approx(np.tan(a), rel=1e-6)
+    # a small ellipse straight above: solid angle ~ pi tan(a) tan(b) / (1 + ...), below the rect's
+    rect = penumbra.make_rect_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, b), (1.0, 1.0, 1.0))
+    assert rect.outline == penumbra.LightOutline.RECT
+    assert 0.7 < el.solid_angle() / rect.solid_angle() < np.pi / 4 + 0.01
+    with pytest.raises(penumbra.BadInput, match="half-angles"):
+        penumbra.make_ellipse_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, 0.0), (1.0, 1.0, 1.0))
+    samples = penumbra.light_samples(el, 128)
+    assert len(samples) == 128
+    for s in samples:
+        x, y = el.frame_coords(s.dir)
+        assert x * x + y * y <= 1 + 1e-5 and 0 < s.weight <= 1
+    # half-black texture: the left half bright, the right half black
+    tex = penumbra.LightTexture(width=2, height=1, radiance=[4.0, 4.0, 4.0, 0.0, 0.0, 0.0])
+    penumbra.set_light_texture(rect, tex)
+    assert rect.texture.width == 2 and not rect.texture.empty()
+    assert rect.power[0] == pytest.approx(2.0 * rect.solid_angle(), rel=1e-5)
+    assert rect.sample_weight((-0.1, 1.0, 0.0)) == 1.0 and rect.sample_weight((0.1, 1.0, 0.0)) == 0.0
+    assert rect.radiance_at((-0.1, 1.0, 0.0))[0] == 4.0
+    bright = [s for s in penumbra.light_samples(rect, 256) if s.weight > 0]
+    assert 0.4 < len(bright) / 256 < 0.6
+    with pytest.raises(penumbra.BadInput, match="needs 12 radiance values"):
+        penumbra.set_light_texture(rect, penumbra.LightTexture(width=2, height=2, radiance=[1.0] * 3))
+    f = tmp_path / "tex.json"
+    f.write_text(json.dumps({"lights": [
+        {"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10],
+         "texture": {"width": 2, "height": 1, "radiance": [4, 4, 4, 0, 0, 0]}},
+        {"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 95],
+         "radiance": [1, 1, 1]}]}))
+    with pytest.raises(penumbra.BadInput, match="tex.json: light 1"):
+        penumbra.load_light_set(str(f))
+    s = penumbra.light_set_from_json(json.dumps({"lights": json.loads(f.read_text())["lights"][:1]}))
+    assert s.lights[0].outline == penumbra.LightOutline.ELLIPSE and s.lights[0].texture.width == 2
+    again = penumbra.light_set_from_json(s.to_json())
+    assert again.lights[0].texture.radiance == s.lights[0].texture.radiance
+    assert np.allclose(again.powers, s.powers, rtol=1e-5)
