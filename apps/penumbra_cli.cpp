@@ -238,7 +238,7 @@ const std::vector<OptionSpec> kExtractSpecs = {
 // loadLightSet in lights.hpp) instead of lights extracted from the map. Extraction options are
 // refused beside it rather than silently ignored.
 const OptionSpec kLightSetSpec = {"light-set", true,
-                                  "JSON light set (caps, polygons, rects; see README) used instead "
+                                  "JSON light set (caps, polygons, rects, ellipses, optionally textured; see README) used instead "
                                   "of extracting lights from the map"};
 bool userLightSet(const Args& a, LightSet& out) {
   if (!has(a, "light-set")) return false;

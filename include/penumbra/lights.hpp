@@ -135,7 +135,8 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
 
 // n light sample directions, stratified and uniform in solid angle over the light (cap:
 // spherical Fibonacci over the cap; polygon: stratified over the polygon), rotated about the light's direction by `rotation` radians (jitter between frames,
-// seed 001 §4.3). Deterministic. Used by brute force, the bitmask technique and the references.
+// seed 001 §4.3). Deterministic. Used by lightSamples (brute force) and the ambient residual. An
+// ellipse light gets its shading polygon's samples here; lightSamples samples the ellipse itself.
 std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, int n,
                                                         float rotation = 0.0f);
 
