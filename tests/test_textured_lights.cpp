@@ -557,3 +557,39 @@ TEST(OclgrindTexturedLights, BitmaskFrame) {
     }
   EXPECT_GT(shadowed, 0);
 }
+
+// The example light set (an ellipse, a textured rect, a textured cap) loads and every technique
+// renders it: finite pixels no brighter than the unshadowed frame (a shadow only takes light away).
+TEST(TexturedLights, EveryTechniqueRendersTheExampleFile) {
+  const LightSet set =
+      loadLightSet(std::string(PENUMBRA_TEST_DATA) + "/../../examples/lights/lamp_and_stained_window.json");
+  ASSERT_EQ(set.lights.size(), 3u);
+  EXPECT_EQ(set.lights[0].outline, AreaLight::Outline::Ellipse);
+  EXPECT_FALSE(set.lights[1].texture.empty());
+  EXPECT_FALSE(set.lights[2].texture.empty());
+  Scene scene = builtinScene();
+  const Camera cam = frameCamera(scene, 17.0f / 9.0f);
+  Environment env = builtinEnvironment(64);
+  Renderer r(ctx());
+  RenderOptions opt;
+  opt.width = 17;
+  opt.height = 9;
+  opt.shadowMapSize = 64;
+  opt.shadows = ShadowTechnique::None;
+  const Image a = r.render(scene, cam, set, env, opt).image;
+  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::PCSS, ShadowTechnique::CSSM,
+                            ShadowTechnique::MSSM4, ShadowTechnique::MSSM6, ShadowTechnique::Brute,
+                            ShadowTechnique::Bitmask, ShadowTechnique::BitmaskHard,
+                            ShadowTechnique::AreaApprox}) {
+    opt.shadows = t;
+    opt.brute.samples = 64;
+    opt.bitmask.lightSamples = 128;
+    const Image b = r.render(scene, cam, set, env, opt).image;
+    for (int y = 0; y < b.height; ++y)
+      for (int x = 0; x < b.width; ++x)
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_TRUE(std::isfinite(b.at(x, y, c))) << toString(t);
+          EXPECT_LE(b.at(x, y, c), a.at(x, y, c) * 1.0001f + 1e-6f) << toString(t);
+        }
+  }
+}
