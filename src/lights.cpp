@@ -392,6 +392,48 @@ void setLightTexture(AreaLight& l, LightTexture t) {
   }
 }
 
+void textureLightsFromMap(const Environment& env, LightSet& set, int size, int supersample) {
+  if (size < 1 || size > 64) badInput("light texture size must be in [1, 64], got " + std::to_string(size));
+  if (supersample < 1 || supersample > 16)
+    badInput("light texture supersampling must be in [1, 16], got " + std::to_string(supersample));
+  for (AreaLight& l : set.lights) {
+    if (l.shape != LightShape::Cap || !(l.cosAlpha > 0 && l.cosAlpha < 1)) continue;
+    const D3 w = unit3(d3(l.direction)), u = defaultAxisU(w), v = cross3(u, w);
+    const double ta = std::sqrt(1.0 - double(l.cosAlpha) * l.cosAlpha) / l.cosAlpha;
+    LightTexture t{size, size, std::vector<float>(std::size_t(size) * size * 3, 0.0f)};
+    const int q = supersample;
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        double sum[3] = {0, 0, 0};
+        for (int b = 0; b < q; ++b)
+          for (int a = 0; a < q; ++a) {
+            const double x = -1 + 2 * (i + (a + 0.5) / q) / size, y = 1 - 2 * (j + (b + 0.5) / q) / size;
+            const D3 d = unit3({w[0] + ta * (x * u[0] + y * v[0]), w[1] + ta * (x * u[1] + y * v[1]),
+                                w[2] + ta * (x * u[2] + y * v[2])});
+            float rgb[3];
+            env.lookup(float(d[0]), float(d[1]), float(d[2]), rgb);
+            for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
+          }
+        for (int c = 0; c < 3; ++c) t.radiance[(std::size_t(j) * size + i) * 3 + c] = float(sum[c] / (q * q));
+      }
+    if (!(maxTexelLuminance(t) > 0)) continue;
+    // the raw texture's integral over the cap, then each channel scaled to the light's power (a
+    // channel the map leaves black over the cap gets the light's uniform radiance instead)
+    AreaLight probe = l;
+    probe.axisU = {float(u[0]), float(u[1]), float(u[2])};
+    setLightTexture(probe, t);
+    const float omega = l.solidAngle();
+    for (int c = 0; c < 3; ++c) {
+      const double scale = probe.power[c] > 0 ? double(l.power[c]) / probe.power[c] : 0.0;
+      for (std::size_t k = c; k < t.radiance.size(); k += 3)
+        t.radiance[k] = probe.power[c] > 0 ? float(t.radiance[k] * scale) : (omega > 0 ? l.power[c] / omega : 0.0f);
+    }
+    if (!(maxTexelLuminance(t) > 0)) continue;
+    l.axisU = probe.axisU;
+    setLightTexture(l, std::move(t));
+  }
+}
+
 std::vector<LightSample> lightSamples(const AreaLight& light, int n, float rotation) {
   std::vector<LightSample> out;
   if (n < 1) return out;

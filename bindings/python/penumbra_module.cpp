@@ -545,6 +545,10 @@ PYBIND11_MODULE(penumbra, m) {
       "light"_a, "texture"_a,
       "Gives a cap, rect or ellipse light a radiance texture in place: power = its integral, "
       "radiance = power / solid angle. Raises BadInput for bad sizes, values or shapes.");
+  m.def("texture_lights_from_map", &textureLightsFromMap, "env"_a, "lights"_a, "size"_a = 8,
+        "supersample"_a = 4,
+        "Gives every cap light in place a size x size texture of the map's radiance over it, "
+        "scaled to keep its power: the shadow techniques then weight its samples by the map.");
   m.def("light_samples", &lightSamples, "light"_a, "n"_a, "rotation"_a = 0.0f,
         "n weighted light samples (LightSample) as brute force and the references use them: "
         "weights from the texture and, for ellipses, the solid angle each sample stands for.");

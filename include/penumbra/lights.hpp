@@ -183,6 +183,14 @@ struct LightSet {
 LightSet loadLightSet(const std::string& path);
 LightSet lightSetFromJson(const std::string& text, const std::string& source = "light set");
 
+// Gives every cap light of `set` a size x size texture of the map's radiance over its disk
+// (LightTexture's mapping; supersample^2 nearest-texel look-ups per texel, averaged), scaled per
+// channel so that its integral is the light's power: power and mean radiance stay as extracted
+// (seed 003's energy conservation), and the shadow techniques weight each light sample by the
+// map's luminance there. Polygon lights (no frame) and lights over black map regions are left
+// untextured. Throws Error(BadInput) for size outside [1, 64] or supersample outside [1, 16].
+void textureLightsFromMap(const Environment& env, LightSet& set, int size = 8, int supersample = 4);
+
 struct MedianCutOptions {
   int lights = 32;        // number of regions/lights, >= 1 (any N, not only powers of two)
   int faceSize = 256;     // cube face resolution used for the SATs, 1..4096
