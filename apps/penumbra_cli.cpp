@@ -232,6 +232,9 @@ const std::vector<OptionSpec> kExtractSpecs = {
     {"no-ambient", false, "no ambient residual (default: the SH9 residual the lights miss)"},
     {"light-shape", true, "median-cut: cap (default) | polygon (a light from one region is that "
                           "region's exact cube-face quadrilateral)"},
+    {"light-texture", true, "texture every extracted cap with NxN texels of the map's radiance "
+                            "(1..64; bitmask, brute and reference weight their light samples by "
+                            "it; default none)"},
 };
 
 // `--light-set FILE` (render, reference): lights a user defines (caps, polygons, rectangles;
@@ -291,6 +294,8 @@ ExtractOptions parseExtractOptions(const Args& a) {
     else if (shape == "polygon") eo.medianCut.shape = LightShape::Polygon;
     else badInput("--light-shape must be cap or polygon, got '" + shape + "'");
   }
+  if (has(a, "light-texture"))
+    eo.lightTexture = int(parseInt("light-texture", get(a, "light-texture", ""), 1, 64));
   eo.ambient = !has(a, "no-ambient");
   return eo;
 }

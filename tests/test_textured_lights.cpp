@@ -6,9 +6,12 @@
 // texture bit for bit, the light-set JSON, and the changed kernels under oclgrind.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -652,4 +655,34 @@ TEST(TexturedLights, ExtractedLightsTakeTheirMapsRadiance) {
     EXPECT_EQ(e.kind(), ErrorKind::BadInput);
     EXPECT_NE(std::string(e.what()).find("got 0"), std::string::npos) << e.what();
   }
+}
+
+// `penumbra lights --light-texture N` writes textured caps that load back; out-of-range N is
+// bad input (exit 2) naming the option.
+TEST(TexturedLights, CliLightTexture) {
+  const std::string dir = ::testing::TempDir();
+  const std::string out = dir + "/textured_lights.json", err = dir + "/textured_lights.err";
+  const std::string cli = PENUMBRA_CLI;
+  int rc = std::system((cli + " lights --lights 3 --face-size 32 --light-texture 3 --out " + out +
+                        " 2> " + err).c_str());
+  ASSERT_EQ(rc, 0);
+  const LightSet set = loadLightSet(out);
+  ASSERT_EQ(set.lights.size(), 3u);
+  int textured = 0;
+  for (const AreaLight& l : set.lights)
+    if (!l.texture.empty()) {
+      ++textured;
+      EXPECT_EQ(l.texture.width, 3);
+      EXPECT_EQ(l.texture.height, 3);
+    }
+  EXPECT_GT(textured, 0);
+  rc = std::system((cli + " lights --light-texture 65 --out " + out + " 2> " + err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  std::FILE* f = std::fopen(err.c_str(), "r");
+  ASSERT_NE(f, nullptr);
+  char buf[512] = {0};
+  const std::size_t got = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  EXPECT_NE(std::string(buf, got).find("--light-texture must be in [1, 64], got 65"), std::string::npos) << buf;
 }

@@ -620,7 +620,10 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("median_cut", &ExtractOptions::medianCut, "MedianCutOptions.")
       .def_readwrite("greedy", &ExtractOptions::greedy, "GreedyOptions.")
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
-      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.");
+      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
+      .def_readwrite("light_texture", &ExtractOptions::lightTexture,
+                     "Texture each extracted cap with N x N texels of the map (0: none, default; "
+                     "else 1..64): sample-based techniques weight light samples by the map.");
 
   m.def(
       "extract_lights",

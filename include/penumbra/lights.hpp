@@ -265,8 +265,14 @@ struct ExtractOptions {
   GreedyOptions greedy;
   CenterSurroundOptions centerSurround;
   bool ambient = true;  // add the ambient residual (addAmbientResidual)
+  // Texture every extracted cap with lightTexture x lightTexture texels of the map's radiance
+  // (textureLightsFromMap; power kept), so that the sample-based techniques (bitmask, brute
+  // force, the light-set reference) weight each light sample by the map. 0 (default): none;
+  // else in [1, 64].
+  int lightTexture = 0;
 };
-// Runs the chosen method, then the ambient residual when opt.ambient.
+// Runs the chosen method, then the light textures when opt.lightTexture > 0, then the ambient
+// residual when opt.ambient.
 LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt = {});
 
 // Draws the map (tone-mapped) with each light's region(s) outlined and its centre marked; a light
