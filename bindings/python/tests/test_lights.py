@@ -176,3 +176,21 @@ def test_ellipse_and_textured_lights(tmp_path):
     again = penumbra.light_set_from_json(s.to_json())
     assert again.lights[0].texture.radiance == s.lights[0].texture.radiance
     assert np.allclose(again.powers, s.powers, rtol=1e-5)
+
+
+def test_texture_lights_from_map(ctx, env):
+    opt = penumbra.ExtractOptions()
+    opt.median_cut.lights = 4
+    opt.median_cut.face_size = 32
+    plain = penumbra.extract_lights(ctx, env, options=opt)
+    opt.light_texture = 4
+    assert opt.light_texture == 4
+    textured = penumbra.extract_lights(ctx, env, options=opt)
+    assert np.allclose(textured.powers, plain.powers, rtol=1e-5)
+    assert any(l.texture.width == 4 for l in textured.lights)
+    opt.light_texture = 0
+    again = penumbra.extract_lights(ctx, env, options=opt)
+    penumbra.texture_lights_from_map(env, again, 4)
+    assert [l.texture.radiance for l in again.lights] == [l.texture.radiance for l in textured.lights]
+    with pytest.raises(penumbra.BadInput, match="got 0"):
+        penumbra.texture_lights_from_map(env, again, 0)
