@@ -236,13 +236,16 @@ const std::vector<OptionSpec> kExtractSpecs = {
                            "128x64)"},
     {"light-shape", true, "median-cut: cap (default) | polygon (a light from one region is that "
                           "region's exact cube-face quadrilateral)"},
+    {"light-texture", true, "texture every extracted cap with NxN texels of the map's radiance "
+                            "(1..64; bitmask, brute and reference weight their light samples by "
+                            "it; default none)"},
 };
 
 // `--light-set FILE` (render, reference): lights a user defines (caps, polygons, rectangles;
 // loadLightSet in lights.hpp) instead of lights extracted from the map. Extraction options are
 // refused beside it rather than silently ignored.
 const OptionSpec kLightSetSpec = {"light-set", true,
-                                  "JSON light set (caps, polygons, rects; see README) used instead "
+                                  "JSON light set (caps, polygons, rects, ellipses, optionally textured; see README) used instead "
                                   "of extracting lights from the map"};
 bool userLightSet(const Args& a, LightSet& out) {
   if (!has(a, "light-set")) return false;
@@ -295,6 +298,8 @@ ExtractOptions parseExtractOptions(const Args& a) {
     else if (shape == "polygon") eo.medianCut.shape = LightShape::Polygon;
     else badInput("--light-shape must be cap or polygon, got '" + shape + "'");
   }
+  if (has(a, "light-texture"))
+    eo.lightTexture = int(parseInt("light-texture", get(a, "light-texture", ""), 1, 64));
   eo.ambient = !has(a, "no-ambient");
   if (has(a, "ambient")) eo.ambientOptions.model = parseAmbientModel(get(a, "ambient", ""));
   if (has(a, "ambient-size")) {

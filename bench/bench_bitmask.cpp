@@ -7,6 +7,8 @@
 //                             (seed 001: roughly linear).
 //   BM_BitmaskRadius/deg      the built-in scene under one light of half-angle deg, 256 samples,
 //                             160x90: larger lights mean larger influence regions.
+//   BM_BitmaskLightShape/s    one light of each shape at the same bounding cap: cap, textured cap,
+//                             ellipse, textured ellipse (the cost of sample weights and frames).
 // Counters: device time per stage in ms per frame (bitmask/lists/* summed as lists_ms,
 // bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the scene's triangle
 // count, and the list statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and
@@ -115,8 +117,29 @@ void BM_BitmaskRadius(benchmark::State& state) {
   run(state, builtinScene(), oneLight(float(state.range(0))), 256, 160);
 }
 
+// Light shapes at one bounding cap: shape 0 a 10-degree cap, 1 the same cap with an 8 x 8
+// checkered texture (per-sample weights, seed 001 §4.1), 2 a 10 x 4 degree ellipse (the disk's
+// affine image), 3 that ellipse textured. 256 samples, built-in scene, 160x90.
+void BM_BitmaskLightShape(benchmark::State& state) {
+  const int shape = int(state.range(0));
+  LightSet set = oneLight(10);
+  AreaLight& l = set.lights[0];
+  if (shape >= 2)
+    l = makeEllipseLight(l.direction, {0, 1, 0}, {10 * 3.14159265358979 / 180, 4 * 3.14159265358979 / 180},
+                         {1, 1, 1});
+  if (shape % 2 == 1) {
+    LightTexture t{8, 8, {}};
+    for (int j = 0; j < 8; ++j)
+      for (int i = 0; i < 8; ++i)
+        for (int c = 0; c < 3; ++c) t.radiance.push_back((i + j) % 2 ? 2.0f : 0.25f);
+    setLightTexture(l, t);
+  }
+  run(state, builtinScene(), set, 256, 160);
+}
+
 }  // namespace
 
+BENCHMARK(BM_BitmaskLightShape)->DenseRange(0, 3, 1)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_BitmaskSamples)
     ->ArgsProduct({{128, 256, 512, 1024}, {160}})
     ->Unit(benchmark::kMillisecond)

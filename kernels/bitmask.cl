@@ -103,7 +103,8 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
                               global const uint* gids, int npixels, global const uint* lut,
                               global const float2* disk, int stripes,
                               global const int* zfar, volatile global uint* masks,
-                              global const int* mesh_orient, float rot) {
+                              global const int* mesh_orient, float rot,
+                              global const float4* frames) {
   int tri = get_global_id(0), stripe = get_global_id(1), lb = get_global_id(2);
   if (tri >= ntris) return;
   int l = l0 + lb;
@@ -123,6 +124,13 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
   if (zmin > g.zmax) return;  // behind every view sample
   const float3 ex = vec3(L.ex), ey = vec3(L.ey), w = vec3(L.dir);
   const float ta = g.tan_alpha;
+#ifndef HARD
+  // the light's sampling frame (see bitmask_resolve): plane normals in it, scaled by f, meet
+  // the unit-disk tables as a cap's do
+  const float4 fa = frames[2 * l], fb = frames[2 * l + 1];
+  const float3 e1 = fa.xyz, e2 = fb.xyz;
+  const float f1 = fa.w, f2 = fb.w;
+#endif
   if (mesh_orient[t.w] != 0) {
     // Closed mesh: skip the triangle when it faces every light sample d ~ w + ta (u ex + v ey),
     // |(u, v)| <= 1, i.e. n.w > ta |n - (n.w) w| (with a margin for rounding; keeping a
@@ -242,8 +250,8 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
         int partial = 0;  // edges whose plane cuts the disk
         for (int e = 0; e < 3; ++e) {
           float3 m = sg * nrm[e];
-          nx[e] = dot(m, ex);
-          ny[e] = dot(m, ey);
+          nx[e] = dot(m, e1) * f1;
+          ny[e] = dot(m, e2) * f2;
           nz[e] = dot(m, w);
           float tr = ta * sqrt(nx[e] * nx[e] + ny[e] * ny[e]);
           if (nz[e] >= tr) continue;  // the whole disk is behind this edge's plane
@@ -287,7 +295,7 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
                          global const int* mesh_orient, global const uint* gids,
                          global const pb_light* lights, global const pb_list_grid* grids, int l0,
                          global const int* slot, global const float2* disk, int npixels,
-                         volatile global uint* masks) {
+                         volatile global uint* masks, global const float4* frames) {
   int px = get_global_id(0), lb = get_global_id(1);
   if (px >= npixels) return;
   int l = l0 + lb;
@@ -300,13 +308,15 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
   float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
   float3 n = cross(b - a, c - a) * (float)o;
   pb_light L = lights[l];
-  float nx = dot(n, vec3(L.ex)), ny = dot(n, vec3(L.ey)), nz = dot(n, vec3(L.dir));
 #ifdef HARD
+  float nz = dot(n, vec3(L.dir));
   if (nz < 0.0f) {
     size_t bit = (size_t)lb * npixels + px;
     atomic_or(&masks[bit >> 5], 1u << (uint)(bit & 31));
   }
 #else
+  float4 fa = frames[2 * l], fb = frames[2 * l + 1];
+  float nx = dot(n, fa.xyz) * fa.w, ny = dot(n, fb.xyz) * fb.w, nz = dot(n, vec3(L.dir));
   float ta = grids[l].tan_alpha;
   if (nz >= ta * sqrt(nx * nx + ny * ny)) return;  // every sample above the plane
   global volatile uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
@@ -327,13 +337,18 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
 // projection) and brings cos(theta between n and d_k), so with d'_k = (tan u, tan v, 1) its
 // weight is max(0, n'.d'_k) / |d'_k|^4. Pixels that are no view sample of the light get 1 (their
 // visibility is never used), as does a sample set wholly below the horizon.
-// inside: per light, WORDS words, bit k set where disk sample k lies inside the light. A cap's
-// samples all do; a polygon light (lights.hpp) is sampled by the disk samples of its bounding
-// cap that fall inside it, so the table and the triangle stage stay shared by every light.
+// frames: per light, two float4 (e1, f1), (e2, f2) (src/bitmask.hpp BitmaskFrame): disk sample
+// (u, v) is the direction ~ dir + tan(alpha) (f1 u e1 + f2 v e2). A cap or polygon uses its light
+// frame's ex, ey and f = 1; an ellipse its own axes and f = tan(half-angle) / tan(alpha), the
+// disk's affine image (seed 001 §4.1's scaling), so tables and triangle stage stay shared by
+// every light. weights: per light, one per sample (seed 001 §4.1, textured sources): 0 for a
+// polygon's disk samples outside it, the texture's relative luminance on textured lights, else 1;
+// visibility = sum over lit samples of weight x irradiance factor / the same sum over all.
 kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* lights,
                             global const pb_list_grid* grids, int l0, global const int* slot,
                             global const float2* disk, int npixels, global const uint* masks,
-                            global float* vis, global const uint* inside) {
+                            global float* vis, global const float* weights,
+                            global const float4* frames) {
   int px = get_global_id(0), lb = get_global_id(1);
   if (px >= npixels) return;
   int l = l0 + lb;
@@ -356,15 +371,19 @@ kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* li
   pb_light L = lights[l];
   float ta = grids[l].tan_alpha;
   float3 n = gnrm[px].xyz;
-  float nx = dot(n, vec3(L.ex)), ny = dot(n, vec3(L.ey)), nz = dot(n, vec3(L.dir));
+  float4 fa = frames[2 * l], fb = frames[2 * l + 1];
+  float2 f = (float2)(fa.w, fb.w);
+  float nx = dot(n, fa.xyz), ny = dot(n, fb.xyz), nz = dot(n, vec3(L.dir));
+  global const float* sw = weights + (size_t)l * (WORDS * 32);
   float total = 0.0f, lit = 0.0f;
   for (int k = 0; k < WORDS; ++k) {
-    uint m = mask[k], in = inside[(size_t)l * WORDS + k];
+    uint m = mask[k];
     for (int b = 0; b < 32; ++b) {
-      if (((in >> b) & 1u) == 0u) continue;  // outside a polygon light (see `inside` above)
-      float2 uv = disk[k * 32 + b] * ta;
+      float s = sw[k * 32 + b];
+      if (s == 0.0f) continue;  // outside a polygon light, or black texture
+      float2 uv = disk[k * 32 + b] * ta * f;
       float q = 1.0f + dot(uv, uv);
-      float wgt = fmax(nz + uv.x * nx + uv.y * ny, 0.0f) / (q * q);
+      float wgt = fmax(nz + uv.x * nx + uv.y * ny, 0.0f) / (q * q) * s;
       total += wgt;
       if (((m >> b) & 1u) == 0u) lit += wgt;
     }

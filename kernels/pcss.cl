@@ -220,9 +220,11 @@ kernel void pcss_visibility(global const float4* gpos, global const float4* gnrm
 // in solid angle over its cap (samples[l * K + k], each with its own orthographic frame), one hard
 // shadow map each. The cap radiates uniformly and the shading multiplies the cap's irradiance by
 // the visibility, so the visibility is irradiance-weighted:
-//   V = sum_k max(0, n.w_k) V_k / sum_k max(0, n.w_k)
-// (equal solid angle per sample; the cosine weights make a light clipped by the horizon or tilted
-// against the surface count each direction by what it adds to the irradiance).
+//   V = sum_k s_k max(0, n.w_k) V_k / sum_k s_k max(0, n.w_k)
+// (the cosine weights make a light clipped by the horizon or tilted against the surface count
+// each direction by what it adds to the irradiance; s_k = samples[k].radiance[3] is the sample's
+// weight, lights.hpp lightSamples: 1 for the equal solid angles of an untextured cap or polygon,
+// the solid angle and texture luminance it stands for otherwise).
 //
 // The maps come in batches of `count` consecutive samples starting at flat index `first` (they
 // hold maps[(f - first) * size^2]); a light's samples may span batches. Work-item (pixel, light
@@ -252,7 +254,8 @@ kernel void brute_visibility(global const float4* gpos, global const float4* gnr
   }
   float total = 0.0f;
   for (int k = l * K; k < (l + 1) * K; ++k)
-    total += fmax(dot(n, (float3)(samples[k].dir[0], samples[k].dir[1], samples[k].dir[2])), 0.0f);
+    total += fmax(dot(n, (float3)(samples[k].dir[0], samples[k].dir[1], samples[k].dir[2])), 0.0f) *
+             samples[k].radiance[3];
   if (!(total > 0.0f)) {  // the cap's sampled directions all lie below the horizon
     if (opens) vis[out] = 1.0f;
     return;
@@ -264,7 +267,7 @@ kernel void brute_visibility(global const float4* gpos, global const float4* gnr
     float c = dot(n, (float3)(S.dir[0], S.dir[1], S.dir[2]));
     if (c <= 0.0f) continue;
     map_point m = map_point_of(&S, p4.xyz, g, size);
-    lit += c * hard_test(maps + (size_t)(k - first) * size * size, size, &m, depth_bias);
+    lit += c * S.radiance[3] * hard_test(maps + (size_t)(k - first) * size * size, size, &m, depth_bias);
   }
   float share = lit / total;
   vis[out] = opens ? share : fmin(vis[out] + share, 1.0f);

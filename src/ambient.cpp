@@ -343,6 +343,7 @@ LightSet extractLights(Context& ctx, const Environment& env, const ExtractOption
       set = extractCenterSurround(ctx, env, opt.centerSurround);
       break;
   }
+  if (opt.lightTexture > 0) textureLightsFromMap(env, set, opt.lightTexture);
   if (opt.ambient) addAmbientResidual(ctx, env, set, opt.ambientOptions);
   return set;
 }

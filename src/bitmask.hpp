@@ -7,6 +7,7 @@
 #include <memory>
 #include <vector>
 
+#include "penumbra/lights.hpp"
 #include "penumbra/scene.hpp"
 #include "penumbra/shared.h"
 
@@ -26,6 +27,19 @@ double bitmaskJitterAngle(int jitter);
 // (pb_list_grid::tan_alpha): normalize(dir + tan(alpha) (u ex + v ey)).
 std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, float u, float v);
 
+// A light's sampling frame in the bitmask technique (kernels/bitmask.cl `frames`): two unit axes
+// e1, e2 orthogonal to the light's direction, each with a scale f in (0, 1] of tan(alpha). Disk
+// point (u, v) is the direction normalize(dir + tan(alpha) (f1 u e1 + f2 v e2)). Caps and
+// polygons: the light frame's ex, ey and f = 1 (the bounding cap's disk); an ellipse light: its
+// axes and f = tan(half-angle) / tan(alpha), the disk's affine image (seed 001 §4.1: "a virtual
+// scaling of the entire scene allows us to reestablish a spherical light source").
+struct BitmaskFrame {
+  std::array<float, 4> e1, e2;  // xyz: axis, w: f
+};
+BitmaskFrame bitmaskFrame(const pb_light& L, const AreaLight* light);
+std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha,
+                                            const BitmaskFrame& fr, float u, float v);
+
 // List statistics of one frame (seed 001 Figure 9), over all lights.
 struct BitmaskStats {
   std::int64_t viewSamples = 0;     // (pixel, light) pairs in the lists
@@ -42,6 +56,8 @@ struct BitmaskCapture {
   std::vector<pb_light> lights;                // light frames as the kernels saw them
   std::vector<pb_list_grid> grids;             // per light
   std::vector<std::array<float, 2>> disk;      // light samples (hard: the centre only)
+  std::vector<BitmaskFrame> frames;            // per light: its sampling frame
+  std::vector<float> weights;                  // [light][sample]: the sample's weight (resolve)
   std::vector<int> slot;                       // [light][pixel]: index in its list, -1: no sample
   std::vector<int> counts;                     // [light][texel]: list lengths
   std::vector<std::uint32_t> masks;            // [light][pixel][word]: bit k set = sample blocked

@@ -1,5 +1,6 @@
 // Light-set files (lights.hpp loadLightSet / lightSetFromJson): the JSON LightSet::toJson writes,
-// and lights a user writes by hand, caps, convex polygons and rectangles. A small JSON reader of
+// and lights a user writes by hand, caps, convex polygons, rectangles and ellipses, optionally
+// textured. A small JSON reader of
 // our own (the library has no JSON dependency), strict about what it accepts: every problem is
 // an Error(BadInput) naming the file, the light's index and the field.
 #include <cmath>
@@ -190,11 +191,12 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
     if (o.kind != Json::Object) r.fail("must be a JSON object");
     std::string shape = "cap";
     if (const Json* s = o.get("shape")) {
-      if (s->kind != Json::String) r.fail("\"shape\" must be \"cap\", \"polygon\" or \"rect\"");
+      if (s->kind != Json::String) r.fail("\"shape\" must be \"cap\", \"polygon\", \"rect\" or \"ellipse\"");
       shape = s->str;
     }
     const bool hasRad = o.get("radiance") != nullptr, hasPow = o.get("power") != nullptr;
-    if (!hasRad && !hasPow) r.fail("needs \"radiance\" or \"power\"");
+    const bool hasTex = o.get("texture") != nullptr;
+    if (!hasRad && !hasPow && !hasTex) r.fail("needs \"radiance\", \"power\" or \"texture\"");
     std::array<float, 3> rad = r.vec3(o, "radiance", false), pow = r.vec3(o, "power", false);
     for (int c = 0; c < 3; ++c)
       if (rad[c] < 0 || pow[c] < 0) r.fail("negative radiance or power");
@@ -218,39 +220,58 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
         std::vector<std::array<float, 3>> verts;
         for (auto& item : v->items) verts.push_back(r.vec3(item, "vertices"));
         l = makePolygonLight(verts, {0, 0, 0});
-      } else if (shape == "rect") {
-        // A rectangle seen from afar: centre direction d, `up` turned into the tangent plane,
-        // half-angles (a, b) along right = up x d and up: corners d +- tan a right +- tan b up.
+      } else if (shape == "rect" || shape == "ellipse") {
+        // A rectangle seen from afar, or the ellipse inscribed in it (an ellipsoid's silhouette):
+        // centre direction d, `up` turned into the tangent plane, half-angles (a, b) along
+        // right = d x up and up (makeRectLight, makeEllipseLight).
         auto d = r.unitDir(o, "direction");
         auto up = r.unitDir(o, "up");
         const Json* h = o.get("half_angles_deg");
         if (!h || h->kind != Json::Array || h->items.size() != 2)
           r.fail("\"half_angles_deg\" must be an array of 2 numbers");
-        double ha[2];
+        std::array<double, 2> ha;
         for (int k = 0; k < 2; ++k) {
           if (h->items[k].kind != Json::Number || !(h->items[k].num > 0 && h->items[k].num < 90))
-            r.fail("\"half_angles_deg\" must be in (0, 90)");
+            r.fail("\"half_angles_deg\" must be in (0, 90), got " +
+                   (h->items[k].kind == Json::Number ? std::to_string(h->items[k].num) : std::string("a non-number")));
           ha[k] = h->items[k].num * kPi / 180;
         }
-        double dd[3] = {d[0], d[1], d[2]}, u[3] = {up[0], up[1], up[2]};
-        double du = dd[0] * u[0] + dd[1] * u[1] + dd[2] * u[2];
-        for (int c = 0; c < 3; ++c) u[c] -= du * dd[c];
-        double ul = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-        if (!(ul > 1e-6)) r.fail("\"up\" must not be parallel to \"direction\"");
-        for (double& c : u) c /= ul;
-        double rt[3] = {u[1] * dd[2] - u[2] * dd[1], u[2] * dd[0] - u[0] * dd[2],
-                        u[0] * dd[1] - u[1] * dd[0]};
-        std::vector<std::array<float, 3>> verts;
-        const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
-        for (int k = 0; k < 4; ++k) {
-          double p[3];
-          for (int c = 0; c < 3; ++c)
-            p[c] = dd[c] + sx[k] * std::tan(ha[0]) * rt[c] + sy[k] * std::tan(ha[1]) * u[c];
-          verts.push_back({float(p[0]), float(p[1]), float(p[2])});
-        }
-        l = makePolygonLight(verts, {0, 0, 0});
+        l = shape == "rect" ? makeRectLight(d, up, ha, {0, 0, 0}) : makeEllipseLight(d, up, ha, {0, 0, 0});
       } else {
-        r.fail("unknown \"shape\" \"" + shape + "\" (accepted: cap, polygon, rect)");
+        r.fail("unknown \"shape\" \"" + shape + "\" (accepted: cap, polygon, rect, ellipse)");
+      }
+      if (const Json* t = o.get("texture")) {
+        if (t->kind != Json::Object) r.fail("\"texture\" must be an object {width, height, radiance}");
+        LightTexture tex;
+        const double w = r.number(*t, "width"), hgt = r.number(*t, "height");
+        if (!(w >= 1 && w <= 4096 && w == std::floor(w)) || !(hgt >= 1 && hgt <= 4096 && hgt == std::floor(hgt)))
+          r.fail("texture \"width\" and \"height\" must be integers in [1, 4096], got " +
+                 std::to_string(w) + " x " + std::to_string(hgt));
+        tex.width = int(w);
+        tex.height = int(hgt);
+        const Json* rv = t->get("radiance");
+        if (!rv || rv->kind != Json::Array) r.fail("texture needs \"radiance\" (an array of 3 w h numbers)");
+        tex.radiance.reserve(rv->items.size());
+        for (std::size_t k = 0; k < rv->items.size(); ++k) {
+          const Json& x = rv->items[k];
+          if (x.kind != Json::Number || !std::isfinite(x.num) || !std::isfinite(float(x.num)) || x.num < 0)
+            r.fail("texture \"radiance\" value " + std::to_string(k) + " must be a finite number >= 0");
+          tex.radiance.push_back(float(x.num));
+        }
+        if (shape == "cap" && o.get("up")) {
+          // the texture's up: axisU = direction x up
+          auto up = r.unitDir(o, "up");
+          const double dd[3] = {l.direction[0], l.direction[1], l.direction[2]};
+          double u[3] = {up[0], up[1], up[2]};
+          const double du = u[0] * dd[0] + u[1] * dd[1] + u[2] * dd[2];
+          for (int c = 0; c < 3; ++c) u[c] -= du * dd[c];
+          const double ul = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+          if (!(ul > 1e-6)) r.fail("\"up\" must not be parallel to \"direction\"");
+          for (double& c : u) c /= ul;
+          l.axisU = {float(dd[1] * u[2] - dd[2] * u[1]), float(dd[2] * u[0] - dd[0] * u[2]),
+                     float(dd[0] * u[1] - dd[1] * u[0])};
+        }
+        setLightTexture(l, std::move(tex));
       }
     } catch (const Error& e) {
       if (e.kind() != ErrorKind::BadInput) throw;
@@ -258,7 +279,11 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
       if (msg.rfind(source + ":", 0) == 0) throw;
       r.fail(msg);
     }
-    if (hasRad) {
+    if (hasTex && !hasRad && !hasPow) {
+      // radiance and power as setLightTexture computed them
+    } else if (hasTex && !hasRad) {
+      l.power = pow;
+    } else if (hasRad) {
       l.radiance = rad;
       const float omega = l.solidAngle();
       for (int c = 0; c < 3; ++c) l.power[c] = hasPow ? pow[c] : rad[c] * omega;

@@ -38,10 +38,49 @@ D3 unit3(const D3& a) {
 double triangleSolidAngle(const D3& a, const D3& b, const D3& c) {
   return 2.0 * std::atan2(dot3(a, cross3(b, c)), 1.0 + dot3(a, b) + dot3(b, c) + dot3(c, a));
 }
+// Solid angle of the cone over the frame ellipse (x/ta)^2 + (y/tb)^2 <= 1 at unit distance. In
+// polar coordinates of the unit disk, x = ta r cos(phi), y = tb r sin(phi), the gnomonic area
+// element (1 + x^2 + y^2)^(-3/2) dx dy integrates in r in closed form:
+// Omega = ta tb int_0^2pi (1 - (1 + k)^(-1/2)) / k dphi, k = ta^2 cos^2(phi) + tb^2 sin^2(phi).
+// The integrand is smooth and periodic, so the trapezoid rule converges geometrically (512 points:
+// at double rounding for half-angles up to 85 degrees, tests/test_textured_lights.cpp).
+double ellipseSolidAngle(double ta, double tb) {
+  const int n = 512;
+  double sum = 0;
+  for (int i = 0; i < n; ++i) {
+    const double ph = 2 * kPi * (i + 0.5) / n, c = std::cos(ph), s = std::sin(ph);
+    const double k = ta * ta * c * c + tb * tb * s * s;
+    sum += k > 0 ? (1 - 1 / std::sqrt(1 + k)) / k : 0.5;
+  }
+  return ta * tb * sum * 2 * kPi / n;
+}
+// Solid angle of the frame rectangle [x0, x1] x [y0, y1] at unit distance (gnomonic plane):
+// F(x1, y1) - F(x0, y1) - F(x1, y0) + F(x0, y0), F(x, y) = atan(x y / sqrt(1 + x^2 + y^2)),
+// the antiderivative of (1 + x^2 + y^2)^(-3/2) in x and y.
+double frameRectSolidAngle(double x0, double x1, double y0, double y1) {
+  auto F = [](double x, double y) { return std::atan(x * y / std::sqrt(1 + x * x + y * y)); };
+  return F(x1, y1) - F(x0, y1) - F(x1, y0) + F(x0, y0);
+}
+// The default frame about w (ex = normalize(ref x w)), as lightSampleDirections and renderer.cpp's
+// lightFrame build it.
+D3 defaultAxisU(const D3& w) {
+  const D3 ref = std::fabs(w[1]) < 0.99 ? D3{0, 1, 0} : D3{1, 0, 0};
+  return unit3(cross3(ref, w));
+}
+// Fibonacci disk points (bitmaskDiskSamples in src/shadows_bitmask.cpp is the same set): radius
+// sqrt((k + 1/2) / n), golden-angle turns, turned by `rotation`.
+std::array<double, 2> diskPoint(int k, int n, double rotation) {
+  const double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
+  const double r = std::sqrt((k + 0.5) / n), a = kGoldenAngle * k + rotation;
+  return {r * std::cos(a), r * std::sin(a)};
+}
+float luminanceOf(const float* rgb) { return PB_LUM_R * rgb[0] + PB_LUM_G * rgb[1] + PB_LUM_B * rgb[2]; }
 }  // namespace
 
 float AreaLight::halfAngle() const { return std::acos(std::clamp(cosAlpha, -1.0f, 1.0f)); }
 float AreaLight::solidAngle() const {
+  if (shape == LightShape::Polygon && outline == Outline::Ellipse)
+    return float(ellipseSolidAngle(tanHalf[0], tanHalf[1]));
   if (shape == LightShape::Polygon) {
     // fan from vertex 0: the triangles of a convex polygon, each counter-clockwise
     double omega = 0;
@@ -144,6 +183,282 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
   const float omega = l.solidAngle();
   for (int c = 0; c < 3; ++c) l.power[c] = radiance[c] * omega;
   return l;
+}
+
+namespace {
+// The tangent frame of rect and ellipse lights: up made orthogonal to d, right = d x up (the
+// right of a viewer facing the light with `up` up, so a texture reads as written).
+void tangentFrame(const std::array<float, 3>& direction, const std::array<float, 3>& up, D3& d,
+                  D3& right, D3& upT) {
+  d = d3(direction);
+  const double dl = std::sqrt(dot3(d, d));
+  if (!std::isfinite(dl) || !(dl > 0)) badInput("light direction must be a finite non-zero vector");
+  d = {d[0] / dl, d[1] / dl, d[2] / dl};
+  D3 u = d3(up);
+  const double du = dot3(d, u);
+  for (int c = 0; c < 3; ++c) u[c] -= du * d[c];
+  const double ul = std::sqrt(dot3(u, u));
+  if (!std::isfinite(ul) || !(ul > 1e-6)) badInput("\"up\" must not be parallel to \"direction\"");
+  upT = {u[0] / ul, u[1] / ul, u[2] / ul};
+  right = cross3(d, upT);
+}
+void checkHalfAngles(const std::array<double, 2>& h) {
+  for (int k = 0; k < 2; ++k)
+    if (!(h[k] > 0 && h[k] < kPi / 2))
+      badInput("half-angles must be in (0, 90) degrees, got " + std::to_string(h[k] * 180 / kPi));
+}
+}  // namespace
+
+AreaLight makeRectLight(const std::array<float, 3>& direction, const std::array<float, 3>& up,
+                        const std::array<double, 2>& halfAngles,
+                        const std::array<float, 3>& radiance) {
+  checkHalfAngles(halfAngles);
+  D3 d, rt, u;
+  tangentFrame(direction, up, d, rt, u);
+  const double ta = std::tan(halfAngles[0]), tb = std::tan(halfAngles[1]);
+  std::vector<std::array<float, 3>> verts;
+  const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+  for (int k = 0; k < 4; ++k) {
+    double p[3];
+    for (int c = 0; c < 3; ++c) p[c] = d[c] + sx[k] * ta * rt[c] + sy[k] * tb * u[c];
+    verts.push_back({float(p[0]), float(p[1]), float(p[2])});
+  }
+  AreaLight l = makePolygonLight(verts, radiance);
+  l.outline = AreaLight::Outline::Rect;
+  l.direction = {float(d[0]), float(d[1]), float(d[2])};
+  l.axisU = {float(rt[0]), float(rt[1]), float(rt[2])};
+  l.tanHalf = {float(ta), float(tb)};
+  return l;
+}
+
+AreaLight makeEllipseLight(const std::array<float, 3>& direction, const std::array<float, 3>& up,
+                           const std::array<double, 2>& halfAngles,
+                           const std::array<float, 3>& radiance) {
+  checkHalfAngles(halfAngles);
+  D3 d, rt, u;
+  tangentFrame(direction, up, d, rt, u);
+  const double ta = std::tan(halfAngles[0]), tb = std::tan(halfAngles[1]);
+  // The affine image of the regular M-gon whose area is the unit disk's: circumradius s with
+  // M/2 s^2 sin(2 pi / M) = pi. Its edges are great circles (straight lines of the gnomonic
+  // plane), so it is a spherical polygon; its boundary stays within s - 1 = 0.32% (vertices) and
+  // 1 - s cos(pi / M) = 0.16% (edge midpoints) of the ellipse's radius at M = 32.
+  const int M = PB_ELLIPSE_VERTS;
+  const double s = std::sqrt(2 * kPi / (M * std::sin(2 * kPi / M)));
+  std::vector<std::array<float, 3>> verts;
+  for (int k = 0; k < M; ++k) {
+    const double t = 2 * kPi * k / M, x = s * ta * std::cos(t), y = s * tb * std::sin(t);
+    verts.push_back({float(d[0] + x * rt[0] + y * u[0]), float(d[1] + x * rt[1] + y * u[1]),
+                     float(d[2] + x * rt[2] + y * u[2])});
+  }
+  AreaLight l = makePolygonLight(verts, radiance);
+  l.outline = AreaLight::Outline::Ellipse;
+  // the centroid of a centrally symmetric polygon is d up to rounding; keep d exactly
+  l.direction = {float(d[0]), float(d[1]), float(d[2])};
+  l.axisU = {float(rt[0]), float(rt[1]), float(rt[2])};
+  l.tanHalf = {float(ta), float(tb)};
+  const float omega = l.solidAngle();
+  for (int c = 0; c < 3; ++c) l.power[c] = radiance[c] * omega;
+  return l;
+}
+
+std::array<float, 3> AreaLight::axisV() const {
+  const D3 v = cross3(d3(axisU), d3(direction));
+  return {float(v[0]), float(v[1]), float(v[2])};
+}
+
+std::array<float, 2> AreaLight::frameCoords(const std::array<float, 3>& d) const {
+  const D3 w = d3(direction), a = d3(d), u = d3(axisU), v = cross3(u, w);
+  const double z = dot3(a, w);
+  if (!(z > 0) || !(tanHalf[0] > 0) || !(tanHalf[1] > 0)) return {2.0f, 2.0f};  // outside
+  return {float(dot3(a, u) / (z * tanHalf[0])), float(dot3(a, v) / (z * tanHalf[1]))};
+}
+
+namespace {
+const float* texelAt(const LightTexture& t, double x, double y) {
+  int i = int(std::floor((x + 1) * 0.5 * t.width)), j = int(std::floor((1 - y) * 0.5 * t.height));
+  i = std::clamp(i, 0, t.width - 1);
+  j = std::clamp(j, 0, t.height - 1);
+  return &t.radiance[(std::size_t(j) * t.width + i) * 3];
+}
+float maxTexelLuminance(const LightTexture& t) {
+  float m = 0;
+  for (std::size_t i = 0; i + 2 < t.radiance.size(); i += 3) m = std::max(m, luminanceOf(&t.radiance[i]));
+  return m;
+}
+}  // namespace
+
+std::array<float, 3> AreaLight::radianceAt(const std::array<float, 3>& d) const {
+  if (texture.empty()) return radiance;
+  const auto xy = frameCoords(d);
+  const float* t = texelAt(texture, xy[0], xy[1]);
+  return {t[0], t[1], t[2]};
+}
+
+float AreaLight::sampleWeight(const std::array<float, 3>& d) const { return lightSampleWeights(*this, {d})[0]; }
+
+std::vector<float> lightSampleWeights(const AreaLight& l, const std::vector<std::array<float, 3>>& dirs) {
+  std::vector<float> w(dirs.size(), 1.0f);
+  if (l.texture.empty()) return w;
+  const float m = maxTexelLuminance(l.texture);
+  if (!(m > 0)) return w;
+  for (std::size_t k = 0; k < dirs.size(); ++k) {
+    const auto xy = l.frameCoords(dirs[k]);
+    // m / m == 1 exactly: a uniform texture weighs every sample 1, as no texture does
+    w[k] = luminanceOf(texelAt(l.texture, xy[0], xy[1])) / m;
+  }
+  return w;
+}
+
+void setLightTexture(AreaLight& l, LightTexture t) {
+  if (t.width < 1 || t.width > 4096 || t.height < 1 || t.height > 4096)
+    badInput("light texture size must be in [1, 4096] x [1, 4096], got " + std::to_string(t.width) +
+             " x " + std::to_string(t.height));
+  const std::size_t want = std::size_t(t.width) * t.height * 3;
+  if (t.radiance.size() != want)
+    badInput("light texture of " + std::to_string(t.width) + " x " + std::to_string(t.height) +
+             " needs " + std::to_string(want) + " radiance values (RGB per texel), got " +
+             std::to_string(t.radiance.size()));
+  for (std::size_t i = 0; i < want; ++i)
+    if (!std::isfinite(t.radiance[i]) || t.radiance[i] < 0)
+      badInput("light texture radiance must be finite and >= 0, value " + std::to_string(i) +
+               " is " + std::to_string(t.radiance[i]));
+  if (!(maxTexelLuminance(t) > 0)) badInput("light texture is black (no texel has a positive luminance)");
+  const bool ellipse = l.shape == LightShape::Polygon && l.outline == AreaLight::Outline::Ellipse;
+  const bool rect = l.shape == LightShape::Polygon && l.outline == AreaLight::Outline::Rect;
+  if (l.shape == LightShape::Polygon && !ellipse && !rect)
+    badInput("a light texture needs a cap, rect or ellipse light (a plain polygon has no frame)");
+  if (l.shape == LightShape::Cap) {
+    if (!(l.cosAlpha > 0 && l.cosAlpha < 1)) badInput("a textured cap needs a half-angle in (0, 90) degrees");
+    const D3 w = unit3(d3(l.direction));
+    D3 u = d3(l.axisU);
+    u = std::sqrt(dot3(u, u)) > 0.5 ? u : defaultAxisU(w);
+    l.axisU = {float(u[0]), float(u[1]), float(u[2])};
+    const double ta = std::sqrt(1.0 - double(l.cosAlpha) * l.cosAlpha) / l.cosAlpha;
+    l.tanHalf = {float(ta), float(ta)};
+  }
+  l.texture = std::move(t);
+  const LightTexture& tx = l.texture;
+  bool uniform = true;
+  for (std::size_t i = 3; i < want && uniform; ++i) uniform = tx.radiance[i] == tx.radiance[i % 3];
+  const float omega = l.solidAngle();
+  if (uniform) {
+    for (int c = 0; c < 3; ++c) {
+      l.radiance[c] = tx.radiance[c];
+      l.power[c] = tx.radiance[c] * omega;
+    }
+    return;
+  }
+  // Integral of the textured radiance: texel cells in the frame, scaled by tanHalf. A rect's cells
+  // are whole (exact solid angles); a disk's or ellipse's are whole where all four corners are
+  // inside (convex), empty where the nearest point is outside, and on the rim integrated exactly
+  // in y over 64 midpoint columns in x.
+  const double ta = l.tanHalf[0], tb = l.tanHalf[1];
+  double sum[3] = {0, 0, 0};
+  for (int j = 0; j < tx.height; ++j)
+    for (int i = 0; i < tx.width; ++i) {
+      const double x0 = -1 + 2.0 * i / tx.width, x1 = -1 + 2.0 * (i + 1) / tx.width;
+      const double y0 = 1 - 2.0 * (j + 1) / tx.height, y1 = 1 - 2.0 * j / tx.height;
+      double om;
+      auto in = [](double x, double y) { return x * x + y * y <= 1; };
+      const double nx = std::clamp(0.0, x0, x1), ny = std::clamp(0.0, y0, y1);
+      if (rect || (in(x0, y0) && in(x0, y1) && in(x1, y0) && in(x1, y1))) {
+        om = frameRectSolidAngle(x0 * ta, x1 * ta, y0 * tb, y1 * tb);
+      } else if (!in(nx, ny)) {
+        om = 0;
+      } else {
+        // 64 columns, each exact in y over its part inside the disk: with X = x ta, c^2 =
+        // 1 + X^2, the integral of (c^2 + Y^2)^(-3/2) dY is Y / (c^2 sqrt(c^2 + Y^2)). The
+        // columns are midpoints in t, x = sin(t), so the disk's edge h = cos(t) stays smooth at
+        // x = +-1 where its slope in x is infinite.
+        const int q = 64;
+        om = 0;
+        const double t0 = std::asin(std::max(x0, -1.0)), t1 = std::asin(std::min(x1, 1.0));
+        const double dt = (t1 - t0) / q;
+        for (int a = 0; a < q; ++a) {
+          const double t = t0 + (a + 0.5) * dt, x = std::sin(t), h = std::cos(t);
+          const double lo = std::max(y0, -h) * tb, hi = std::min(y1, h) * tb;
+          if (!(hi > lo)) continue;
+          const double c2 = 1 + x * x * ta * ta;
+          om += dt * h * ta *
+                (hi / (c2 * std::sqrt(c2 + hi * hi)) - lo / (c2 * std::sqrt(c2 + lo * lo)));
+        }
+      }
+      const float* rgb = &tx.radiance[(std::size_t(j) * tx.width + i) * 3];
+      for (int c = 0; c < 3; ++c) sum[c] += rgb[c] * om;
+    }
+  for (int c = 0; c < 3; ++c) {
+    l.power[c] = float(sum[c]);
+    l.radiance[c] = omega > 0 ? float(sum[c] / omega) : 0.0f;
+  }
+}
+
+void textureLightsFromMap(const Environment& env, LightSet& set, int size, int supersample) {
+  if (size < 1 || size > 64) badInput("light texture size must be in [1, 64], got " + std::to_string(size));
+  if (supersample < 1 || supersample > 16)
+    badInput("light texture supersampling must be in [1, 16], got " + std::to_string(supersample));
+  for (AreaLight& l : set.lights) {
+    if (l.shape != LightShape::Cap || !(l.cosAlpha > 0 && l.cosAlpha < 1)) continue;
+    const D3 w = unit3(d3(l.direction)), u = defaultAxisU(w), v = cross3(u, w);
+    const double ta = std::sqrt(1.0 - double(l.cosAlpha) * l.cosAlpha) / l.cosAlpha;
+    LightTexture t{size, size, std::vector<float>(std::size_t(size) * size * 3, 0.0f)};
+    const int q = supersample;
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        double sum[3] = {0, 0, 0};
+        for (int b = 0; b < q; ++b)
+          for (int a = 0; a < q; ++a) {
+            const double x = -1 + 2 * (i + (a + 0.5) / q) / size, y = 1 - 2 * (j + (b + 0.5) / q) / size;
+            const D3 d = unit3({w[0] + ta * (x * u[0] + y * v[0]), w[1] + ta * (x * u[1] + y * v[1]),
+                                w[2] + ta * (x * u[2] + y * v[2])});
+            float rgb[3];
+            env.lookup(float(d[0]), float(d[1]), float(d[2]), rgb);
+            for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
+          }
+        for (int c = 0; c < 3; ++c) t.radiance[(std::size_t(j) * size + i) * 3 + c] = float(sum[c] / (q * q));
+      }
+    if (!(maxTexelLuminance(t) > 0)) continue;
+    // the raw texture's integral over the cap, then each channel scaled to the light's power (a
+    // channel the map leaves black over the cap gets the light's uniform radiance instead)
+    AreaLight probe = l;
+    probe.axisU = {float(u[0]), float(u[1]), float(u[2])};
+    setLightTexture(probe, t);
+    const float omega = l.solidAngle();
+    for (int c = 0; c < 3; ++c) {
+      const double scale = probe.power[c] > 0 ? double(l.power[c]) / probe.power[c] : 0.0;
+      for (std::size_t k = c; k < t.radiance.size(); k += 3)
+        t.radiance[k] = probe.power[c] > 0 ? float(t.radiance[k] * scale) : (omega > 0 ? l.power[c] / omega : 0.0f);
+    }
+    if (!(maxTexelLuminance(t) > 0)) continue;
+    l.axisU = probe.axisU;
+    setLightTexture(l, std::move(t));
+  }
+}
+
+std::vector<LightSample> lightSamples(const AreaLight& light, int n, float rotation) {
+  std::vector<LightSample> out;
+  if (n < 1) return out;
+  out.reserve(n);
+  if (light.shape == LightShape::Polygon && light.outline == AreaLight::Outline::Ellipse) {
+    const D3 w = d3(light.direction), u = d3(light.axisU), v = cross3(u, w);
+    const double ta = light.tanHalf[0], tb = light.tanHalf[1];
+    std::vector<std::array<float, 3>> dirs;
+    std::vector<double> area;
+    for (int k = 0; k < n; ++k) {
+      const auto p = diskPoint(k, n, rotation);
+      const double x = p[0] * ta, y = p[1] * tb, q = 1 + x * x + y * y;
+      const D3 d = unit3({w[0] + x * u[0] + y * v[0], w[1] + x * u[1] + y * v[1],
+                          w[2] + x * u[2] + y * v[2]});
+      dirs.push_back({float(d[0]), float(d[1]), float(d[2])});
+      area.push_back(1 / (q * std::sqrt(q)));
+    }
+    const auto tw = lightSampleWeights(light, dirs);
+    for (int k = 0; k < n; ++k) out.push_back({dirs[k], float(tw[k] * area[k])});
+    return out;
+  }
+  const auto dirs = lightSampleDirections(light, n, rotation);
+  const auto tw = lightSampleWeights(light, dirs);
+  for (int k = 0; k < n; ++k) out.push_back({dirs[k], tw[k]});
+  return out;
 }
 
 // Cap: spherical Fibonacci set (moved here from the brute-force pass). cos(theta_k) =
@@ -262,7 +577,23 @@ std::string LightSet::toJson() const {
     << ",\n  \"count\": " << lights.size() << ",\n  \"lights\": [";
   for (std::size_t i = 0; i < lights.size(); ++i) {
     auto& l = lights[i];
-    o << (i ? ",\n" : "\n") << "    {\"shape\": \"" << toString(l.shape) << "\", ";
+    const bool framed = l.shape == LightShape::Polygon && l.outline != AreaLight::Outline::Vertices;
+    const char* shape = !framed ? toString(l.shape) : l.outline == AreaLight::Outline::Rect ? "rect" : "ellipse";
+    o << (i ? ",\n" : "\n") << "    {\"shape\": \"" << shape << "\", ";
+    if (framed || !l.texture.empty()) {
+      // the frame: rects and ellipses load from it; a textured cap keeps its texture's orientation
+      const auto up = l.axisV();
+      o << "\"up\": [" << up[0] << ", " << up[1] << ", " << up[2] << "], ";
+      if (framed)
+        o << "\"half_angles_deg\": [" << std::atan(double(l.tanHalf[0])) / kDeg << ", "
+          << std::atan(double(l.tanHalf[1])) / kDeg << "], ";
+    }
+    if (!l.texture.empty()) {
+      o << "\"texture\": {\"width\": " << l.texture.width << ", \"height\": " << l.texture.height
+        << ", \"radiance\": [";
+      for (std::size_t k = 0; k < l.texture.radiance.size(); ++k) o << (k ? ", " : "") << l.texture.radiance[k];
+      o << "]}, ";
+    }
     if (l.shape == LightShape::Polygon) {
       o << "\"vertices\": [";
       for (std::size_t k = 0; k < l.vertices.size(); ++k)

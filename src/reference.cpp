@@ -622,6 +622,16 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     double solidAngle;
     const AreaLight* src;
     std::vector<V3> edgeNormals;  // polygon lights: v_i x v_i+1, inside where all dot >= 0
+    bool ellipse = false;         // ellipse lights: inside where frameCoords x^2 + y^2 <= 1
+    bool inside(const V3& d) const {
+      if (ellipse) {
+        const auto xy = src->frameCoords({d.x, d.y, d.z});
+        return xy[0] * xy[0] + xy[1] * xy[1] <= 1.0f;
+      }
+      for (const V3& en : edgeNormals)
+        if (dot(en, d) < 0.0f) return false;
+      return true;
+    }
   };
   std::vector<CapLight> caps;
   caps.reserve(lights.lights.size());
@@ -638,7 +648,12 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     c.cosAlpha = std::clamp(l.cosAlpha, -1.0f, 1.0f);
     for (int k = 0; k < 3; ++k) c.radiance[k] = std::max(0.0f, l.radiance[k]);
     c.solidAngle = 2.0 * kPi * (1.0 - double(c.cosAlpha));
-    if (l.shape == LightShape::Polygon) {
+    if (l.shape == LightShape::Polygon && l.outline == AreaLight::Outline::Ellipse) {
+      // Uniform in the ellipse itself (not its shading polygon) by rejection from the bounding
+      // cap, which holds it; pdf 1 / the ellipse's solid angle.
+      c.ellipse = true;
+      c.solidAngle = double(l.solidAngle());
+    } else if (l.shape == LightShape::Polygon) {
       // Uniform in the polygon by rejection from its bounding cap (lights.hpp: the cap contains
       // it); the estimator's pdf is then 1 / the polygon's solid angle.
       const std::size_t nv = l.vertices.size();
@@ -682,18 +697,19 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         const CapLight& c = caps[i];
         const double prob = (cdf[i + 1] - cdf[i]) / total;
         V3 d = sampleCap(c.axis, c.cosAlpha, rng);
-        for (int tries = 0; !c.edgeNormals.empty() && tries < 1000; ++tries) {
-          bool inside = true;
-          for (const V3& en : c.edgeNormals) inside = inside && dot(en, d) >= 0.0f;
-          if (inside) break;
+        for (int tries = 0; (c.ellipse || !c.edgeNormals.empty()) && tries < 1000; ++tries) {
+          if (c.inside(d)) break;
           d = sampleCap(c.axis, c.cosAlpha, rng);
         }
         const float cosN = dot(h.n, d);
         if (!(cosN > 0.0f)) continue;
         if (!unoccluded(es, h.origin, d)) continue;
-        // f / (prob * pdf) with pdf = 1 / solid angle.
+        // f / (prob * pdf) with pdf = 1 / solid angle; a textured light's radiance where d is
         const double wgt = cosN * c.solidAngle / prob;
-        for (int k = 0; k < 3; ++k) sum[k] += c.radiance[k] * wgt;
+        const std::array<float, 3> rad =
+            c.src->texture.empty() ? std::array<float, 3>{c.radiance[0], c.radiance[1], c.radiance[2]}
+                                   : c.src->radianceAt({d.x, d.y, d.z});
+        for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, rad[k]) * wgt;
       }
     }
     // The ambient residual, unshadowed as the renderer applies it (kernels/shade.cl): the same

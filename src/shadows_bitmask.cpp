@@ -12,6 +12,8 @@
 //
 // Lights: our cap lights (half-angle alpha) are treated as disks of radius tan(alpha) at unit
 // distance, infinitely far (exact by gnomonic projection; samples weighted by their solid angle).
+// Polygons keep their bounding cap's disk samples inside them; ellipses map the disk onto
+// themselves (bitmaskFrame); textured lights weight each sample by the texture (seed 001 §4.1).
 //
 // Self-shadowing without bias. Seed 001 §3.3 keeps only light-front-facing view samples and lets
 // only light-back-facing triangles of closed casters block, so no triangle is both. On open
@@ -226,36 +228,58 @@ class BitmaskPass : public ShadowPass {
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
                              (hard_ ? " -DHARD" : "");
-    // Which disk samples each light keeps: all of a cap's; a polygon's, those whose direction is
-    // inside it (behind every edge's great-circle plane; lights.hpp's counter-clockwise order).
-    std::vector<cl_uint> inside(std::size_t(nl) * W, ~0u);
-    for (int l = 0; l < nl && f.areaLights && !hard_; ++l) {
-      if (std::size_t(l) >= f.areaLights->size()) break;
-      const AreaLight& al = (*f.areaLights)[l];
-      if (al.shape != LightShape::Polygon) continue;
+    // Each light's sampling frame (bitmaskFrame) and the weight of each of its samples
+    // (kernels/bitmask.cl's resolve): a polygon's disk samples outside it weigh 0 (those whose
+    // direction is not behind every edge's great-circle plane; lights.hpp's counter-clockwise
+    // order), a textured light's weigh the texture's luminance (AreaLight::sampleWeight), all
+    // others 1. An ellipse's samples are all inside it: its frame maps the disk onto it.
+    std::vector<BitmaskFrame> frames(std::max(nl, 1));
+    std::vector<cl_float> weights(std::size_t(std::max(nl, 1)) * N, 1.0f);
+    for (int l = 0; l < nl; ++l) {
+      const AreaLight* al = f.areaLights && std::size_t(l) < f.areaLights->size() && !hard_
+                                ? &(*f.areaLights)[l] : nullptr;
       const pb_light& L = f.lights[l];
+      frames[l] = bitmaskFrame(L, al);
+      if (!al) continue;
+      const bool polygon = al->shape == LightShape::Polygon && al->outline != AreaLight::Outline::Ellipse;
+      if (!polygon && al->texture.empty()) continue;
       const float c = L.dir[3];
       const float ta = std::sqrt(std::max(1.0f - c * c, 0.0f)) / std::max(c, 1e-6f);
-      const std::size_t nv = al.vertices.size();
+      std::vector<std::array<float, 3>> dirs(N);
+      for (int k = 0; k < N; ++k)
+        dirs[k] = bitmaskSampleDirection(L, ta, frames[l], disk_[k][0], disk_[k][1]);
+      const std::vector<float> tw = lightSampleWeights(*al, dirs);
+      const std::size_t nv = al->vertices.size();
       int kept = 0;
       for (int k = 0; k < N; ++k) {
-        const std::array<float, 3> d = bitmaskSampleDirection(L, ta, disk_[k][0], disk_[k][1]);
+        const auto& d = dirs[k];
         bool in = true;
-        for (std::size_t v = 0; v < nv && in; ++v) {
-          const auto& a = al.vertices[v];
-          const auto& b = al.vertices[(v + 1) % nv];
+        for (std::size_t v = 0; polygon && v < nv && in; ++v) {
+          const auto& a = al->vertices[v];
+          const auto& b = al->vertices[(v + 1) % nv];
           const float e[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                               a[0] * b[1] - a[1] * b[0]};
           in = e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= 0.0f;
         }
-        if (!in) inside[std::size_t(l) * W + k / 32] &= ~(1u << (k % 32));
+        weights[std::size_t(l) * N + k] = in ? tw[k] : 0.0f;
         kept += in;
       }
       if (kept == 0)
         badInput("light " + std::to_string(l) + ": a polygon too thin for " + std::to_string(N) +
                  " bitmask light samples (none falls inside it); use more --light-samples");
     }
-    cl::Buffer& insideBuf = f.pool.upload("bitmask polygon samples", inside);
+    std::vector<cl_float4> frameData(frames.size() * 2);
+    for (std::size_t l = 0; l < frames.size(); ++l)
+      for (int c = 0; c < 4; ++c) {
+        frameData[2 * l].s[c] = frames[l].e1[c];
+        frameData[2 * l + 1].s[c] = frames[l].e2[c];
+      }
+    cl::Buffer& frameBuf = f.pool.upload("bitmask light frames", frameData);
+    cl::Buffer& weightBuf = f.pool.upload("bitmask sample weights", weights);
+    if (cap) {
+      cap->frames.assign(frames.begin(), frames.begin() + nl);
+      cap->weights.assign(weights.begin(), weights.begin() + std::size_t(nl) * N);
+    }
     cl::Kernel tk = ctx.kernel("bitmask.cl", "bitmask_triangles", opts);
     cl::Kernel rk = ctx.kernel("bitmask.cl", "bitmask_resolve", opts);
     cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
@@ -274,6 +298,7 @@ class BitmaskPass : public ShadowPass {
       sk.setArg(8, diskBuf_);
       sk.setArg(9, cl_int(npx));
       sk.setArg(10, masks);
+      sk.setArg(11, frameBuf);
       ctx.launch("bitmask/self", sk, cl::NDRange(npx, count));
       tk.setArg(0, f.positions);
       tk.setArg(1, f.triangles);
@@ -294,6 +319,7 @@ class BitmaskPass : public ShadowPass {
       tk.setArg(16, masks);
       tk.setArg(17, orient);
       tk.setArg(18, cl_float(rot));
+      tk.setArg(19, frameBuf);
       ctx.launch("bitmask/triangles", tk, cl::NDRange(f.triangleCount, kStripes, count));
       rk.setArg(0, f.gnrm);
       rk.setArg(1, f.lightBuffer);
@@ -304,7 +330,8 @@ class BitmaskPass : public ShadowPass {
       rk.setArg(6, cl_int(npx));
       rk.setArg(7, masks);
       rk.setArg(8, f.vis);
-      rk.setArg(9, insideBuf);
+      rk.setArg(9, weightBuf);
+      rk.setArg(10, frameBuf);
       ctx.launch("bitmask/resolve", rk, cl::NDRange(npx, count));
       if (cap) {
         auto m = ctx.download<cl_uint>(masks, maskWords, "bitmask masks");
@@ -423,6 +450,36 @@ std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation) {
 std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, float u, float v) {
   std::array<float, 3> d;
   for (int i = 0; i < 3; ++i) d[i] = L.dir[i] + tanAlpha * (u * L.ex[i] + v * L.ey[i]);
+  float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  for (float& x : d) x /= len;
+  return d;
+}
+
+BitmaskFrame bitmaskFrame(const pb_light& L, const AreaLight* al) {
+  BitmaskFrame fr{{L.ex[0], L.ex[1], L.ex[2], 1.0f}, {L.ey[0], L.ey[1], L.ey[2], 1.0f}};
+  if (!al || al->shape != LightShape::Polygon || al->outline != AreaLight::Outline::Ellipse) return fr;
+  const float c = L.dir[3];
+  const float ta = std::sqrt(std::max(1.0f - c * c, 0.0f)) / std::max(c, 1e-6f);
+  // the ellipse's axes, made orthogonal to the kernels' light direction (the same up to rounding)
+  std::array<float, 3> w = {L.dir[0], L.dir[1], L.dir[2]}, u = al->axisU;
+  const float wu = w[0] * u[0] + w[1] * u[1] + w[2] * u[2];
+  for (int i = 0; i < 3; ++i) u[i] -= wu * w[i];
+  const float ul = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  for (float& x : u) x /= ul;
+  // axisV = axisU x direction (lights.hpp)
+  const std::array<float, 3> v = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                                  u[0] * w[1] - u[1] * w[0]};
+  // the bounding cap holds the ellipse (its polygon's vertices lie outside it), so f <= 1
+  fr.e1 = {u[0], u[1], u[2], std::min(al->tanHalf[0] / ta, 1.0f)};
+  fr.e2 = {v[0], v[1], v[2], std::min(al->tanHalf[1] / ta, 1.0f)};
+  return fr;
+}
+
+std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha,
+                                            const BitmaskFrame& fr, float u, float v) {
+  std::array<float, 3> d;
+  const float a = tanAlpha * fr.e1[3] * u, b = tanAlpha * fr.e2[3] * v;
+  for (int i = 0; i < 3; ++i) d[i] = L.dir[i] + a * fr.e1[i] + b * fr.e2[i];
   float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
   for (float& x : d) x /= len;
   return d;

@@ -1,5 +1,5 @@
 // Brute force (seed 000 Fig. 11d): K point lights per area light, spread over its cap, one hard
-// shadow map each, visibility = the irradiance-weighted mean of the K depth tests
+// shadow map each, visibility = the irradiance- and sample-weighted mean of the K depth tests
 // (kernels/pcss.cl's brute_visibility). The baseline that bounds the problem from above: it
 // converges to the exact visibility of the cap as K grows, at K times the shadow-map cost.
 //
@@ -107,21 +107,25 @@ class BrutePass : public ShadowPass {
     samples.reserve(total);
     views.reserve(total);
     for (int l = 0; l < nl; ++l) {
-      // K directions uniform in solid angle over the light (a cap's spherical Fibonacci set or
-      // a polygon's stratified samples, lights.hpp); without the AreaLights, the pb_light's cap.
-      std::vector<V3> dirs;
+      // K weighted samples of the light (lights.hpp lightSamples: a cap's spherical Fibonacci set
+      // or a polygon's stratified samples, uniform in solid angle; an ellipse's disk points with
+      // their solid angles; a textured light's weighted by the texture); without the
+      // AreaLights, the pb_light's cap.
+      std::vector<LightSample> ls;
       if (f.areaLights && std::size_t(l) < f.areaLights->size()) {
-        dirs = lightSampleDirections((*f.areaLights)[l], K);
+        ls = lightSamples((*f.areaLights)[l], K);
       } else {
         AreaLight cap;
         cap.direction = xyz(f.lights[l].dir);
         cap.cosAlpha = f.lights[l].dir[3];
-        dirs = lightSampleDirections(cap, K);
+        ls = lightSamples(cap, K);
       }
       for (int k = 0; k < K; ++k) {
-        samples.push_back(sampleFrame(f.lights[l], dirs[k], S,
+        samples.push_back(sampleFrame(f.lights[l], ls[k].dir, S,
                                       radicalInverse(k + 1, 2) - 0.5f,
                                       radicalInverse(k + 1, 3) - 0.5f));
+        // the sample's weight, which kernels/pcss.cl's brute_visibility multiplies its cosine by
+        samples.back().radiance[3] = ls[k].weight;
         views.push_back(orthoView(samples.back(), S));
       }
     }

@@ -440,13 +440,20 @@ TEST(PolygonLights, LightSetJsonRoundTripAndBadInput) {
       R"({"lights": [{"shape": "polygon", "vertices": [[0,1,0],[0.1,1,0]], "radiance": [1,1,1]}]})",
       R"({"lights": [{"shape": "polygon", "vertices": [[0,1,0],[0.2,1,0],[0.05,1,0.05],[0,1,0.2]],
           "radiance": [1,1,1]}]})",  // non-convex (reflex vertex 2)
-      R"({"lights": [{"shape": "polygon", "vertices": [[1,3,0],[0.7,3,0.7],[0,3,1],[-0.7,3,0.7],
-          [-1,3,0],[-0.7,3,-0.7],[0,3,-1],[0.7,3,-0.7],[0.9,3,-0.3]], "radiance": [1,1,1]}]})",
       R"({"lights": [{"shape": "star", "radiance": [1,1,1]}]})",
       R"({"lights": [{"direction": [0, 1, 0], "half_angle_deg": 5, "radiance": [1, 1, 1]})",
       R"({"no_lights": []})",
   };
-  for (const char* text : bad) {
+  // too many vertices: a convex (PB_MAX_POLY_VERTS + 1)-gon
+  std::string many = R"({"lights": [{"shape": "polygon", "radiance": [1,1,1], "vertices": [)";
+  for (int k = 0; k <= PB_MAX_POLY_VERTS; ++k) {
+    const double t = 2 * M_PI * k / (PB_MAX_POLY_VERTS + 1);
+    many += (k ? ", [" : "[") + std::to_string(std::cos(t)) + ", 3, " + std::to_string(std::sin(t)) + "]";
+  }
+  many += "]}]}";
+  std::vector<std::string> texts(std::begin(bad), std::end(bad));
+  texts.push_back(many);
+  for (const std::string& text : texts) {
     try {
       lightSetFromJson(text, "user.json");
       ADD_FAILURE() << "accepted: " << text;

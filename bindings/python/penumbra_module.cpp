@@ -411,6 +411,23 @@ PYBIND11_MODULE(penumbra, m) {
       .value("POLYGON", LightShape::Polygon,
              "A convex spherical polygon (rectangles, cube-face regions, user polygons).");
 
+  py::class_<LightTexture> texture(m, "LightTexture",
+                                   "Radiance over a light's tangent-plane square [-1, 1]^2: texel "
+                                   "(i, j) covers x in [-1 + 2i/w, -1 + 2(i+1)/w], y from the top "
+                                   "row down; nearest texel. Give it to set_light_texture.");
+  initFromFields<LightTexture>(texture);
+  texture.def_readwrite("width", &LightTexture::width, "Texels across (0: no texture).")
+      .def_readwrite("height", &LightTexture::height, "Texels down.")
+      .def_readwrite("radiance", &LightTexture::radiance,
+                     "RGB radiance, row-major from the top row, 3 * width * height floats >= 0.")
+      .def("empty", &LightTexture::empty, "True without a texture.");
+
+  py::class_<LightSample>(m, "LightSample", "A light sample: direction and weight.")
+      .def_readonly("dir", &LightSample::dir, "Unit direction towards the sample.")
+      .def_readonly("weight", &LightSample::weight,
+                    "Weight in [0, 1]: the sample's share of radiance x solid angle, up to a "
+                    "common factor.");
+
   py::class_<AreaLight> light(m, "AreaLight",
                               "A directional area light: a uniform spherical cap of half-angle "
                               "alpha around `direction` with radiance L; power M = L * solid "
@@ -429,7 +446,30 @@ PYBIND11_MODULE(penumbra, m) {
       .def("half_angle", &AreaLight::halfAngle, "Half-angle of the cap, radians.")
       .def("solid_angle", &AreaLight::solidAngle, "2 pi (1 - cos alpha), steradians.")
       .def("irradiance", &AreaLight::irradiance, "normal"_a,
-           "Unshadowed irradiance on a unit normal (cap clipped by the horizon).");
+           "Unshadowed irradiance on a unit normal (cap clipped by the horizon).")
+      .def_readwrite("outline", &AreaLight::outline,
+                     "What a polygon light stands for: LightOutline.VERTICES, RECT or ELLIPSE.")
+      .def_readwrite("axis_u", &AreaLight::axisU,
+                     "Tangent frame's right axis (rects, ellipses, textured caps; else zero).")
+      .def_readwrite("tan_half", &AreaLight::tanHalf,
+                     "Tangents of the frame's half-angles along axis_u and axis_v.")
+      .def_readonly("texture", &AreaLight::texture,
+                    "The radiance texture (empty: uniform); set it with set_light_texture.")
+      .def("axis_v", &AreaLight::axisV, "direction x axis_u: the frame's up.")
+      .def("frame_coords", &AreaLight::frameCoords, "d"_a,
+           "Frame coordinates (x, y) of a direction: the light spans [-1, 1]^2 (rect) or the "
+           "unit disk (cap, ellipse).")
+      .def("radiance_at", &AreaLight::radianceAt, "d"_a,
+           "The texture's RGB radiance towards d (the uniform radiance without a texture).")
+      .def("sample_weight", &AreaLight::sampleWeight, "d"_a,
+           "Texture luminance towards d over the largest texel's, in [0, 1]; 1 untextured.");
+  py::enum_<AreaLight::Outline>(light, "Outline", "What a polygon light stands for.")
+      .value("VERTICES", AreaLight::Outline::Vertices, "Plain vertices.")
+      .value("RECT", AreaLight::Outline::Rect, "A rect (make_rect_light).")
+      .value("ELLIPSE", AreaLight::Outline::Ellipse,
+             "An ellipse (make_ellipse_light): its vertices are the shading polygon; the "
+             "bitmask, brute-force and reference techniques sample the ellipse itself.");
+  m.attr("LightOutline") = light.attr("Outline");
 
   py::class_<LightSet>(m, "LightSet",
                        "Area lights extracted from a map plus an unshadowed ambient residual "
@@ -512,13 +552,37 @@ PYBIND11_MODULE(penumbra, m) {
       });
 
   m.def("make_polygon_light", &makePolygonLight, "vertices"_a, "radiance"_a,
-        "A polygon light from 3..8 unit directions of a convex polygon (any winding) and a "
+        "A polygon light from 3..32 unit directions of a convex polygon (any winding) and a "
         "uniform RGB radiance. Raises BadInput for non-convex, degenerate or too wide polygons.");
+  m.def("make_rect_light", &makeRectLight, "direction"_a, "up"_a, "half_angles"_a, "radiance"_a,
+        "A rect light: corners direction +- tan(a) right +- tan(b) up (half-angles in radians, "
+        "each in (0, pi/2); right = up x direction).");
+  m.def("make_ellipse_light", &makeEllipseLight, "direction"_a, "up"_a, "half_angles"_a,
+        "radiance"_a,
+        "An ellipse light (an ellipsoid seen from afar): the ellipse inscribed in the rect of "
+        "make_rect_light. Raises BadInput for half-angles outside (0, pi/2).");
+  m.def(
+      "set_light_texture",
+      [](AreaLight& l, const LightTexture& t) {
+        AreaLight copy = l;
+        setLightTexture(copy, t);
+        l = copy;
+      },
+      "light"_a, "texture"_a,
+      "Gives a cap, rect or ellipse light a radiance texture in place: power = its integral, "
+      "radiance = power / solid angle. Raises BadInput for bad sizes, values or shapes.");
+  m.def("texture_lights_from_map", &textureLightsFromMap, "env"_a, "lights"_a, "size"_a = 8,
+        "supersample"_a = 4,
+        "Gives every cap light in place a size x size texture of the map's radiance over it, "
+        "scaled to keep its power: the shadow techniques then weight its samples by the map.");
+  m.def("light_samples", &lightSamples, "light"_a, "n"_a, "rotation"_a = 0.0f,
+        "n weighted light samples (LightSample) as brute force and the references use them: "
+        "weights from the texture and, for ellipses, the solid angle each sample stands for.");
   m.def("light_sample_directions", &lightSampleDirections, "light"_a, "n"_a, "rotation"_a = 0.0f,
         "n directions stratified and uniform in solid angle over the light, turned about its "
         "direction by `rotation` radians.");
   m.def("load_light_set", &loadLightSet, "path"_a,
-        "Reads a light-set JSON file (caps, polygons, rects; the format of `penumbra render "
+        "Reads a light-set JSON file (caps, polygons, rects, ellipses, textures; the format of `penumbra render "
         "--light-set`). Raises BadInput naming the file and the light for bad input.");
   m.def("light_set_from_json", &lightSetFromJson, "text"_a, "source"_a = "light set",
         "Parses light-set JSON text; `source` names it in error messages.");
@@ -599,6 +663,9 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
       .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
                      "AmbientOptions: its representation (default: a 128x64 irradiance map).");
+      .def_readwrite("light_texture", &ExtractOptions::lightTexture,
+                     "Texture each extracted cap with N x N texels of the map (0: none, default; "
+                     "else 1..64): sample-based techniques weight light samples by the map.");
 
   m.def(
       "extract_lights",

@@ -23,8 +23,37 @@ struct Environment;
 enum class LightShape { Cap, Polygon };
 const char* toString(LightShape s);  // "cap" | "polygon"
 
+// A radiance texture over a light's tangent-plane square (AreaLight::axisU, tanHalf): texel
+// (i, j), column i of `width`, row j of `height`, covers frame coordinates
+// x in [-1 + 2i/width, -1 + 2(i+1)/width], y in [1 - 2(j+1)/height, 1 - 2j/height] (row 0 at the
+// top, +y along the light's up). A rect covers the whole square; a disk (cap) or an ellipse the
+// disk x^2 + y^2 <= 1 inscribed in it, so its corner texels are partly unused. The radiance is
+// piecewise constant (nearest texel).
+struct LightTexture {
+  int width = 0, height = 0;    // 0 x 0: no texture, the light's radiance is uniform
+  std::vector<float> radiance;  // RGB, row-major, 3 * width * height values, finite, >= 0
+  bool empty() const { return width <= 0 || height <= 0; }
+};
+
 struct AreaLight {
   LightShape shape = LightShape::Cap;
+  // What a polygon light stands for: plain vertices, a rect (makeRectLight) or an ellipse
+  // (makeEllipseLight; `vertices` then hold the PB_ELLIPSE_VERTS-gon that shading and the
+  // filtered techniques use; the bitmask technique, brute force and the Embree reference sample
+  // the ellipse itself, and solidAngle() is the ellipse's).
+  enum class Outline { Vertices, Rect, Ellipse };
+  Outline outline = Outline::Vertices;
+  // Tangent-plane frame of rects, ellipses and textured caps: frame point (x, y) is the direction
+  // normalize(direction + x tanHalf[0] axisU + y tanHalf[1] axisV()), axisV = axisU x direction
+  // (the light's up; axisU its right seen from the scene, facing the light).
+  // The rect is the square [-1, 1]^2, the ellipse and the cap's disk x^2 + y^2 <= 1 (a cap has
+  // tanHalf = tan(alpha) twice). tanHalf {0, 0}: no frame (plain polygons, untextured caps).
+  std::array<float, 3> axisU{0, 0, 0};
+  std::array<float, 2> tanHalf{0, 0};
+  // Radiance over the frame's square (setLightTexture); empty: uniform `radiance`. With a
+  // texture, `radiance` is the mean over the light (power / solid angle), which the unshadowed
+  // irradiance uses; the shadow techniques weight their light samples by the texture.
+  LightTexture texture;
   // Polygon only: 3..PB_MAX_POLY_VERTS unit directions, counter-clockwise about `direction` by
   // the right-hand rule: (v_i x v_i+1) . direction > 0 for every edge (i+1 modulo the count).
   // Empty for caps.
@@ -41,9 +70,61 @@ struct AreaLight {
   float solidAngle() const;  // cap: 2 pi (1 - cos alpha); polygon: its spherical excess
   // Sets the power M and the radiance M / solid angle (seed 003 eqs. 16-17); set cosAlpha first.
   void setPower(const std::array<float, 3>& m);
-  // Unshadowed irradiance on unit normal n (cap clipped by the horizon; shared.h).
+  // Unshadowed irradiance on unit normal n (cap clipped by the horizon; shared.h). An ellipse
+  // uses its polygon; a textured light its mean radiance (exact at normal incidence where the
+  // texture is symmetric, otherwise off by the texture's first moment times the light's size).
   std::array<float, 3> irradiance(const std::array<float, 3>& n) const;
+  std::array<float, 3> axisV() const;  // axisU x direction
+  // Frame coordinates (x, y) of direction d (d . direction > 0; any length).
+  std::array<float, 2> frameCoords(const std::array<float, 3>& d) const;
+  // The texture's radiance at direction d (nearest texel; outside the square: the border
+  // texel); the uniform radiance without a texture.
+  std::array<float, 3> radianceAt(const std::array<float, 3>& d) const;
+  // Weight of a light sample in direction d: the texture's luminance there over its largest
+  // texel luminance, in [0, 1]; exactly 1 without a texture or with a uniform one.
+  float sampleWeight(const std::array<float, 3>& d) const;
 };
+
+// A rect light: centre direction, `up` (any vector not parallel to it, turned into the tangent
+// plane) and half-angles (a, b) in radians, each in (0, pi/2), along right = direction x up (the
+// right of a viewer facing the light, `up` up) and up: the polygon with corners
+// direction +- tan(a) right +- tan(b) up (great-circle edges).
+AreaLight makeRectLight(const std::array<float, 3>& direction, const std::array<float, 3>& up,
+                        const std::array<double, 2>& halfAngles,
+                        const std::array<float, 3>& radiance);
+// An ellipse light (an ellipsoid seen from afar: its silhouette cone is elliptic; seed 001 §4.1
+// approximates volumetric sources by ellipsoids): the directions
+// normalize(direction + x tan(a) right + y tan(b) up) with x^2 + y^2 <= 1, frame as makeRectLight.
+// Its polygon is the PB_ELLIPSE_VERTS-gon of the same frame area (for shading); its solid angle
+// the ellipse's own. Throws Error(BadInput) for half-angles outside (0, pi/2) or a polygon wider
+// than a hemisphere.
+AreaLight makeEllipseLight(const std::array<float, 3>& direction, const std::array<float, 3>& up,
+                           const std::array<double, 2>& halfAngles,
+                           const std::array<float, 3>& radiance);
+// Gives the light a radiance texture: checks it (sizes 1..4096, 3 w h finite values >= 0, not
+// all zero; the light a cap, rect or ellipse), sets a cap's frame when it has none (the frame
+// lightSampleDirections uses), and sets power = the integral of the textured radiance over the
+// light (exact per texel for rects and for texels inside a disk or ellipse; texels on its rim
+// exact in y over 64 midpoint columns) and radiance = power / solid angle. A texture whose texels are all
+// equal gives that radiance exactly, so the light renders as the untextured one bit for bit.
+// Throws Error(BadInput) naming the problem.
+void setLightTexture(AreaLight& light, LightTexture texture);
+
+// sampleWeight for many directions at once (the texture's largest luminance found once).
+std::vector<float> lightSampleWeights(const AreaLight& light,
+                                      const std::vector<std::array<float, 3>>& dirs);
+
+// A light sample: a direction and its weight. lightSamples' weights are in [0, 1] and stand for
+// the sample's share of the light's radiance times its solid angle, up to one common factor.
+struct LightSample {
+  std::array<float, 3> dir;
+  float weight;
+};
+// n samples of the light: a cap's or polygon's lightSampleDirections (uniform in solid angle,
+// weight = sampleWeight), an ellipse's Fibonacci disk points (as the bitmask technique's)
+// mapped into the ellipse, weight = sampleWeight times the solid angle its area stands for,
+// (1 + x'^2 + y'^2)^(-3/2) at frame point (x', y') = (x tan a, y tan b). Deterministic.
+std::vector<LightSample> lightSamples(const AreaLight& light, int n, float rotation = 0.0f);
 
 // Makes a polygon light from its vertices (unit directions, any winding, convex): orders them
 // counter-clockwise, sets direction and the bounding cosAlpha, and the power from `radiance`.
@@ -54,7 +135,8 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
 
 // n light sample directions, stratified and uniform in solid angle over the light (cap:
 // spherical Fibonacci over the cap; polygon: stratified over the polygon), rotated about the light's direction by `rotation` radians (jitter between frames,
-// seed 001 §4.3). Deterministic. Used by brute force, the bitmask technique and the references.
+// seed 001 §4.3). Deterministic. Used by lightSamples (brute force) and the ambient residual. An
+// ellipse light gets its shading polygon's samples here; lightSamples samples the ellipse itself.
 std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, int n,
                                                         float rotation = 0.0f);
 
@@ -94,8 +176,9 @@ struct LightSet {
   std::array<double, 3> ambientIrradiance(const std::array<float, 3>& n) const;
   // JSON: method, face_size, count, lights (each with "shape" "cap" or "polygon", direction,
   // half_angle_deg, cos_alpha, solid_angle_sr, radiance, power, regions; polygons add
-  // "vertices"), ambient, ambient_sh, ambient_power, and "ambient_map" {"width", "height",
-  // "irradiance": [height * width * 3 numbers, row-major RGB]} when the map is present.
+  // "vertices", rects and ellipses are written as such with "up" and "half_angles_deg", textured
+  // lights add "texture"), ambient, ambient_sh, ambient_power, and "ambient_map" {"width",
+  // "height", "irradiance": [height * width * 3 numbers, row-major RGB]} when the map is present.
   // loadLightSet reads it back.
   std::string toJson() const;
 };
@@ -103,16 +186,30 @@ struct LightSet {
 // A light-set file (render/reference --light-set FILE): {"lights": [...], "ambient_sh": [...]
 // optional}. Each light is an object with "shape" (default "cap") and "radiance" or "power" (RGB,
 // finite, >= 0; with both, both are kept as given):
-//   cap:     "direction" [x,y,z], "half_angle_deg" in (0, 90) or "cos_alpha"
+//   cap:     "direction" [x,y,z], "half_angle_deg" in (0, 90) or "cos_alpha"; with a texture,
+//            "up" optional (its frame's up; default the frame lightSampleDirections uses)
 //   polygon: "vertices" [[x,y,z], ...] 3..PB_MAX_POLY_VERTS directions of a convex polygon,
 //            any winding (makePolygonLight)
 //   rect:    "direction", "up" (any vector not parallel to it) and "half_angles_deg" [a, b], each
 //            in (0, 90): the polygon with corners direction +- tan(a) right +- tan(b) up
+//   ellipse: "direction", "up" and "half_angles_deg" [a, b] as rect: the ellipse inscribed in that
+//            rect (makeEllipseLight)
+// Cap, rect and ellipse lights may carry "texture": {"width": w, "height": h, "radiance":
+// [r, g, b, ...]} (3 w h values, row 0 at the top; LightTexture): "radiance" and "power" are then
+// optional, computed from the texture (setLightTexture) where not given.
 // What LightSet::toJson writes loads back. Throws Error(BadInput) naming the file and the light's
 // index for unreadable files, invalid JSON, missing fields, non-finite or negative values,
 // non-convex polygons or too many vertices.
 LightSet loadLightSet(const std::string& path);
 LightSet lightSetFromJson(const std::string& text, const std::string& source = "light set");
+
+// Gives every cap light of `set` a size x size texture of the map's radiance over its disk
+// (LightTexture's mapping; supersample^2 nearest-texel look-ups per texel, averaged), scaled per
+// channel so that its integral is the light's power: power and mean radiance stay as extracted
+// (seed 003's energy conservation), and the shadow techniques weight each light sample by the
+// map's luminance there. Polygon lights (no frame) and lights over black map regions are left
+// untextured. Throws Error(BadInput) for size outside [1, 64] or supersample outside [1, 16].
+void textureLightsFromMap(const Environment& env, LightSet& set, int size = 8, int supersample = 4);
 
 struct MedianCutOptions {
   int lights = 32;        // number of regions/lights, >= 1 (any N, not only powers of two)
@@ -213,8 +310,14 @@ struct ExtractOptions {
   CenterSurroundOptions centerSurround;
   bool ambient = true;  // add the ambient residual (addAmbientResidual)
   AmbientOptions ambientOptions;  // its representation (default: the irradiance map, 128 x 64)
+  // Texture every extracted cap with lightTexture x lightTexture texels of the map's radiance
+  // (textureLightsFromMap; power kept), so that the sample-based techniques (bitmask, brute
+  // force, the light-set reference) weight each light sample by the map. 0 (default): none;
+  // else in [1, 64].
+  int lightTexture = 0;
 };
-// Runs the chosen method, then the ambient residual when opt.ambient.
+// Runs the chosen method, then the light textures when opt.lightTexture > 0, then the ambient
+// residual when opt.ambient.
 LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt = {});
 
 // Draws the map (tone-mapped) with each light's region(s) outlined and its centre marked; a light

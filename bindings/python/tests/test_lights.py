@@ -161,3 +161,70 @@ def test_ambient_irradiance_map(ctx, env):
         s.ambient_map = np.full((1, 1, 3), np.nan, np.float32)
     with pytest.raises(penumbra.BadInput):
         penumbra.add_ambient_residual(ctx, env, s, penumbra.AmbientOptions(map_width=0))
+
+
+def test_ellipse_and_textured_lights(tmp_path):
+    a, b = np.radians(30.0), np.radians(10.0)
+    el = penumbra.make_ellipse_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, b), (1.0, 1.0, 1.0))
+    assert el.shape == penumbra.LightShape.POLYGON and el.outline == penumbra.LightOutline.ELLIPSE
+    assert len(el.vertices) == 32
+    assert el.tan_half[0] == pytest.approx(np.tan(a), rel=1e-6)
+    # the elliptic cone's solid angle, integrated here in polar coordinates of the unit disk:
+    # ta tb * integral over phi of (1 - (1 + k)^(-1/2)) / k, k = ta^2 cos^2 + tb^2 sin^2
+    ta, tb = np.tan(a), np.tan(b)
+    phi = (np.arange(4096) + 0.5) * 2 * np.pi / 4096
+    k = ta**2 * np.cos(phi)**2 + tb**2 * np.sin(phi)**2
+    omega = ta * tb * np.mean((1 - 1 / np.sqrt(1 + k)) / k) * 2 * np.pi
+    assert el.solid_angle() == pytest.approx(omega, rel=1e-6)
+    rect = penumbra.make_rect_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, b), (1.0, 1.0, 1.0))
+    assert rect.outline == penumbra.LightOutline.RECT
+    assert el.solid_angle() < rect.solid_angle()
+    with pytest.raises(penumbra.BadInput, match="half-angles"):
+        penumbra.make_ellipse_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, 0.0), (1.0, 1.0, 1.0))
+    samples = penumbra.light_samples(el, 128)
+    assert len(samples) == 128
+    for s in samples:
+        x, y = el.frame_coords(s.dir)
+        assert x * x + y * y <= 1 + 1e-5 and 0 < s.weight <= 1
+    # half-black texture: the left half bright, the right half black
+    tex = penumbra.LightTexture(width=2, height=1, radiance=[4.0, 4.0, 4.0, 0.0, 0.0, 0.0])
+    penumbra.set_light_texture(rect, tex)
+    assert rect.texture.width == 2 and not rect.texture.empty()
+    assert rect.power[0] == pytest.approx(2.0 * rect.solid_angle(), rel=1e-5)
+    assert rect.sample_weight((-0.1, 1.0, 0.0)) == 1.0 and rect.sample_weight((0.1, 1.0, 0.0)) == 0.0
+    assert rect.radiance_at((-0.1, 1.0, 0.0))[0] == 4.0
+    bright = [s for s in penumbra.light_samples(rect, 256) if s.weight > 0]
+    assert 0.4 < len(bright) / 256 < 0.6
+    with pytest.raises(penumbra.BadInput, match="needs 12 radiance values"):
+        penumbra.set_light_texture(rect, penumbra.LightTexture(width=2, height=2, radiance=[1.0] * 3))
+    f = tmp_path / "tex.json"
+    f.write_text(json.dumps({"lights": [
+        {"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10],
+         "texture": {"width": 2, "height": 1, "radiance": [4, 4, 4, 0, 0, 0]}},
+        {"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 95],
+         "radiance": [1, 1, 1]}]}))
+    with pytest.raises(penumbra.BadInput, match="tex.json: light 1"):
+        penumbra.load_light_set(str(f))
+    s = penumbra.light_set_from_json(json.dumps({"lights": json.loads(f.read_text())["lights"][:1]}))
+    assert s.lights[0].outline == penumbra.LightOutline.ELLIPSE and s.lights[0].texture.width == 2
+    again = penumbra.light_set_from_json(s.to_json())
+    assert again.lights[0].texture.radiance == s.lights[0].texture.radiance
+    assert np.allclose(again.powers, s.powers, rtol=1e-5)
+
+
+def test_texture_lights_from_map(ctx, env):
+    opt = penumbra.ExtractOptions()
+    opt.median_cut.lights = 4
+    opt.median_cut.face_size = 32
+    plain = penumbra.extract_lights(ctx, env, options=opt)
+    opt.light_texture = 4
+    assert opt.light_texture == 4
+    textured = penumbra.extract_lights(ctx, env, options=opt)
+    assert np.allclose(textured.powers, plain.powers, rtol=1e-5)
+    assert any(l.texture.width == 4 for l in textured.lights)
+    opt.light_texture = 0
+    again = penumbra.extract_lights(ctx, env, options=opt)
+    penumbra.texture_lights_from_map(env, again, 4)
+    assert [l.texture.radiance for l in again.lights] == [l.texture.radiance for l in textured.lights]
+    with pytest.raises(penumbra.BadInput, match="got 0"):
+        penumbra.texture_lights_from_map(env, again, 0)
