@@ -662,7 +662,7 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
       .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
       .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
-                     "AmbientOptions: its representation (default: a 128x64 irradiance map).");
+                     "AmbientOptions: its representation (default: a 128x64 irradiance map).")
       .def_readwrite("light_texture", &ExtractOptions::lightTexture,
                      "Texture each extracted cap with N x N texels of the map (0: none, default; "
                      "else 1..64): sample-based techniques weight light samples by the map.");
