@@ -8,11 +8,14 @@
 //   BM_BitmaskRadius/deg      the built-in scene under one light of half-angle deg, 256 samples,
 //                             160x90: larger lights mean larger influence regions.
 // Counters: device time per stage in ms per frame (bitmask/lists/* summed as lists_ms,
-// bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the scene's triangle
-// count, and the list statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and
+// bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the process's CPU time
+// per frame (process_cpu_ms: on a CPU device the work itself, which other processes loading the
+// machine stretch in wall-clock time but not in CPU time), the scene's triangle count, and the list statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and
 // max list length, view samples).
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
+
+#include "compare_common.hpp"
 
 #include <cmath>
 #include <map>
@@ -85,9 +88,12 @@ void run(benchmark::State& state, const Scene& scene, const LightSet& lights, in
   renderer.render(scene, cam, lights, env, ro);  // warm-up: kernels, tables, buffers
   std::map<std::string, double> sum;
   std::vector<std::pair<std::string, double>> stats;
+  double cpuMs = 0;
   for (auto _ : state) {
     ctx.resetTimings();
+    const double c0 = penumbra::bench::processCpuMs();
     Frame f = renderer.render(scene, cam, lights, env, ro);
+    cpuMs += penumbra::bench::processCpuMs() - c0;
     for (auto& [stage, ms] : f.timingsMs) {
       std::string key = stage.rfind("bitmask/lists/", 0) == 0 ? "bitmask/lists" : stage;
       sum[key] += ms;
@@ -96,6 +102,7 @@ void run(benchmark::State& state, const Scene& scene, const LightSet& lights, in
   }
   const double n = double(state.iterations());
   for (auto& [stage, ms] : sum) state.counters[stage + "_ms"] = ms / n;
+  state.counters["process_cpu_ms"] = cpuMs / n;
   for (auto& [name, v] : stats) state.counters[name] = v;
   state.counters["triangles"] = double(scene.triangleCount());
 }
