@@ -148,15 +148,16 @@ std::string benchMarkdown(const std::vector<BenchRow>& rows, const std::string& 
         "CPU ms: the process's CPU time per frame (all threads; other load on the machine stretches the "
         "wall-clock and device times, not this). CPU ratio: against the first row of each sweep. Seed 001: cost roughly x2 from 128 to 1024 "
         "samples, roughly linear in the triangle count, linear in the light's radius.\n";
-  const char* titles[][2] = {{"BM_BitmaskSamples", "light samples / width (32 median-cut lights, built-in scene)"},
-                             {"BM_BitmaskTriangles", "k x k spheres (one 5-degree light, 256 samples, 160x90)"},
-                             {"BM_BitmaskRadius", "half-angle deg (built-in scene, one light, 256 samples, 160x90)"}};
-  for (auto& [family, title] : titles) {
+  const char* titles[][3] = {
+      {"BM_BitmaskSamples", "samples / width", "light samples, frame width (32 median-cut lights, built-in scene and sky)"},
+      {"BM_BitmaskTriangles", "k", "a k x k grid of spheres over the ground (one 5-degree light, 256 samples, 160x90)"},
+      {"BM_BitmaskRadius", "half-angle deg", "the light's half-angle (built-in scene, one light, 256 samples, 160x90)"}};
+  for (auto& [family, column, title] : titles) {
     std::vector<const BenchRow*> fam;
     for (const BenchRow& r : rows)
       if (r.family == family) fam.push_back(&r);
     if (fam.empty()) continue;
-    md << "\n### " << family << ": " << title << "\n\n| " << title
+    md << "\n### " << family << ": " << title << "\n\n| " << column
        << " | triangles | lists ms | triangles ms | self ms | resolve ms | shadow ms | frame ms | CPU ms | CPU ratio | occupied texels | mean list | max list | view samples |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n";
     const double c0 = get(*fam[0], "process_cpu_ms");
@@ -164,13 +165,27 @@ std::string benchMarkdown(const std::vector<BenchRow>& rows, const std::string& 
       char buf[512];
       const double lt = get(*r, "list_texels");
       std::snprintf(buf, sizeof buf,
-                    "| %s | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %.2f | %.0f (%.0f%%) | %.1f | %.0f | %.0f |\n",
+                    "| %s | %.0f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f (%.0f%%) | %.1f | %.0f | %.0f |\n",
                     r->args.c_str(), get(*r, "triangles"), get(*r, "bitmask/lists_ms"),
                     get(*r, "bitmask/triangles_ms"), get(*r, "bitmask/self_ms"), get(*r, "bitmask/resolve_ms"),
                     benchShadowMs(*r), get(*r, "total_ms"), get(*r, "process_cpu_ms"),
                     get(*r, "process_cpu_ms") / std::max(1e-9, c0), get(*r, "occupied_texels"),
                     lt > 0 ? 100 * get(*r, "occupied_texels") / lt : 0.0, get(*r, "mean_list_length"),
                     get(*r, "max_list_length"), get(*r, "view_samples"));
+      md << buf;
+    }
+    if (std::string(family) == "BM_BitmaskTriangles" && fam.size() >= 3) {
+      // Least-squares line CPU ms = a + b * triangles: how linear the cost is (seed 001 Fig. 11).
+      double n = double(fam.size()), sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+      for (const BenchRow* r : fam) {
+        double x = get(*r, "triangles") / 1000, y = get(*r, "process_cpu_ms");
+        sx += x, sy += y, sxx += x * x, sxy += x * y, syy += y * y;
+      }
+      double b = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - b * sx) / n;
+      double r = (n * sxy - sx * sy) / std::sqrt((n * sxx - sx * sx) * (n * syy - sy * sy));
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "\nLeast-squares line: CPU ms = %.1f + %.2f per 1000 triangles, R^2 = %.4f.\n", a, b, r * r);
       md << buf;
     }
   }
@@ -275,10 +290,10 @@ int main(int argc, char** argv) {
       ro.height = ah;
       ro.shadows = ShadowTechnique::Bitmask;
       ro.bitmask.lightSamples = 1024;
-      Frame ref = renderTimed(ctx, renderer, scene, cam, lights, env, ro, 1);
+      double cpu = 0;
+      Frame ref = renderTimed(ctx, renderer, scene, cam, lights, env, ro, 1, true, &cpu);
       std::vector<float> refVis = renderer.lastVisibility();
       std::fprintf(stderr, "compare_bitmask: %s: bitmask 1024 %.0f ms\n", name.c_str(), totalMs(ref));
-      double cpu = 0;
       auto add = [&](const std::string& technique, int m, const Frame& f) {
         AreaRow r;
         r.lights = name;
@@ -293,6 +308,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "  %-12s m=%2d: mean |dV| %.4f, p99 %.3f, max %.3f, frame rel RMSE %.4f, %.1f ms\n",
                      technique.c_str(), m, r.vis.mean, r.vis.p99, r.vis.max, r.relFrame, r.totalMs);
       };
+      add("bitmask 1024 (the reference)", -1, ref);
       // The bitmask technique's own sampling error at fewer samples, for scale.
       for (int n : {128, 256}) {
         ro.bitmask.lightSamples = n;
@@ -412,11 +428,12 @@ int main(int argc, char** argv) {
     }
   }
 
-  // ---- Output: each part's section goes to OUT/bitmask_parts/<n>.md and .json, and bitmask.md
-  // and bitmask.json are assembled from every section there, so that the parts can be run apart.
+  // ---- Output: each part's section goes to OUT/bitmask_parts/<n>.md and .json (part 2: one per
+  // frame size), and bitmask.md and bitmask.json are assembled from every section there, so that
+  // the parts can be run apart.
   const fs::path parts = out / "bitmask_parts";
   fs::create_directories(parts);
-  char buf[640];
+  char buf[4096];
   if (!areaRows.empty()) {
     std::ostringstream js, md;
     js << "{\"width\": " << aw << ", \"height\": " << ah << ", \"rows\": [\n";
@@ -521,8 +538,9 @@ int main(int argc, char** argv) {
         md << buf;
       }
     }
-    std::ofstream(parts / "2.md") << md.str();
-    std::ofstream(parts / "2.json") << "\"equal_error\": " << js.str();
+    const std::string size = std::to_string(W) + "x" + std::to_string(H);
+    std::ofstream(parts / ("2_" + size + ".md")) << md.str();
+    std::ofstream(parts / ("2_" + size + ".json")) << "\"equal_error_" << size << "\": " << js.str();
   }
   if (!bench.empty()) {
     std::ofstream(parts / "3.md") << benchMarkdown(bench, benchJson);
@@ -533,8 +551,12 @@ int main(int argc, char** argv) {
         "Written by `compare_bitmask` (bench/compare_bitmask.cpp); see its header for the method.\n";
   js << "{";
   bool first = true;
-  for (const char* n : {"1", "2", "3"}) {
-    std::ifstream mf(parts / (std::string(n) + ".md")), jf(parts / (std::string(n) + ".json"));
+  std::vector<std::string> sections;  // "1", "2_<W>x<H>" (one per frame size run), "3"
+  for (const auto& e : fs::directory_iterator(parts))
+    if (e.path().extension() == ".md") sections.push_back(e.path().stem().string());
+  std::sort(sections.begin(), sections.end());
+  for (const std::string& n : sections) {
+    std::ifstream mf(parts / (n + ".md")), jf(parts / (n + ".json"));
     if (!mf || !jf) continue;
     md << "\n" << mf.rdbuf();
     js << (first ? "\n" : ",\n") << "  " << jf.rdbuf();
