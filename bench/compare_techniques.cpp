@@ -12,6 +12,8 @@
 // profiling events.
 #include <penumbra/penumbra.hpp>
 
+#include "compare_common.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -24,6 +26,8 @@
 #include <vector>
 
 using namespace penumbra;
+using penumbra::bench::median;
+using penumbra::bench::shadowStageMs;
 namespace fs = std::filesystem;
 
 namespace {
@@ -35,23 +39,6 @@ struct Row {
   std::size_t bytes = 0, bytesPerTexel = 0;
   std::vector<std::pair<std::string, double>> stages;
 };
-
-// Device time of the stages that belong to shadowing (everything but extraction, G-buffer, shade).
-double shadowStageMs(const std::vector<std::pair<std::string, double>>& t) {
-  double ms = 0;
-  for (auto& [name, v] : t) {
-    if (name == "total" || name.rfind("env/", 0) == 0 || name.rfind("extract/", 0) == 0 ||
-        name.rfind("gbuffer/", 0) == 0 || name == "shade")
-      continue;
-    ms += v;
-  }
-  return ms;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
 
 // A single cap light of half-angle `deg` degrees from above and to the side of the built-in
 // scene, carrying unit power.
@@ -208,16 +195,7 @@ int main(int argc, char** argv) {
           ro.height = H;
           ro.shadowMapSize = S;
           ro.shadows = parseShadowTechnique(t);
-          renderer.render(scene, cam, lights, env, ro);  // warm-up: kernels compile on first use
-          Frame f;
-          std::map<std::string, std::vector<double>> stageRuns;
-          const int runs = t == "brute" ? 1 : 3;
-          for (int run = 0; run < runs; ++run) {
-            ctx.resetTimings();
-            f = renderer.render(scene, cam, lights, env, ro);
-            for (auto& [name, v] : f.timingsMs) stageRuns[name].push_back(v);
-          }
-          for (auto& [name, v] : f.timingsMs) v = median(stageRuns[name]);
+          Frame f = penumbra::bench::renderTimed(ctx, renderer, scene, cam, lights, env, ro, t == "brute" ? 1 : 3);
           Row r;
           r.map = mapName;
           r.technique = t;

@@ -99,7 +99,7 @@ static int lut_cell(float nx, float ny, float delta, float rot) {
 kernel void bitmask_triangles(global const float4* pos, global const int4* tris, int ntris,
                               global const pb_light* lights, global const pb_list_grid* grids,
                               int l0, global const int* counts, global const long* ends,
-                              global const float4* lists, global const float4* gpos,
+                              global const int* lists, global const float4* gpos,
                               global const uint* gids, int npixels, global const uint* lut,
                               global const float2* disk, int stripes,
                               global const int* zfar, volatile global uint* masks,
@@ -180,7 +180,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
   const int S = g.size;
   global const int* cnt = counts + (size_t)l * S * S;
   global const long* end = ends + (size_t)l * S * S;
-  global const float4* list = lists + (size_t)l * npixels;
+  global const int* list = lists + (size_t)l * npixels;
   for (int j = j0 + stripe; j <= j1; j += stripes)
     for (int i = i0; i <= i1; ++i) {
       int n = cnt[j * S + i];
@@ -205,9 +205,11 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
       if (apart) continue;
       long first = end[j * S + i] - n;
       for (int s = 0; s < n; ++s) {
-        // light-frame coordinates from the list itself (kernels/viewsamples.cl, vs_scatter)
-        float4 entry = list[first + s];
-        float3 q = entry.xyz;
+        // the list holds pixel indices (kernels/viewsamples.cl, vs_scatter); light-frame
+        // coordinates by the same function as there, so the same bits
+        int px = list[first + s];
+        float3 p = gpos[px].xyz;
+        float3 q = light_coords(&L, p);
         // The sample's own depth bounds the region exactly at that depth (radius
         // tan(alpha) (z_p - z_i) at vertex i): most samples of a texel leave here.
         if (q.z <= zmin) continue;
@@ -228,9 +230,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           }
           if (apart) continue;
         }
-        int px = as_int(entry.w);
         if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
-        float3 p = gpos[px].xyz;
         float3 A = V[0] - p, B = V[1] - p, C = V[2] - p;
         float3 nrm[3] = {cross(A, B), cross(B, C), cross(C, A)};
         float det = dot(A, nrm[1]);

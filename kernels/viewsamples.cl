@@ -11,8 +11,9 @@
 //   vs_count    per texel list length by atomic increment; each sample keeps the value it read,
 //               its index inside its texel's list
 //   (scan)      exclusive offsets from an inclusive scan of the lengths (src/scan.cpp, int64)
-//   vs_scatter  each sample's light-frame coordinates and pixel index into one array:
-//               lists[light][offset + index]
+//   vs_scatter  each sample's pixel index into one array, lists[light][offset + index] (4 bytes
+//               an entry; the triangle stage recomputes the light-frame coordinates from the
+//               G-buffer position, as the same light_coords gives them here)
 // The order inside a list depends on the atomics, nothing computed from the lists does.
 #include "shared.h"
 
@@ -148,7 +149,7 @@ kernel void vs_widen(global const int* counts, long n, global long* ends) {
 // that survive its region test (kernels/bitmask.cl).
 kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
                        global const pb_list_grid* grids, int npixels, global const int* counts,
-                       global const long* ends, global const int* slot, global float4* lists) {
+                       global const long* ends, global const int* slot, global int* lists) {
   int px = get_global_id(0), l = get_global_id(1);
   if (px >= npixels) return;
   size_t at = (size_t)l * npixels + px;
@@ -158,5 +159,5 @@ kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
   pb_list_grid g = grids[l];
   float3 c = light_coords(&L, gpos[px].xyz);
   size_t t = (size_t)l * g.size * g.size + pb_grid_texel(&g, c.x, c.y);
-  lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = (float4)(c, as_float(px));
+  lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = px;
 }

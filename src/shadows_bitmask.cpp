@@ -126,7 +126,7 @@ class BitmaskPass : public ShadowPass {
     cl::Buffer& counts = f.pool.buffer("bitmask list lengths", texels * sizeof(cl_int));
     cl::Buffer& ends = f.pool.buffer("bitmask list ends", texels * sizeof(cl_long));
     cl::Buffer& slot = f.pool.buffer("bitmask sample slots", pairs * sizeof(cl_int));
-    cl::Buffer& lists = f.pool.buffer("bitmask lists", pairs * sizeof(cl_float4));
+    cl::Buffer& lists = f.pool.buffer("bitmask lists", pairs * sizeof(cl_int));
     cl::Buffer& zfar = f.pool.buffer("bitmask list far depths", texels * sizeof(cl_int));
     {
       cl::Kernel k;
@@ -222,8 +222,9 @@ class BitmaskPass : public ShadowPass {
     cl::Buffer& masks = f.pool.buffer("bitmask masks", maskWords * 4);
     heldBytesPerTexel_ = double(maskWords) * 4 / (double(S) * S * std::max(nl, 1)) + 12.0;
     // What the technique holds on the device: the list grid (length, int64 end, far depth per
-    // texel), the lists (float4 per view sample) and sample slots, and the masks of one batch.
-    heldBytes_ = texels * (4 + 8 + 4) + pairs * (16 + 4) + maskWords * 4;
+    // texel), the lists (one pixel index per view sample) and sample slots, and the masks of one
+    // batch.
+    heldBytes_ = texels * (4 + 8 + 4) + pairs * (4 + 4) + maskWords * 4;
     listSize_ = S;
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +

@@ -593,7 +593,7 @@ TEST(BitmaskReport, StatsAndBytes) {
   EXPECT_EQ(st["list_size"], 64.0);  // min(shadowMapSize, 64)
   EXPECT_GT(st["view_samples"], 0.0);
   const std::size_t pairs = std::size_t(40 * 30), texels = 64 * 64;
-  EXPECT_EQ(r.frame.shadowMapBytes, texels * 16 + pairs * 20 + pairs * 2 * 4);
+  EXPECT_EQ(r.frame.shadowMapBytes, texels * 16 + pairs * 8 + pairs * 2 * 4);
   const std::string json = renderReportJson("dev", lights, Environment{builtinEnvironment()}, ro, r.frame);
   EXPECT_NE(json.find("\"occupied_texels\": " + std::to_string(r.cap.stats.occupiedTexels)),
             std::string::npos);
