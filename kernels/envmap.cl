@@ -28,41 +28,110 @@ static int cube_texel(float x, float y, float z, int m) {
   return (face * m + cy) * m + cx;
 }
 
-// energy: 3 planes (R, G, B) of 6*m*m longs, cleared by the host. One work-item per equirect texel.
-kernel void env_splat(global const float* equirect, int W, int H, float shift, int SS, int m,
-                      float scale, volatile global long* energy) {
-  int s = get_global_id(0), t = get_global_id(1);
-  if (s >= W || t >= H) return;
-  size_t plane = (size_t)6 * m * m;
-  global const float* L = equirect + 3 * ((size_t)t * W + s);
-  float s_world = pb_env_world_column(s, shift, W);
-  // Sub-texels that land in the same cube texel are summed before one atomic add per channel.
-  int open_texel = -1;
-  float acc0 = 0.0f, acc1 = 0.0f, acc2 = 0.0f;
-  for (int j = 0; j < SS; ++j) {
-    float t0 = t + (float)j / SS, t1 = t + (float)(j + 1) / SS;
-    float dw = row_solid_angle(t0, t1, (float)W, (float)H) / SS * scale;
-    for (int i = 0; i < SS; ++i) {
-      float x, y, z;
-      pb_equirect_dir(s_world + (i + 0.5f) / SS, 0.5f * (t0 + t1), (float)W, (float)H, &x, &y, &z);
-      int texel = cube_texel(x, y, z, m);
-      if (texel != open_texel) {
-        if (open_texel >= 0) {
-          atom_add(&energy[open_texel], (long)rint(acc0));
-          atom_add(&energy[plane + open_texel], (long)rint(acc1));
-          atom_add(&energy[2 * plane + open_texel], (long)rint(acc2));
-        }
-        open_texel = texel;
-        acc0 = acc1 = acc2 = 0.0f;
-      }
-      acc0 += L[0] * dw;
-      acc1 += L[1] * dw;
-      acc2 += L[2] * dw;
-    }
+// The splat's sub-texel directions are separable: sub-row r = t SS + j fixes theta, sub-column
+// q = s SS + i fixes phi, and pb_equirect_dir's (sin theta sin phi, cos theta, -sin theta cos phi)
+// is a product of the two. These two tables hold the sines and cosines (and the sub-row's solid
+// angle), computed by the same float expressions as pb_equirect_dir and row_solid_angle, so the
+// splat sees the same bits as when it evaluated them per sub-texel, at (W + H) SS trig calls
+// instead of 4 W H SS^2 (the trig was nearly all of the splat's time: 4 calls per sub-texel).
+// rows[r] = (sin theta, cos theta, solid angle x scale, 0).
+kernel void env_splat_rows(int H, int SS, float scale, int W, global float4* rows) {
+  int r = get_global_id(0);
+  if (r >= H * SS) return;
+  int t = r / SS, j = r - t * SS;
+  float t0 = t + (float)j / SS, t1 = t + (float)(j + 1) / SS;
+  float dw = row_solid_angle(t0, t1, (float)W, (float)H) / SS * scale;
+  float theta = 0.5f * (t0 + t1) / (float)H * 3.14159265358979323846f;
+  rows[r] = (float4)(sin(theta), cos(theta), dw, 0.0f);
+}
+
+// cols[q] = (sin phi, cos phi) of sub-column q = s SS + i of map column s, in world columns (the
+// rotation's shift, pb_env_world_column).
+kernel void env_splat_columns(int W, int SS, float shift, global float2* cols) {
+  int q = get_global_id(0);
+  if (q >= W * SS) return;
+  int s = q / SS, i = q - s * SS;
+  float sw = pb_env_world_column(s, shift, W) + (i + 0.5f) / SS;
+  float phi = (sw / (float)W - 0.5f) * 6.28318530717958647692f;
+  cols[q] = (float2)(sin(phi), cos(phi));
+}
+
+// A few cube texels' energies held in private memory, so that a work-item adds once per texel it
+// touches instead of once per sub-texel run: integer sums are exact, so merging runs in longs
+// before the atomic add leaves every total bit for bit what one add per run gives.
+#define SPLAT_SLOTS 4
+typedef struct {
+  int texel[SPLAT_SLOTS];
+  long e[SPLAT_SLOTS][3];
+  int next;  // slot to evict next, round robin
+} splat_slots;
+
+static void slot_flush(splat_slots* sl, int k, volatile global long* energy, size_t plane) {
+  int t = sl->texel[k];
+  if (t < 0) return;
+  atom_add(&energy[t], sl->e[k][0]);
+  atom_add(&energy[plane + t], sl->e[k][1]);
+  atom_add(&energy[2 * plane + t], sl->e[k][2]);
+  sl->texel[k] = -1;
+}
+
+static void slot_add(splat_slots* sl, int texel, float a0, float a1, float a2,
+                     volatile global long* energy, size_t plane) {
+  // Each run is rounded on its own, as when every run was one atomic add.
+  long r0 = (long)rint(a0), r1 = (long)rint(a1), r2 = (long)rint(a2);
+  int k = 0;
+  while (k < SPLAT_SLOTS && sl->texel[k] != texel) ++k;
+  if (k == SPLAT_SLOTS) {
+    k = sl->next;
+    sl->next = (k + 1) % SPLAT_SLOTS;
+    slot_flush(sl, k, energy, plane);
+    sl->texel[k] = texel;
+    sl->e[k][0] = sl->e[k][1] = sl->e[k][2] = 0;
   }
-  atom_add(&energy[open_texel], (long)rint(acc0));
-  atom_add(&energy[plane + open_texel], (long)rint(acc1));
-  atom_add(&energy[2 * plane + open_texel], (long)rint(acc2));
+  sl->e[k][0] += r0;
+  sl->e[k][1] += r1;
+  sl->e[k][2] += r2;
+}
+
+// energy: 3 planes (R, G, B) of 6*m*m longs, cleared by the host. rows, cols: the tables above.
+// One work-item per strip of `strip` equirect texels of one row (neighbouring texels mostly share
+// cube texels, so the slots merge their adds).
+kernel void env_splat(global const float* equirect, global const float4* rows,
+                      global const float2* cols, int W, int H, int SS, int strip, int m,
+                      volatile global long* energy) {
+  int s0 = get_global_id(0) * strip, t = get_global_id(1);
+  if (s0 >= W || t >= H) return;
+  int s1 = min(s0 + strip, W);
+  size_t plane = (size_t)6 * m * m;
+  splat_slots sl;
+  for (int k = 0; k < SPLAT_SLOTS; ++k) sl.texel[k] = -1;
+  sl.next = 0;
+  for (int s = s0; s < s1; ++s) {
+    global const float* L = equirect + 3 * ((size_t)t * W + s);
+    // Sub-texels of this map texel that land in the same cube texel one after another are summed
+    // in float, then rounded once: a run.
+    int open_texel = -1;
+    float acc0 = 0.0f, acc1 = 0.0f, acc2 = 0.0f;
+    for (int j = 0; j < SS; ++j) {
+      float4 row = rows[t * SS + j];
+      float dw = row.z;
+      for (int i = 0; i < SS; ++i) {
+        float2 col = cols[s * SS + i];
+        // pb_equirect_dir: (st sin phi, cos theta, -st cos phi)
+        int texel = cube_texel(row.x * col.x, row.y, -row.x * col.y, m);
+        if (texel != open_texel) {
+          if (open_texel >= 0) slot_add(&sl, open_texel, acc0, acc1, acc2, energy, plane);
+          open_texel = texel;
+          acc0 = acc1 = acc2 = 0.0f;
+        }
+        acc0 += L[0] * dw;
+        acc1 += L[1] * dw;
+        acc2 += L[2] * dw;
+      }
+    }
+    slot_add(&sl, open_texel, acc0, acc1, acc2, energy, plane);
+  }
+  for (int k = 0; k < SPLAT_SLOTS; ++k) slot_flush(&sl, k, energy, plane);
 }
 
 // One work-item per cube texel (x, y, face).

@@ -12,6 +12,11 @@ struct DeviceCube {
   int faceSize = 0;
 };
 
-DeviceCube resampleToCube(Context& ctx, const Environment& env, int faceSize, int supersample);
+// The cube lives in the context's scratch buffer "cube-map energy" (Context::scratch): valid until
+// the next call on the same context. splatStrip: equirect texels per work-item along a row when
+// splatting (kernels/envmap.cl env_splat); any value gives the same bits, 16 measured fastest
+// with 8 and 64 within noise (bench/bench_extract BM_Resample ... on this CPU, PoCL).
+DeviceCube resampleToCube(Context& ctx, const Environment& env, int faceSize, int supersample,
+                          int splatStrip = 16);
 
 }  // namespace penumbra::detail
