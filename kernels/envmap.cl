@@ -7,7 +7,9 @@
 //    Every joule lands somewhere: the cube's total equals the map's integral up to rounding.
 //  - env_gather: the cube is finer. Each cube texel averages SS x SS nearest-texel lookups, times
 //    its own solid angle (seed 003 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
-// Both honour the map's rotation about +y as a column shift (pb_env_column / pb_env_world_column
+// Both are exact reformulations of a per-sample evaluation: trig that depends on one coordinate
+// only is tabulated by small kernels with the same float expressions (same bits), and the splat
+// merges its adds in integers (same sums). Both honour the map's rotation about +y as a column shift (pb_env_column / pb_env_world_column
 // in shared.h), so the cube is the rotated map's and every extraction sees the rotated lights.
 #include "shared.h"
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
@@ -134,12 +136,39 @@ kernel void env_splat(global const float* equirect, global const float4* rows,
   for (int k = 0; k < SPLAT_SLOTS; ++k) slot_flush(&sl, k, energy, plane);
 }
 
-// One work-item per cube texel (x, y, face).
-kernel void env_gather(global const float* equirect, int W, int H, float shift, int SS, int m,
-                       float scale, global long* energy) {
+// pb_dir_equirect's row t alone, by the same expressions.
+static float equirect_row(float x, float y, float z, float height) {
+  float len = sqrt(x * x + y * y + z * z);
+  float cy = y / len;
+  cy = cy > 1.0f ? 1.0f : (cy < -1.0f ? -1.0f : cy);
+  return acos(cy) / 3.14159265358979323846f * height;
+}
+
+// On the four side faces (+X, -X, +Z, -Z) a gather sample's azimuth atan2(x, -z) depends on its
+// column u only, so its map column is tabulated once per face and sub-column, by the same
+// expressions as pb_dir_equirect and pb_env_column: the gather reads the same texels as when it
+// evaluated them per sample, and skips atan2 on two thirds of the cube (atan2 and acos were most
+// of its time). cols[(side m + x) SS + i], side 0..3 for faces 0, 1, 4, 5.
+kernel void env_gather_columns(int W, float shift, int SS, int m, global int* cols) {
+  int q = get_global_id(0);
+  if (q >= 4 * m * SS) return;
+  int side = q / (m * SS), k = q - side * m * SS;
+  int x = k / SS, i = k - x * SS;
+  float u = 2.0f * (x + (i + 0.5f) / SS) / m - 1.0f;
+  float dx, dy, dz;
+  pb_cube_dir(side < 2 ? side : side + 2, u, 0.0f, &dx, &dy, &dz);
+  float s = (atan2(dx, -dz) / 6.28318530717958647692f + 0.5f) * (float)W;
+  cols[q] = pb_env_column(s, shift, W);
+}
+
+// One work-item per cube texel (x, y, face). cols: env_gather_columns' table.
+kernel void env_gather(global const float* equirect, global const int* cols, int W, int H,
+                       float shift, int SS, int m, float scale, global long* energy) {
   int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
   if (x >= m || y >= m) return;
   size_t plane = (size_t)6 * m * m;
+  const bool polar = face == 2 || face == 3;
+  global const int* side_cols = cols + (size_t)(face < 2 ? face : face - 2) * m * SS;
   float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
   for (int j = 0; j < SS; ++j)
     for (int i = 0; i < SS; ++i) {
@@ -147,8 +176,15 @@ kernel void env_gather(global const float* equirect, int W, int H, float shift, 
       float v = 2.0f * (y + (j + 0.5f) / SS) / m - 1.0f;
       float dx, dy, dz, s, t;
       pb_cube_dir(face, u, v, &dx, &dy, &dz);
-      pb_dir_equirect(dx, dy, dz, (float)W, (float)H, &s, &t);
-      int si = pb_env_column(s, shift, W), ti = clamp((int)floor(t), 0, H - 1);
+      int si;
+      if (polar) {
+        pb_dir_equirect(dx, dy, dz, (float)W, (float)H, &s, &t);
+        si = pb_env_column(s, shift, W);
+      } else {
+        t = equirect_row(dx, dy, dz, (float)H);
+        si = side_cols[x * SS + i];
+      }
+      int ti = clamp((int)floor(t), 0, H - 1);
       float dw = pb_cube_texel_solid_angle(u, v, m * SS) * scale;
       global const float* L = equirect + 3 * ((size_t)ti * W + si);
       a0 += L[0] * dw;

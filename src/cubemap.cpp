@@ -73,16 +73,27 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
     k.setArg(8, cube.energy);
     ctx.launch("env/resample", k, cl::NDRange((eq.width + strip - 1) / strip, eq.height));
   } else {
-    // Every cube texel is written: no clearing.
+    // The side faces' map columns (kernels/envmap.cl env_gather_columns). Every cube texel is
+    // written: no clearing.
+    const std::size_t nc = 4ull * m * ss;
+    cl::Buffer cols = ctx.scratch("gather column table", nc * sizeof(cl_int));
+    cl::Kernel kc = ctx.kernel("envmap.cl", "env_gather_columns");
+    kc.setArg(0, cl_int(eq.width));
+    kc.setArg(1, cl_float(env.rotationColumns()));
+    kc.setArg(2, cl_int(ss));
+    kc.setArg(3, cl_int(m));
+    kc.setArg(4, cols);
+    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
     cl::Kernel k = ctx.kernel("envmap.cl", "env_gather");
     k.setArg(0, eqBuf);
-    k.setArg(1, cl_int(eq.width));
-    k.setArg(2, cl_int(eq.height));
-    k.setArg(3, cl_float(env.rotationColumns()));
-    k.setArg(4, cl_int(ss));
-    k.setArg(5, cl_int(m));
-    k.setArg(6, cl_float(cube.scale));
-    k.setArg(7, cube.energy);
+    k.setArg(1, cols);
+    k.setArg(2, cl_int(eq.width));
+    k.setArg(3, cl_int(eq.height));
+    k.setArg(4, cl_float(env.rotationColumns()));
+    k.setArg(5, cl_int(ss));
+    k.setArg(6, cl_int(m));
+    k.setArg(7, cl_float(cube.scale));
+    k.setArg(8, cube.energy);
     ctx.launch("env/resample", k, cl::NDRange(m, m, 6));
   }
   return cube;

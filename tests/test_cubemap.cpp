@@ -169,8 +169,9 @@ TEST(CubeMap, ReusedBuffersLeaveNoTrace) {
   }
 }
 
-// The splat's tables and strips and the gather on tiny maps, turned, under oclgrind's race and API
-// checks (the splat's adds are atomics; each table entry and gathered texel has one writer).
+// The splat's tables and strips and the gather with its column table on tiny maps, turned, under
+// oclgrind's race and API checks (the splat's adds are atomics; each table entry and gathered
+// texel has one writer).
 TEST(OclgrindCubeMap, SplatTablesAndGather) {
   compareWithReference(randomMap(9, 4, 31, 37.5f), 2, "9x4 turned 37.5 -> 2");  // 4 sub-texels
   compareWithReference(randomMap(13, 5, 32), 1, "13x5 -> 1");
