@@ -7,10 +7,11 @@
 //    Every joule lands somewhere: the cube's total equals the map's integral up to rounding.
 //  - env_gather: the cube is finer. Each cube texel averages SS x SS nearest-texel lookups, times
 //    its own solid angle (seed 003 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
-// Both are exact reformulations of a per-sample evaluation: trig that depends on one coordinate
-// only is tabulated by small kernels with the same float expressions (same bits), and the splat
-// merges its adds in integers (same sums). Both honour the map's rotation about +y as a column shift (pb_env_column / pb_env_world_column
-// in shared.h), so the cube is the rotated map's and every extraction sees the rotated lights.
+// Both compute what a per-sample evaluation computes, bit for bit, faster: trig that depends on
+// one coordinate only is tabulated by small kernels with the same float expressions (same bits),
+// and the splat merges its adds in integers (same sums). Both honour the map's rotation about +y
+// as a column shift (pb_env_column / pb_env_world_column in shared.h), so the cube is the rotated
+// map's and every extraction sees the rotated lights.
 #include "shared.h"
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
 
