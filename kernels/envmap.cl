@@ -162,40 +162,58 @@ kernel void env_gather_columns(int W, float shift, int SS, int m, global int* co
   cols[q] = pb_env_column(s, shift, W);
 }
 
-// One work-item per cube texel (x, y, face). cols: env_gather_columns' table.
+static void gather_write(global long* energy, size_t plane, int face, int m, int x, int y,
+                         float a0, float a1, float a2) {
+  size_t i = ((size_t)face * m + y) * m + x;
+  energy[i] = (long)rint(a0);
+  energy[plane + i] = (long)rint(a1);
+  energy[2 * plane + i] = (long)rint(a2);
+}
+
+// One work-item per texel (x, y) of face pair g: g = 0 gathers faces +X and -X, g = 1 faces +Z and
+// -Z, g = 2 and 3 the polar faces +Y and -Y alone. The two faces of a side pair see (+-1, -v, -+u)
+// and (+-u, -v, +-1): the same squares, so the same length and row t, by the same expressions, and
+// each sample's acos and solid angle serve both (their columns come from `cols`,
+// env_gather_columns' table). Each face's samples are summed in the same order as one face alone.
 kernel void env_gather(global const float* equirect, global const int* cols, int W, int H,
                        float shift, int SS, int m, float scale, global long* energy) {
-  int x = get_global_id(0), y = get_global_id(1), face = get_global_id(2);
+  int x = get_global_id(0), y = get_global_id(1), g = get_global_id(2);
   if (x >= m || y >= m) return;
   size_t plane = (size_t)6 * m * m;
-  const bool polar = face == 2 || face == 3;
-  global const int* side_cols = cols + (size_t)(face < 2 ? face : face - 2) * m * SS;
-  float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+  const bool polar = g >= 2;
+  const int fa = polar ? g : 4 * g;  // first face of the pair: 0, 4, or the polar face
+  global const int* ca = cols + (size_t)2 * g * m * SS;  // sides 0, 1 (faces 0, 1); 2, 3 (4, 5)
+  global const int* cb = ca + (size_t)m * SS;
+  float a0 = 0.0f, a1 = 0.0f, a2 = 0.0f, b0 = 0.0f, b1 = 0.0f, b2 = 0.0f;
   for (int j = 0; j < SS; ++j)
     for (int i = 0; i < SS; ++i) {
       float u = 2.0f * (x + (i + 0.5f) / SS) / m - 1.0f;
       float v = 2.0f * (y + (j + 0.5f) / SS) / m - 1.0f;
       float dx, dy, dz, s, t;
-      pb_cube_dir(face, u, v, &dx, &dy, &dz);
-      int si;
+      pb_cube_dir(fa, u, v, &dx, &dy, &dz);
+      float dw = pb_cube_texel_solid_angle(u, v, m * SS) * scale;
       if (polar) {
         pb_dir_equirect(dx, dy, dz, (float)W, (float)H, &s, &t);
-        si = pb_env_column(s, shift, W);
+        int si = pb_env_column(s, shift, W), ti = clamp((int)floor(t), 0, H - 1);
+        global const float* L = equirect + 3 * ((size_t)ti * W + si);
+        a0 += L[0] * dw;
+        a1 += L[1] * dw;
+        a2 += L[2] * dw;
       } else {
         t = equirect_row(dx, dy, dz, (float)H);
-        si = side_cols[x * SS + i];
+        size_t row = (size_t)clamp((int)floor(t), 0, H - 1) * W;
+        global const float* La = equirect + 3 * (row + ca[x * SS + i]);
+        global const float* Lb = equirect + 3 * (row + cb[x * SS + i]);
+        a0 += La[0] * dw;
+        a1 += La[1] * dw;
+        a2 += La[2] * dw;
+        b0 += Lb[0] * dw;
+        b1 += Lb[1] * dw;
+        b2 += Lb[2] * dw;
       }
-      int ti = clamp((int)floor(t), 0, H - 1);
-      float dw = pb_cube_texel_solid_angle(u, v, m * SS) * scale;
-      global const float* L = equirect + 3 * ((size_t)ti * W + si);
-      a0 += L[0] * dw;
-      a1 += L[1] * dw;
-      a2 += L[2] * dw;
     }
-  size_t i = ((size_t)face * m + y) * m + x;
-  energy[i] = (long)rint(a0);
-  energy[plane + i] = (long)rint(a1);
-  energy[2 * plane + i] = (long)rint(a2);
+  gather_write(energy, plane, fa, m, x, y, a0, a1, a2);
+  if (!polar) gather_write(energy, plane, fa + 1, m, x, y, b0, b1, b2);
 }
 
 // SAT inputs per cube texel: lum = (Y, Y*wx, Y*wy, Y*wz) with w the texel's unit direction (for the

@@ -94,7 +94,7 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
     k.setArg(6, cl_int(m));
     k.setArg(7, cl_float(cube.scale));
     k.setArg(8, cube.energy);
-    ctx.launch("env/resample", k, cl::NDRange(m, m, 6));
+    ctx.launch("env/resample", k, cl::NDRange(m, m, 4));  // 2 side-face pairs, 2 polar faces
   }
   return cube;
 }
