@@ -90,7 +90,8 @@ class Context {
   // A buffer of at least `bytes` kept by the context under `role` and handed out again to later
   // calls with the same role, so that work repeated every frame (light extraction from an animated
   // map) neither allocates nor first-touches its buffers each time (first-touch page faults were
-  // most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more. Its contents
+  // most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more, never shrunk:
+  // the context holds the largest size each role has needed until it is destroyed. Its contents
   // are the last user's: valid until the next scratch() call for the same role.
   cl::Buffer scratch(const std::string& role, std::size_t bytes);
 
