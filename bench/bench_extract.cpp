@@ -1,7 +1,8 @@
 // Light extraction by method, on the built-in sky at 1024x512 (ambient residual left out, timed on
 // its own). Device time per stage family from OpenCL profiling events, as counters in ms per
 // extraction:
-//   resample_ms  equirect -> cube of fixed-point energies (env/resample; median cut and greedy)
+//   resample_ms  equirect -> cube of fixed-point energies (env/resample and its tables
+//                env/resample/rows, /columns; median cut and greedy)
 //   sat_ms       SAT inputs and the two summed-area tables (env/sat-inputs, env/sat/...)
 //   cut_ms       the median-cut partition itself (extract/median-cut), one work-group
 //   resolve_ms   regions -> lights (extract/resolve)
@@ -188,7 +189,15 @@ void medianCutArgs(benchmark::internal::Benchmark* b) {
 
 }  // namespace
 
-BENCHMARK(BM_Resample)->ArgName("face")->Arg(64)->Arg(128)->Arg(256)->Arg(512)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BM_Resample)
+    ->ArgName("face")
+    ->Arg(64)
+    ->Arg(128)
+    ->Arg(256)
+    ->Arg(512)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
 BENCHMARK(BM_MedianCut)->Apply(medianCutArgs)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 BENCHMARK(BM_Greedy)
     ->ArgsProduct({{64, 128, 256, 512}, {1, 0}})

@@ -43,21 +43,22 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
   if (splat) {
     // Tables of the separable sub-texel directions (kernels/envmap.cl env_splat_rows/_columns).
-    cl::Buffer rows = ctx.scratch("splat row table", std::size_t(eq.height) * ss * sizeof(cl_float4));
-    cl::Buffer cols = ctx.scratch("splat column table", std::size_t(eq.width) * ss * sizeof(cl_float2));
+    const std::size_t nr = std::size_t(eq.height) * ss, nc = std::size_t(eq.width) * ss;
+    cl::Buffer rows = ctx.scratch("splat row table", nr * sizeof(cl_float4));
+    cl::Buffer cols = ctx.scratch("splat column table", nc * sizeof(cl_float2));
     cl::Kernel kr = ctx.kernel("envmap.cl", "env_splat_rows");
     kr.setArg(0, cl_int(eq.height));
     kr.setArg(1, cl_int(ss));
     kr.setArg(2, cl_float(cube.scale));
     kr.setArg(3, cl_int(eq.width));
     kr.setArg(4, rows);
-    ctx.launch("env/resample/rows", kr, cl::NDRange(std::size_t(eq.height) * ss));
+    ctx.launch("env/resample/rows", kr, cl::NDRange(nr));
     cl::Kernel kc = ctx.kernel("envmap.cl", "env_splat_columns");
     kc.setArg(0, cl_int(eq.width));
     kc.setArg(1, cl_int(ss));
     kc.setArg(2, cl_float(env.rotationColumns()));
     kc.setArg(3, cols);
-    ctx.launch("env/resample/columns", kc, cl::NDRange(std::size_t(eq.width) * ss));
+    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
     cl_long zero = 0;
     ctx.fill(cube.energy, &zero, sizeof zero, bytes, "cube-map energy");
     const int strip = splatStrip;

@@ -139,7 +139,8 @@ TEST(CubeMap, SplatStripsGiveIdenticalBits) {
     Environment env = randomMap(w, h, unsigned(w + m), rot);
     const std::vector<cl_long> one = deviceCube(env, m, 1);
     for (int strip : {2, 3, 16, w, w + 5})
-      EXPECT_TRUE(deviceCube(env, m, strip) == one) << w << "x" << h << " -> " << m << " strip " << strip;
+      EXPECT_TRUE(deviceCube(env, m, strip) == one)
+          << w << "x" << h << " -> " << m << " strip " << strip;
   }
   EXPECT_THROW(deviceCube(randomMap(8, 4, 1), 2, 0), Error);
 }
