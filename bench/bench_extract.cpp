@@ -1,7 +1,8 @@
 // Light extraction by method, on the built-in sky at 1024x512 (ambient residual left out, timed on
 // its own). Device time per stage family from OpenCL profiling events, as counters in ms per
 // extraction:
-//   resample_ms  equirect -> cube of fixed-point energies (env/resample; median cut and greedy)
+//   resample_ms  equirect -> cube of fixed-point energies (env/resample and its tables
+//                env/resample/rows, /columns; median cut and greedy)
 //   sat_ms       SAT inputs and the two summed-area tables (env/sat-inputs, env/sat/...)
 //   cut_ms       the median-cut partition itself (extract/median-cut), one work-group
 //   resolve_ms   regions -> lights (extract/resolve)
@@ -18,6 +19,9 @@
 //   cut_per_round_ms  cut_ms / (ceil(log2(lights / 6)) + 1), the number of splitting rounds: a
 //                   flat column across light counts is logarithmic growth
 //   sat_fraction    sat_ms / device_ms
+// BM_Resample times the resample alone (cubeMapEnergy: env/resample* stages, device ms) per face
+// size, beside a clEnqueueCopyBuffer of the map's own bytes in the same iteration
+// (resample_vs_copy = resample_ms / copy_ms: a ratio that the machine's load moves less than ms).
 // Every benchmark runs one extraction first (kernel compilation, buffer allocation) untimed.
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
@@ -176,6 +180,34 @@ void BM_AmbientMap(benchmark::State& state) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * ao.mapWidth * ao.mapHeight);
 }
 
+// Equirect -> cube alone at face range(0): splat up to 256 for this 1024-wide map, gather at 512.
+void BM_Resample(benchmark::State& state) {
+  Setup& s = setup();
+  const int m = int(state.range(0));
+  const std::vector<float>& px = s.env.equirect.pixels;
+  const std::size_t bytes = px.size() * sizeof(float);
+  cl::Buffer src = s.ctx.upload(px, "copy source"), dst = s.ctx.buffer(bytes, "copy destination");
+  s.ctx.queue().enqueueCopyBuffer(src, dst, 0, 0, bytes);  // first touch of dst
+  cubeMapEnergy(s.ctx, s.env, m);                          // warm-up: compilation, buffers
+  double resample = 0, copy = 0;
+  for (auto _ : state) {
+    s.ctx.resetTimings();
+    cubeMapEnergy(s.ctx, s.env, m);
+    for (auto& [stage, ms] : s.ctx.stageTimesMs())
+      if (startsWith(stage, "env/resample")) resample += ms;
+    cl::Event ev;
+    s.ctx.queue().enqueueCopyBuffer(src, dst, 0, 0, bytes, nullptr, &ev);
+    ev.wait();
+    copy += double(ev.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
+                   ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-6;
+  }
+  const double n = double(state.iterations());
+  state.counters["resample_ms"] = resample / n;
+  state.counters["copy_ms"] = copy / n;
+  if (copy > 0) state.counters["resample_vs_copy"] = resample / copy;
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * 6 * m * m);
+}
+
 void medianCutArgs(benchmark::internal::Benchmark* b) {
   b->ArgNames({"lights", "face"});
   for (int face : {64, 128, 256, 512})
@@ -184,6 +216,15 @@ void medianCutArgs(benchmark::internal::Benchmark* b) {
 
 }  // namespace
 
+BENCHMARK(BM_Resample)
+    ->ArgName("face")
+    ->Arg(64)
+    ->Arg(128)
+    ->Arg(256)
+    ->Arg(512)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
 BENCHMARK(BM_MedianCut)->Apply(medianCutArgs)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 BENCHMARK(BM_Greedy)
     ->ArgsProduct({{64, 128, 256, 512}, {1, 0}})

@@ -244,6 +244,17 @@ cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_fl
   }
 }
 
+cl::Buffer Context::scratch(const std::string& role, std::size_t bytes) {
+  bytes = std::max<std::size_t>(1, bytes);
+  auto& slot = scratch_[role];
+  if (slot.first < bytes) {
+    slot = {0, cl::Buffer()};  // release the smaller one before allocating
+    slot.second = buffer(bytes, role);
+    slot.first = bytes;
+  }
+  return slot.second;
+}
+
 void Context::write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what) {
   try {
     queue_.enqueueWriteBuffer(b, CL_TRUE, 0, bytes, src);

@@ -9,8 +9,10 @@
 namespace penumbra {
 namespace detail {
 
-DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int supersample) {
+DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int supersample,
+                          int splatStrip) {
   if (m < 1 || m > 4096) badInput("--face-size must be in [1, 4096], got " + std::to_string(m));
+  if (splatStrip < 1) badInput("splat strip must be >= 1, got " + std::to_string(splatStrip));
   if (supersample < 1 || supersample > 64)
     badInput("supersample must be in [1, 64], got " + std::to_string(supersample));
   const Image& eq = env.equirect;
@@ -24,11 +26,13 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   cube.faceSize = m;
   cube.scale = maxv > 0 ? std::ldexp(1.0, 48) / (4.0 * 3.14159265358979323846 * maxv) : 1.0;
 
+  // The map and the cube are the context's scratch buffers (Context::scratch): an animation
+  // extracts every frame, and allocating and first-touching them each time cost more than the
+  // kernels.
   const std::size_t bytes = 3ull * 6 * m * m * sizeof(cl_long);
-  cl::Buffer eqBuf = ctx.upload(eq.pixels, "environment map");
-  cube.energy = ctx.buffer(bytes, "cube-map energy");
-  cl_long zero = 0;
-  ctx.fill(cube.energy, &zero, sizeof zero, bytes, "cube-map energy");
+  cl::Buffer eqBuf = ctx.scratch("environment map", eq.pixels.size() * sizeof(float));
+  ctx.write(eqBuf, eq.pixels.data(), eq.pixels.size() * sizeof(float), "environment map");
+  cube.energy = ctx.scratch("cube-map energy", bytes);
 
   // Splat when the map's texels are at least as fine as the cube's (equator texel 2 pi / W versus
   // face-centre texel (pi/2) / m), gather otherwise. Sub-samples per side: about two per
@@ -37,18 +41,62 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   const bool splat = eq.width >= 4 * m;
   const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
   const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
-  // Both kernels take the same arguments; the rotation enters as a column shift.
-  cl::Kernel k = ctx.kernel("envmap.cl", splat ? "env_splat" : "env_gather");
-  k.setArg(0, eqBuf);
-  k.setArg(1, cl_int(eq.width));
-  k.setArg(2, cl_int(eq.height));
-  k.setArg(3, cl_float(env.rotationColumns()));
-  k.setArg(4, cl_int(ss));
-  k.setArg(5, cl_int(m));
-  k.setArg(6, cl_float(cube.scale));
-  k.setArg(7, cube.energy);
-  ctx.launch("env/resample", k,
-             splat ? cl::NDRange(eq.width, eq.height) : cl::NDRange(m, m, 6));
+  if (splat) {
+    // Tables of the separable sub-texel directions (kernels/envmap.cl env_splat_rows/_columns).
+    const std::size_t nr = std::size_t(eq.height) * ss, nc = std::size_t(eq.width) * ss;
+    cl::Buffer rows = ctx.scratch("splat row table", nr * sizeof(cl_float4));
+    cl::Buffer cols = ctx.scratch("splat column table", nc * sizeof(cl_float2));
+    cl::Kernel kr = ctx.kernel("envmap.cl", "env_splat_rows");
+    kr.setArg(0, cl_int(eq.height));
+    kr.setArg(1, cl_int(ss));
+    kr.setArg(2, cl_float(cube.scale));
+    kr.setArg(3, cl_int(eq.width));
+    kr.setArg(4, rows);
+    ctx.launch("env/resample/rows", kr, cl::NDRange(nr));
+    cl::Kernel kc = ctx.kernel("envmap.cl", "env_splat_columns");
+    kc.setArg(0, cl_int(eq.width));
+    kc.setArg(1, cl_int(ss));
+    kc.setArg(2, cl_float(env.rotationColumns()));
+    kc.setArg(3, cols);
+    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
+    cl_long zero = 0;
+    ctx.fill(cube.energy, &zero, sizeof zero, bytes, "cube-map energy");
+    const int strip = splatStrip;
+    cl::Kernel k = ctx.kernel("envmap.cl", "env_splat");
+    k.setArg(0, eqBuf);
+    k.setArg(1, rows);
+    k.setArg(2, cols);
+    k.setArg(3, cl_int(eq.width));
+    k.setArg(4, cl_int(eq.height));
+    k.setArg(5, cl_int(ss));
+    k.setArg(6, cl_int(strip));
+    k.setArg(7, cl_int(m));
+    k.setArg(8, cube.energy);
+    ctx.launch("env/resample", k, cl::NDRange((eq.width + strip - 1) / strip, eq.height));
+  } else {
+    // The side faces' map columns (kernels/envmap.cl env_gather_columns). Every cube texel is
+    // written: no clearing.
+    const std::size_t nc = 4ull * m * ss;
+    cl::Buffer cols = ctx.scratch("gather column table", nc * sizeof(cl_int));
+    cl::Kernel kc = ctx.kernel("envmap.cl", "env_gather_columns");
+    kc.setArg(0, cl_int(eq.width));
+    kc.setArg(1, cl_float(env.rotationColumns()));
+    kc.setArg(2, cl_int(ss));
+    kc.setArg(3, cl_int(m));
+    kc.setArg(4, cols);
+    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
+    cl::Kernel k = ctx.kernel("envmap.cl", "env_gather");
+    k.setArg(0, eqBuf);
+    k.setArg(1, cols);
+    k.setArg(2, cl_int(eq.width));
+    k.setArg(3, cl_int(eq.height));
+    k.setArg(4, cl_float(env.rotationColumns()));
+    k.setArg(5, cl_int(ss));
+    k.setArg(6, cl_int(m));
+    k.setArg(7, cl_float(cube.scale));
+    k.setArg(8, cube.energy);
+    ctx.launch("env/resample", k, cl::NDRange(m, m, 4));  // 2 side-face pairs, 2 polar faces
+  }
   return cube;
 }
 

@@ -796,8 +796,9 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   cl::Buffer& energy = cube.energy;
   // Colour as CIE XYZ (seed 003 §5): the luminance SAT's Y is shared, X and Z of two faces share
   // a long4 (kernels/envmap.cl env_sat_inputs): 9 long4 images to scan instead of 12.
-  cl::Buffer lum = ctx.buffer(cubeTexels * sizeof(cl_long4), "luminance SAT");
-  cl::Buffer xz = ctx.buffer(cubeTexels / 2 * sizeof(cl_long4), "colour (X, Z) SAT");
+  // Context scratch buffers: kept across extractions (an animation runs one per frame).
+  cl::Buffer lum = ctx.scratch("luminance SAT", cubeTexels * sizeof(cl_long4));
+  cl::Buffer xz = ctx.scratch("colour (X, Z) SAT", cubeTexels / 2 * sizeof(cl_long4));
   {
     cl::Kernel k = ctx.kernel("envmap.cl", "env_sat_inputs");
     k.setArg(0, energy);

@@ -78,3 +78,20 @@ TEST(Context, NamedLaunchesBecomeStageTimes) {
   auto out = ctx.download<float>(b, data.size(), "data");
   EXPECT_FLOAT_EQ(out.back(), 64.0f * 8.0f);
 }
+
+// Context::scratch: one buffer per role, handed out again while it is large enough (the same
+// cl_mem), replaced by a larger one when a call needs more, and kept apart from other roles.
+TEST(Context, ScratchBuffersAreReusedPerRoleAndGrow) {
+  Context& ctx = test::ctx();
+  cl::Buffer a = ctx.scratch("test scratch a", 256);
+  EXPECT_EQ(ctx.scratch("test scratch a", 100)(), a());
+  EXPECT_EQ(ctx.scratch("test scratch a", 256)(), a());
+  EXPECT_NE(ctx.scratch("test scratch b", 100)(), a());
+  cl::Buffer big = ctx.scratch("test scratch a", 4096);
+  EXPECT_GE(big.getInfo<CL_MEM_SIZE>(), 4096u);
+  EXPECT_EQ(ctx.scratch("test scratch a", 1000)(), big());
+  // what one user wrote is there for the next (the contents are the last user's)
+  std::vector<int> v(1024, 7);
+  ctx.write(big, v.data(), v.size() * sizeof(int), "scratch");
+  EXPECT_EQ(ctx.download<int>(ctx.scratch("test scratch a", 64), 1024, "scratch"), v);
+}

@@ -1,25 +1,29 @@
 // kernels/envmap.cl against a plain C++ resampling (same sub-sample positions, double sums), on
-// awkward map and face sizes, through both the splat and the gather path.
+// awkward map and face sizes, turned and not, through both the splat and the gather path; the
+// splat's strips and the context's reused buffers against themselves, bit for bit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include "common.hpp"
+#include "../src/cubemap.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
 
 namespace {
 
-Environment randomMap(int w, int h, unsigned seed) {
+Environment randomMap(int w, int h, unsigned seed, float rotationYDeg = 0) {
   Environment env;
   env.source = "random";
   env.equirect = Image(w, h, 3);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   for (float& v : env.equirect.pixels) v = u(rng) < 0.02f ? 500.0f * u(rng) : u(rng);
+  env.rotationYDeg = rotationYDeg;
   return env;
 }
 
@@ -27,6 +31,7 @@ Environment randomMap(int w, int h, unsigned seed) {
 std::vector<double> referenceCube(const Environment& env, int m, int supersample) {
   const Image& eq = env.equirect;
   const int W = eq.width, H = eq.height;
+  const float shift = env.rotationColumns();
   const bool splat = W >= 4 * m;
   const double ratio = splat ? 4.0 * m / W : W / (4.0 * m);
   const int SS = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
@@ -40,8 +45,8 @@ std::vector<double> referenceCube(const Environment& env, int m, int supersample
           double dw = 2 * M_PI / W * (std::cos(th0) - std::cos(th1)) / SS;
           for (int i = 0; i < SS; ++i) {
             float x, y, z, uu, vv;
-            pb_equirect_dir(s + (i + 0.5f) / SS, t + (j + 0.5f) / SS, float(W), float(H), &x, &y,
-                            &z);
+            pb_equirect_dir(pb_env_world_column(s, shift, W) + (i + 0.5f) / SS,
+                            t + (j + 0.5f) / SS, float(W), float(H), &x, &y, &z);
             int f = pb_cube_face(x, y, z, &uu, &vv);
             int cx = std::clamp(int(std::floor((uu + 1) * 0.5f * m)), 0, m - 1);
             int cy = std::clamp(int(std::floor((vv + 1) * 0.5f * m)), 0, m - 1);
@@ -59,13 +64,19 @@ std::vector<double> referenceCube(const Environment& env, int m, int supersample
               float dx, dy, dz, s, t;
               pb_cube_dir(f, uu, vv, &dx, &dy, &dz);
               pb_dir_equirect(dx, dy, dz, float(W), float(H), &s, &t);
-              int si = std::clamp(int(std::floor(s)), 0, W - 1), ti = std::clamp(int(std::floor(t)), 0, H - 1);
+              int si = pb_env_column(s, shift, W), ti = std::clamp(int(std::floor(t)), 0, H - 1);
               double dw = pb_cube_texel_solid_angle(uu, vv, m * SS);
               std::size_t k = (std::size_t(f) * m + y) * m + x;
               for (int c = 0; c < 3; ++c) e[c * plane + k] += eq.at(si, ti, c) * dw;
             }
   }
   return e;
+}
+
+// The device's fixed-point cube (3 planes of 6 m^2 longs) as resampleToCube leaves it.
+std::vector<cl_long> deviceCube(const Environment& env, int m, int strip = 16) {
+  detail::DeviceCube c = detail::resampleToCube(ctx(), env, m, 4, strip);
+  return ctx().download<cl_long>(c.energy, 3ull * 6 * m * m, "cube energy");
 }
 
 void compareWithReference(const Environment& env, int m, const std::string& what) {
@@ -100,6 +111,13 @@ TEST(CubeMap, SplatMatchesReference) {
   compareWithReference(randomMap(97, 51, 2), 3, "97x51 -> 3");
   compareWithReference(randomMap(8, 3, 3), 1, "8x3 -> 1");
   compareWithReference(randomMap(256, 128, 4), 64, "256x128 -> 64");
+  // 4 sub-texels per map texel (4m / W > 1/2), a face wider than a work-group, a map width that
+  // is no multiple of the splat's strip, turned by a fractional and a whole number of columns
+  compareWithReference(randomMap(4, 1, 9), 1, "4x1 -> 1");
+  compareWithReference(randomMap(5, 2, 10, 10.0f), 1, "5x2 turned 10 -> 1");
+  compareWithReference(randomMap(67, 33, 11, 33.3f), 16, "67x33 turned 33.3 -> 16");
+  compareWithReference(randomMap(401, 203, 12), 100, "401x203 -> 100");
+  compareWithReference(randomMap(256, 128, 13, 90.0f), 64, "256x128 turned 90 -> 64");
 }
 
 TEST(CubeMap, GatherMatchesReference) {
@@ -107,6 +125,60 @@ TEST(CubeMap, GatherMatchesReference) {
   compareWithReference(randomMap(3, 2, 6), 7, "3x2 -> 7");
   compareWithReference(randomMap(64, 32, 7), 17, "64x32 -> 17");
   compareWithReference(randomMap(1, 40, 8), 33, "1x40 -> 33");
+  compareWithReference(randomMap(3, 1, 14), 1, "3x1 -> 1");
+  compareWithReference(randomMap(31, 17, 15, 33.3f), 9, "31x17 turned 33.3 -> 9");
+  compareWithReference(randomMap(101, 51, 16), 65, "101x51 -> 65");
+}
+
+// The splat merges a strip's adds in integers (kernels/envmap.cl slot_add), and integer sums do
+// not depend on their order: every strip width, one texel per work-item included, must give the
+// same bits.
+TEST(CubeMap, SplatStripsGiveIdenticalBits) {
+  for (auto [w, h, m, rot] : {std::tuple{67, 33, 16, 33.3f}, std::tuple{401, 203, 100, 0.0f},
+                              std::tuple{97, 51, 3, 0.0f}, std::tuple{256, 128, 64, 90.0f}}) {
+    Environment env = randomMap(w, h, unsigned(w + m), rot);
+    const std::vector<cl_long> one = deviceCube(env, m, 1);
+    for (int strip : {2, 3, 16, w, w + 5})
+      EXPECT_TRUE(deviceCube(env, m, strip) == one)
+          << w << "x" << h << " -> " << m << " strip " << strip;
+  }
+  EXPECT_THROW(deviceCube(randomMap(8, 4, 1), 2, 0), Error);
+}
+
+// The map, cube and SAT buffers are the context's, reused by the next extraction: what a larger
+// or a different earlier resample left in them must not show (the splat clears its cube, the
+// gather writes every texel).
+TEST(CubeMap, ReusedBuffersLeaveNoTrace) {
+  const Environment small = randomMap(97, 51, 21, 12.0f), large = randomMap(401, 203, 22);
+  const std::vector<cl_long> splat = deviceCube(small, 5), gather = deviceCube(small, 40);
+  deviceCube(large, 100);
+  deviceCube(large, 120);
+  EXPECT_TRUE(deviceCube(small, 5) == splat);
+  EXPECT_TRUE(deviceCube(small, 40) == gather);
+  MedianCutOptions mo;
+  mo.faceSize = 16;
+  mo.lights = 16;
+  const LightSet a = extractMedianCut(ctx(), small, mo);
+  mo.faceSize = 64;
+  extractMedianCut(ctx(), large, mo);
+  mo.faceSize = 16;
+  const LightSet b = extractMedianCut(ctx(), small, mo);
+  ASSERT_EQ(a.lights.size(), b.lights.size());
+  for (std::size_t i = 0; i < a.lights.size(); ++i) {
+    EXPECT_EQ(a.lights[i].direction, b.lights[i].direction) << i;
+    EXPECT_EQ(a.lights[i].power, b.lights[i].power) << i;
+  }
+}
+
+// The splat's tables and strips and the gather with its column table on tiny maps, turned, under
+// oclgrind's race and API checks (the splat's adds are atomics; each table entry and gathered
+// texel has one writer).
+TEST(OclgrindCubeMap, SplatTablesAndGather) {
+  compareWithReference(randomMap(9, 4, 31, 37.5f), 2, "9x4 turned 37.5 -> 2");  // 4 sub-texels
+  compareWithReference(randomMap(13, 5, 32), 1, "13x5 -> 1");
+  compareWithReference(randomMap(5, 3, 33, 37.5f), 3, "5x3 turned 37.5 -> 3");  // gather
+  Environment env = randomMap(21, 7, 34, 10.0f);
+  EXPECT_TRUE(deviceCube(env, 5, 1) == deviceCube(env, 5, 4));
 }
 
 TEST(CubeMap, SplatConservesTheMapsPowerExactly) {

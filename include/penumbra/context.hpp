@@ -87,6 +87,13 @@ class Context {
   void fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes, std::size_t bytes,
             const std::string& what);
   void finish();
+  // A buffer of at least `bytes` kept by the context under `role` and handed out again to later
+  // calls with the same role, so that work repeated every frame (light extraction from an animated
+  // map) neither allocates nor first-touches its buffers each time (first-touch page faults were
+  // most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more, never shrunk:
+  // the context holds the largest size each role has needed until it is destroyed. Its contents
+  // are the last user's: valid until the next scratch() call for the same role.
+  cl::Buffer scratch(const std::string& role, std::size_t bytes);
 
   // Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
   std::vector<std::pair<std::string, double>> stageTimesMs();
@@ -99,6 +106,7 @@ class Context {
   cl::CommandQueue queue_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
   std::vector<std::pair<std::string, cl::Event>> events_;
+  std::map<std::string, std::pair<std::size_t, cl::Buffer>> scratch_;  // role -> (bytes, buffer)
 };
 
 // Converts a cl::Error into a penumbra::Error with `what` in the message.
