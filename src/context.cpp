@@ -114,6 +114,13 @@ std::vector<DeviceInfo> listDevices() {
   return out;
 }
 
+Context::~Context() {
+  try {
+    if (queue_()) queue_.finish();
+  } catch (...) {  // a destructor must not throw; a failed device has nothing left to wait for
+  }
+}
+
 Context::Context(const std::string& selectorIn) {
   std::string selector = selectorIn;
   if (selector.empty()) {

@@ -1,5 +1,6 @@
 // Shared fixtures for the test suite: one OpenCL context for the whole binary, data paths.
 #pragma once
+#include <gtest/gtest.h>
 #include <penumbra/penumbra.hpp>
 
 #include <cmath>
@@ -9,8 +10,25 @@ namespace penumbra::test {
 
 // Never destroyed: under oclgrind a Context released during static destruction (after LLVM's
 // own static state is gone) corrupts the heap and aborts the run.
+// Drains the shared queue once every test has run, before main returns: a test whose last call
+// leaves kernels queued would otherwise have PoCL compile them during the process's static
+// teardown, after LLVM's own statics are gone, and abort (seen with Scan.BadInputThrows run alone).
+// Registered when the context is made (GoogleTest tears environments down in reverse at the end
+// of the run, also those added while it runs).
+class DrainQueueAtEnd : public ::testing::Environment {
+ public:
+  explicit DrainQueueAtEnd(Context* c) : c_(c) {}
+  void TearDown() override { c_->queue().finish(); }
+
+ private:
+  Context* c_;
+};
 inline Context& ctx() {
-  static Context* c = new Context;
+  static Context* c = [] {
+    Context* made = new Context;
+    ::testing::AddGlobalTestEnvironment(new DrainQueueAtEnd(made));
+    return made;
+  }();
   return *c;
 }
 

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
@@ -25,10 +26,7 @@ using penumbra::ErrorKind;
 using penumbra::ScanTuning;
 using penumbra::ScanType;
 
-Context& ctx() {
-  static Context* c = new Context;  // one device and program cache for the whole suite
-  return *c;
-}
+using penumbra::test::ctx;  // the suite's one context (tests/common.hpp)
 
 int lanes(ScanType t) { return t == ScanType::Float4 || t == ScanType::Long4 ? 4 : 1; }
 

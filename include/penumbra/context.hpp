@@ -49,6 +49,11 @@ class Context {
   // selector: "" uses $PENUMBRA_DEVICE if set, else device 0. Otherwise an index into
   // listDevices() or a case-insensitive substring of the device or platform name.
   explicit Context(const std::string& selector = "");
+  // Waits for the work still queued: a program that ends right after its last enqueue must not
+  // leave PoCL compiling or running kernels while the process tears its libraries down.
+  ~Context();
+  Context(const Context&) = default;
+  Context& operator=(const Context&) = default;
 
   const DeviceInfo& info() const { return info_; }
   cl::Context& context() { return context_; }
