@@ -11,114 +11,153 @@
 // columns: int 1, int sin, int cos, with the map's rotation in them), and the texel contributes
 // L_t max(0, n.m_t): exact whenever the texel lies wholly on one side of n's horizon (the clamped
 // cosine is then linear over it), a second-order error in the texel's size for the few texels the
-// horizon cuts. Summed over every texel per normal that is W x H work per table texel; instead
-// irradiance_cells reduces the map once into cells of CW x CH texels, each with its RGB first
-// moment M1 = sum L_t m_t and a cap that bounds it. For n and a cell wholly above n's horizon the
-// cell's sum is exactly n.M1 (every term is positive), wholly below it is 0, and only the cells
-// the horizon crosses (a great circle's worth) are summed texel by texel.
+// horizon cuts.
+//
+// Summed texel by texel that is W x H work per table normal. But along one map row the sign of
+// n.m_t has a closed form: with theta_n, phi_n the normal's angles, rho = sin(theta_n), T1 = int
+// sin^2 and T2 = int cos sin over the row's theta, and dphi = 2 pi / W,
+//   n.m_t = rho T1 2 sin(dphi / 2) cos(phi_t - phi_n) + cos(theta_n) T2 dphi   (phi_t: its centre)
+// (the column integrals of sin and cos combine into int cos(phi - phi_n) = 2 sin(dphi/2)
+// cos(phi_t - phi_n)), so the texels with n.m_t > 0 are one run of columns centred on phi_n,
+// of half-width acos(tau) with tau = -cos(theta_n) T2 dphi / (rho T1 2 sin(dphi / 2)), the same
+// for every normal of a table row. The run's sum of L_t m_t is a difference of two prefix sums
+// along the row, so a normal costs O(H), not O(W H), and the result is the same definition: every
+// texel with n.m_t > 0 counted whole, the others not (a texel whose n.m_t is within float rounding
+// of 0 may fall on either side; it adds ~1e-7 of its own |L_t m_t|).
+//
+// Kernels, in order: irradiance_prefix (per map row, the running sums of L_t m_t in world column
+// order, compensated so that each stored prefix is the correctly rounded float of the exact one),
+// irradiance_halfwidth (per table row and map row, the run's half-width in columns),
+// irradiance_bands (per table normal and band of map rows, the band's sum), irradiance_table (per
+// normal, the bands in order minus the lights). Every sum runs in a fixed order: reproducible bit
+// for bit, and a map turned by whole columns gives the same table as the map with its columns
+// shifted (world column order: the same numbers summed in the same order).
 #include "shared.h"
 
-// Cell record: 4 float4 per cell: the first moment of R, G, B (xyz each), then the bounding cap:
-// axis xyz, w = sin of its radius (2 when the radius is >= 90 degrees: the cell always straddles).
-#define CELL_RECORD 4
+// Compensated sums rely on each addition being rounded on its own.
+#pragma OPENCL FP_CONTRACT OFF
 
-// Texel (r, c)'s first moment from the row and column integrals (kernels/sh.cl's tables):
-// x = sin(theta) sin(phi), y = cos(theta), z = -sin(theta) cos(phi) (pb_equirect_dir), and
-// dw = sin(theta) dtheta dphi, so int x dw = int sin^2 * int sin, and so on.
-static float3 texel_moment(float8 T, float8 P) {
-  return (float3)(T.s1 * P.s1, T.s2 * P.s0, -T.s1 * P.s2);
-}
+// 9 prefix channels per entry: RGB x the moment's xyz.
+#define PREFIX_CHANNELS 9
 
-// One work-item per cell of the map's CW x CH texels (cells at the right and bottom edges hold
-// what is left). `shift`: the map's rotation in columns (Environment::rotationColumns): map column
-// c starts at world column pb_env_world_column(c), and a cell's columns are contiguous in world
-// longitude (modulo the width, which directions do not see).
-kernel void irradiance_cells(global const float* equirect, int W, int H, int CW, int CH,
-                             int cellsX, int cellsY, global const float8* rows,
-                             global const float8* cols, float shift, global float4* cells) {
+// One work-item per (map row, channel): prefix[(r (W + 1) + w) 9 + ch] = sum over world columns
+// < w of L_t m_t (channel ch = rgb * 3 + axis). World column w is map column w + floor(shift)
+// (modulo W; pb_env_world_column): cols[] already holds each map column's world integrals. The
+// running sum is Neumaier's (compensated): the stored prefixes then differ from the exact ones by
+// half a float ulp each, and a run's sum loses at most an ulp of the prefixes at its two ends.
+kernel void irradiance_prefix(global const float* equirect, int W, int H, int whole,
+                              global const float8* rows, global const float8* cols,
+                              global float* prefix) {
   const int id = get_global_id(0);
-  if (id >= cellsX * cellsY) return;
-  const int cy = id / cellsX, cx = id - cy * cellsX;
-  const int r0 = cy * CH, r1 = min(r0 + CH, H), c0 = cx * CW, c1 = min(c0 + CW, W);
-  float3 mr = (float3)(0.0f), mg = (float3)(0.0f), mb = (float3)(0.0f);
-  for (int r = r0; r < r1; ++r) {
-    const float8 T = rows[r];
-    for (int c = c0; c < c1; ++c) {
-      const float3 m = texel_moment(T, cols[c]);
-      const float3 L = vload3((size_t)r * W + c, equirect);
-      mr += L.x * m;
-      mg += L.y * m;
-      mb += L.z * m;
-    }
+  if (id >= H * PREFIX_CHANNELS) return;
+  const int r = id / PREFIX_CHANNELS, ch = id - r * PREFIX_CHANNELS;
+  const int rgb = ch / 3, axis = ch - 3 * rgb;
+  const float8 T = rows[r];
+  global float* out = prefix + (size_t)r * (W + 1) * PREFIX_CHANNELS + ch;
+  float s = 0.0f, comp = 0.0f;
+  out[0] = 0.0f;
+  int c = whole;
+  for (int w = 0; w < W; ++w) {
+    const float8 P = cols[c];
+    // texel moment: x = int sin^2 * int sin, y = int cos sin * int 1, z = -int sin^2 * int cos
+    // (pb_equirect_dir: x = sin(theta) sin(phi), y = cos(theta), z = -sin(theta) cos(phi))
+    const float m = axis == 0 ? T.s1 * P.s1 : (axis == 1 ? T.s2 * P.s0 : -T.s1 * P.s2);
+    const float x = equirect[((size_t)r * W + c) * 3 + rgb] * m;
+    const float t = s + x;
+    comp += fabs(s) >= fabs(x) ? (s - t) + x : (x - t) + s;
+    s = t;
+    out[(size_t)(w + 1) * PREFIX_CHANNELS] = s + comp;
+    if (++c == W) c = 0;
   }
-  // Bounding cap about the direction at the cell's centre. The cell is the lat-long rectangle
-  // [theta0, theta1] x [phi0, phi1]; while it spans at most 90 degrees of longitude its farthest
-  // point from that centre is one of its corners (along a parallel the distance grows with the
-  // longitude difference; along a meridian the distance has no interior maximum inside [0, pi]).
-  // Wider cells (maps narrower than 4 cells) are always summed texel by texel.
-  const float ws = pb_env_world_column(c0, shift, W), nc = (float)(c1 - c0);
-  float ax, ay, az;
-  pb_equirect_dir(ws + 0.5f * nc, 0.5f * (float)(r0 + r1), (float)W, (float)H, &ax, &ay, &az);
-  float sinr = 2.0f;
-  if (4.0f * nc <= (float)W) {
-    float cmin = 1.0f;
-    for (int k = 0; k < 4; ++k) {
-      float x, y, z;
-      pb_equirect_dir(ws + ((k & 1) ? nc : 0.0f), (float)((k & 2) ? r1 : r0), (float)W, (float)H,
-                      &x, &y, &z);
-      cmin = fmin(cmin, ax * x + ay * y + az * z);
-    }
-    // 1e-4: float rounding of the directions; a cell taken whole a hair too early adds only its
-    // terms with n.w ~ -1e-4, a cell summed per texel costs time, not accuracy.
-    if (cmin > 0.0f) sinr = fmin(1.0f, sqrt(fmax(0.0f, 1.0f - cmin * cmin)) + 1e-4f);
-  }
-  global float4* out = cells + (size_t)id * CELL_RECORD;
-  out[0] = (float4)(mr, 0.0f);
-  out[1] = (float4)(mg, 0.0f);
-  out[2] = (float4)(mb, 0.0f);
-  out[3] = (float4)(ax, ay, az, sinr);
 }
 
-// One work-group per table texel: its work-items stride over the cells (and the texels of the
-// cells n's horizon crosses), then over the lights, and reduce in local memory (3 floats per
-// work-item; local size a power of two). lights: 2 float4 per light, (direction, cos alpha) and
-// (radiance, vertex count: 0 for a cap); polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's
-// layout). table: TW x TH x RGB. The cells are visited in world order: world cell column x is map
-// cell column x + cell_shift (the rotation in whole cells, 0 unless it is one), so a map turned by
-// whole cells sums exactly the same numbers in the same order as the map with its columns shifted,
-// and gives the same table bit for bit (tests/test_animation.cpp renders both).
-kernel void irradiance_table(global const float4* cells, int cellsX, int cellsY, int cell_shift,
-                             global const float* equirect, int W, int H, int CW, int CH,
-                             global const float8* rows, global const float8* cols,
-                             global const float4* lights, int nlights, global const float4* polys,
-                             int TW, int TH, local float* scratch, global float* table) {
-  const int j = get_group_id(0), lid = get_local_id(0), wg = get_local_size(0);
-  if (j >= TW * TH) return;  // uniform per work-group
+// One work-item per (table row j, map row r): the half-width, in columns, of the run of texels of
+// row r with n.m_t > 0 for the normals of table row j (header), -1 for none, W for all. chord =
+// 2 sin(pi / W), dphi = 2 pi / W (the host's doubles, so that W = 1 gives chord ~0, not a
+// negative float sin(pi)).
+kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW, int TH,
+                                 float chord, float dphi, global float* halfwidth) {
+  const int id = get_global_id(0);
+  if (id >= H * TH) return;
+  const int j = id / H, r = id - j * H;
   float nx, ny, nz;
-  pb_ambient_map_normal(j % TW, j / TW, TW, TH, &nx, &ny, &nz);
-  const float3 n = (float3)(nx, ny, nz);
-  float3 acc = (float3)(0.0f);
-  const int ncells = cellsX * cellsY;
-  for (int kw = lid; kw < ncells; kw += wg) {
-    const int cy = kw / cellsX, wx = kw - cy * cellsX;
-    const int cx = wx + cell_shift >= cellsX ? wx + cell_shift - cellsX : wx + cell_shift;
-    global const float4* cell = cells + ((size_t)cy * cellsX + cx) * CELL_RECORD;
-    const float4 cap = cell[3];
-    const float d = dot(n, cap.xyz);
-    if (d >= cap.w) {
-      acc += (float3)(dot(n, cell[0].xyz), dot(n, cell[1].xyz), dot(n, cell[2].xyz));
-    } else if (d > -cap.w) {
-      const int r0 = cy * CH, r1 = min(r0 + CH, H), c0 = cx * CW, c1 = min(c0 + CW, W);
-      for (int r = r0; r < r1; ++r) {
-        const float8 T = rows[r];
-        for (int c = c0; c < c1; ++c) {
-          const float e = dot(n, texel_moment(T, cols[c]));
-          if (e > 0.0f) acc += e * vload3((size_t)r * W + c, equirect);
-        }
-      }
+  pb_ambient_map_normal(0, j, TW, TH, &nx, &ny, &nz);
+  const float rho = sqrt(nx * nx + nz * nz);
+  const float8 T = rows[r];
+  // n.m_t > 0  <=>  den cos(phi_t - phi_n) > num, den >= 0
+  const float num = -ny * T.s2 * dphi, den = rho * T.s1 * chord;
+  float hw;
+  if (!(den > 0.0f)) {
+    hw = num < 0.0f ? (float)W : -1.0f;
+  } else {
+    const float tau = num / den;
+    hw = tau >= 1.0f ? -1.0f
+                     : (tau < -1.0f ? (float)W : acos(tau) * (float)W / 6.28318530717958647692f);
+  }
+  halfwidth[id] = hw;
+}
+
+// One work-item per (band b of `band` map rows, table normal o): global id b * TW * TH + o, so
+// that neighbouring work-items read the same rows. partial[(b TW TH + o) 3 + rgb] = n . (sum over
+// the band's rows of the run's sum of L_t m_t). frac: the fractional part of the map's rotation in
+// columns (world column w covers world longitude [w - frac, w - frac + 1) columns).
+kernel void irradiance_bands(global const float* prefix, int W, int H, float frac,
+                             global const float* halfwidth, int TW, int TH, int band,
+                             global float* partial) {
+  const int N = TW * TH;
+  const int id = get_global_id(0);
+  const int b = id / N, o = id - b * N;
+  if (b * band >= H) return;
+  const int j = o / TW, i = o - j * TW;
+  float nx, ny, nz;
+  pb_ambient_map_normal(i, j, TW, TH, &nx, &ny, &nz);
+  // the normal's longitude in world columns (pb_equirect_dir at column i + 0.5 of TW), less the
+  // centre of world column 0 (at 0.5 - frac): texel w is in the run when |w - x| < half-width
+  const float x = ((float)i + 0.5f) / (float)TW * (float)W - 0.5f + frac;
+  float acc[PREFIX_CHANNELS];
+  for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] = 0.0f;
+  const int r1 = min(H, (b + 1) * band);
+  for (int r = b * band; r < r1; ++r) {
+    const float hw = halfwidth[(size_t)j * H + r];
+    int lo = (int)floor(x - hw) + 1;
+    const int count = (int)ceil(x + hw) - lo;  // world columns lo .. lo + count - 1
+    if (count <= 0) continue;
+    global const float* row = prefix + (size_t)r * (W + 1) * PREFIX_CHANNELS;
+    global const float* pend = row + (size_t)W * PREFIX_CHANNELS;
+    if (count >= W) {
+      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += pend[k];
+      continue;
+    }
+    lo %= W;
+    if (lo < 0) lo += W;
+    const int hi = lo + count;
+    global const float* plo = row + (size_t)lo * PREFIX_CHANNELS;
+    if (hi <= W) {
+      global const float* phi = row + (size_t)hi * PREFIX_CHANNELS;
+      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += phi[k] - plo[k];
+    } else {  // the run wraps past world column W - 1
+      global const float* phi = row + (size_t)(hi - W) * PREFIX_CHANNELS;
+      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += (pend[k] - plo[k]) + phi[k];
     }
   }
-  for (int l = lid; l < nlights; l += wg) {
+  global float* out = partial + (size_t)id * 3;
+  for (int c = 0; c < 3; ++c) out[c] = nx * acc[3 * c] + ny * acc[3 * c + 1] + nz * acc[3 * c + 2];
+}
+
+// One work-item per table normal: the bands' partial sums in order, minus each light's irradiance.
+// lights: 2 float4 per light, (direction, cos alpha) and (radiance, vertex count: 0 for a cap);
+// polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's layout). table: TW x TH x RGB.
+kernel void irradiance_table(global const float* partial, int bands, global const float4* lights,
+                             int nlights, global const float4* polys, int TW, int TH,
+                             global float* table) {
+  const int N = TW * TH;
+  const int o = get_global_id(0);
+  if (o >= N) return;
+  float nx, ny, nz;
+  pb_ambient_map_normal(o % TW, o / TW, TW, TH, &nx, &ny, &nz);
+  float3 acc = (float3)(0.0f);
+  for (int b = 0; b < bands; ++b) acc += vload3((size_t)b * N + o, partial);
+  for (int l = 0; l < nlights; ++l) {
     const float4 dir = lights[2 * l], rad = lights[2 * l + 1];
     const int nv = (int)rad.w;
     float e;
@@ -126,26 +165,16 @@ kernel void irradiance_table(global const float4* cells, int cellsX, int cellsY,
       global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
       float v[3 * PB_MAX_POLY_VERTS];
       const int m = min(nv, PB_MAX_POLY_VERTS);
-      for (int i = 0; i < m; ++i) {
-        v[3 * i] = pv[i].x;
-        v[3 * i + 1] = pv[i].y;
-        v[3 * i + 2] = pv[i].z;
+      for (int k = 0; k < m; ++k) {
+        v[3 * k] = pv[k].x;
+        v[3 * k + 1] = pv[k].y;
+        v[3 * k + 2] = pv[k].z;
       }
       e = pb_polygon_irradiance(v, m, nx, ny, nz);
     } else {
-      e = pb_cap_irradiance(dir.w, dot(n, dir.xyz));
+      e = pb_cap_irradiance(dir.w, nx * dir.x + ny * dir.y + nz * dir.z);
     }
     acc -= e * rad.xyz;
   }
-  scratch[3 * lid] = acc.x;
-  scratch[3 * lid + 1] = acc.y;
-  scratch[3 * lid + 2] = acc.z;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int s = wg / 2; s > 0; s >>= 1) {
-    if (lid < s)
-      for (int c = 0; c < 3; ++c) scratch[3 * lid + c] += scratch[3 * (lid + s) + c];
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
-  if (lid == 0)
-    for (int c = 0; c < 3; ++c) table[3 * (size_t)j + c] = scratch[c];
+  vstore3(acc, o, table);
 }
