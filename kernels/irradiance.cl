@@ -37,36 +37,42 @@
 // Compensated sums rely on each addition being rounded on its own.
 #pragma OPENCL FP_CONTRACT OFF
 
-// 9 prefix channels per entry: RGB x the moment's xyz.
-#define PREFIX_CHANNELS 9
+// Prefix entry: 3 float4, the R, G and B sums of L_t m_t (xyz; w unused, 0).
+#define PREFIX_ENTRY 3
 
-// One work-item per (map row, channel): prefix[(r (W + 1) + w) 9 + ch] = sum over world columns
-// < w of L_t m_t (channel ch = rgb * 3 + axis). World column w is map column w + floor(shift)
-// (modulo W; pb_env_world_column): cols[] already holds each map column's world integrals. The
-// running sum is Neumaier's (compensated): the stored prefixes then differ from the exact ones by
-// half a float ulp each, and a run's sum loses at most an ulp of the prefixes at its two ends.
+// Neumaier's compensated step: *s + *comp is the running sum to about half an ulp; returns it.
+static float4 neumaier(float4* s, float4* comp, float4 x) {
+  const float4 t = *s + x;
+  *comp += select((x - t) + *s, (*s - t) + x, isgreaterequal(fabs(*s), fabs(x)));
+  *s = t;
+  return t + *comp;
+}
+
+// One work-item per map row: prefix[(r (W + 1) + w) 3 + rgb] = sum over world columns < w of
+// L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
+// holds each map column's world integrals. The running sums are Neumaier's (compensated): each
+// stored prefix then differs from the exact one by about half a float ulp, and a run's sum loses
+// at most an ulp of the prefixes at its two ends.
 kernel void irradiance_prefix(global const float* equirect, int W, int H, int whole,
                               global const float8* rows, global const float8* cols,
-                              global float* prefix) {
-  const int id = get_global_id(0);
-  if (id >= H * PREFIX_CHANNELS) return;
-  const int r = id / PREFIX_CHANNELS, ch = id - r * PREFIX_CHANNELS;
-  const int rgb = ch / 3, axis = ch - 3 * rgb;
+                              global float4* prefix) {
+  const int r = get_global_id(0);
+  if (r >= H) return;
   const float8 T = rows[r];
-  global float* out = prefix + (size_t)r * (W + 1) * PREFIX_CHANNELS + ch;
-  float s = 0.0f, comp = 0.0f;
-  out[0] = 0.0f;
+  global float4* out = prefix + (size_t)r * (W + 1) * PREFIX_ENTRY;
+  float4 sr = (float4)(0.0f), sg = sr, sb = sr, cr = sr, cg = sr, cb = sr;
+  out[0] = out[1] = out[2] = sr;
   int c = whole;
   for (int w = 0; w < W; ++w) {
     const float8 P = cols[c];
     // texel moment: x = int sin^2 * int sin, y = int cos sin * int 1, z = -int sin^2 * int cos
     // (pb_equirect_dir: x = sin(theta) sin(phi), y = cos(theta), z = -sin(theta) cos(phi))
-    const float m = axis == 0 ? T.s1 * P.s1 : (axis == 1 ? T.s2 * P.s0 : -T.s1 * P.s2);
-    const float x = equirect[((size_t)r * W + c) * 3 + rgb] * m;
-    const float t = s + x;
-    comp += fabs(s) >= fabs(x) ? (s - t) + x : (x - t) + s;
-    s = t;
-    out[(size_t)(w + 1) * PREFIX_CHANNELS] = s + comp;
+    const float4 m = (float4)(T.s1 * P.s1, T.s2 * P.s0, -T.s1 * P.s2, 0.0f);
+    const float3 L = vload3((size_t)r * W + c, equirect);
+    global float4* o = out + (size_t)(w + 1) * PREFIX_ENTRY;
+    o[0] = neumaier(&sr, &cr, L.x * m);
+    o[1] = neumaier(&sg, &cg, L.y * m);
+    o[2] = neumaier(&sb, &cb, L.z * m);
     if (++c == W) c = 0;
   }
 }
@@ -97,16 +103,25 @@ kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW
   halfwidth[id] = hw;
 }
 
-// One work-item per (band b of `band` map rows, table normal o): global id b * TW * TH + o, so
-// that neighbouring work-items read the same rows. partial[(b TW TH + o) 3 + rgb] = n . (sum over
-// the band's rows of the run's sum of L_t m_t). frac: the fractional part of the map's rotation in
-// columns (world column w covers world longitude [w - frac, w - frac + 1) columns).
-kernel void irradiance_bands(global const float* prefix, int W, int H, float frac,
+// One work-item per (band b of `band` map rows, table normal o): global id b * R + o, R = the
+// normals computed (below), so that neighbouring work-items read the same rows. partial[(b TW TH +
+// o) 3 + rgb] = n . (sum over the band's rows of the run's sum of L_t m_t). frac: the fractional
+// part of the map's rotation in columns (world column w covers longitude [w - frac, w - frac + 1)
+// in columns).
+//
+// When TW is even every table normal's antipode is one too: (i + TW/2 mod TW, TH - 1 - j) (nodes
+// symmetric in latitude, centres in longitude). The texels with (-n).m_t > 0 are those with
+// n.m_t < 0, the complement of n's run in each row, so with the row's total M_r the antipode's sum
+// is n'.(M_r - run) (n' its own float normal; a texel with n.m_t = 0 adds 0 either way). Then only
+// the first half of the table, o < TW TH / 2 (R = TW TH / 2), is computed, each work-item writing
+// its normal's and its antipode's band sums; otherwise R = TW TH.
+kernel void irradiance_bands(global const float4* prefix, int W, int H, float frac,
                              global const float* halfwidth, int TW, int TH, int band,
                              global float* partial) {
   const int N = TW * TH;
+  const int pairs = (TW & 1) == 0, R = pairs ? N / 2 : N;
   const int id = get_global_id(0);
-  const int b = id / N, o = id - b * N;
+  const int b = id / R, o = id - b * R;
   if (b * band >= H) return;
   const int j = o / TW, i = o - j * TW;
   float nx, ny, nz;
@@ -114,34 +129,52 @@ kernel void irradiance_bands(global const float* prefix, int W, int H, float fra
   // the normal's longitude in world columns (pb_equirect_dir at column i + 0.5 of TW), less the
   // centre of world column 0 (at 0.5 - frac): texel w is in the run when |w - x| < half-width
   const float x = ((float)i + 0.5f) / (float)TW * (float)W - 0.5f + frac;
-  float acc[PREFIX_CHANNELS];
-  for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] = 0.0f;
+  // runs' sums (s) and rows' totals (m), R, G, B
+  float4 sr = (float4)(0.0f), sg = sr, sb = sr, mr = sr, mg = sr, mb = sr;
   const int r1 = min(H, (b + 1) * band);
   for (int r = b * band; r < r1; ++r) {
     const float hw = halfwidth[(size_t)j * H + r];
+    global const float4* row = prefix + (size_t)r * (W + 1) * PREFIX_ENTRY;
+    global const float4* pend = row + (size_t)W * PREFIX_ENTRY;
+    const float4 er = pend[0], eg = pend[1], eb = pend[2];
+    mr += er;
+    mg += eg;
+    mb += eb;
     int lo = (int)floor(x - hw) + 1;
     const int count = (int)ceil(x + hw) - lo;  // world columns lo .. lo + count - 1
     if (count <= 0) continue;
-    global const float* row = prefix + (size_t)r * (W + 1) * PREFIX_CHANNELS;
-    global const float* pend = row + (size_t)W * PREFIX_CHANNELS;
     if (count >= W) {
-      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += pend[k];
+      sr += er;
+      sg += eg;
+      sb += eb;
       continue;
     }
-    lo %= W;
+    // x is in [-0.5, W), hw in [0, W / 2]: lo is in [-W / 2, 3 W / 2)
     if (lo < 0) lo += W;
+    else if (lo >= W) lo -= W;
     const int hi = lo + count;
-    global const float* plo = row + (size_t)lo * PREFIX_CHANNELS;
+    global const float4* plo = row + (size_t)lo * PREFIX_ENTRY;
     if (hi <= W) {
-      global const float* phi = row + (size_t)hi * PREFIX_CHANNELS;
-      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += phi[k] - plo[k];
+      global const float4* phi = row + (size_t)hi * PREFIX_ENTRY;
+      sr += phi[0] - plo[0];
+      sg += phi[1] - plo[1];
+      sb += phi[2] - plo[2];
     } else {  // the run wraps past world column W - 1
-      global const float* phi = row + (size_t)(hi - W) * PREFIX_CHANNELS;
-      for (int k = 0; k < PREFIX_CHANNELS; ++k) acc[k] += (pend[k] - plo[k]) + phi[k];
+      global const float4* phi = row + (size_t)(hi - W) * PREFIX_ENTRY;
+      sr += (er - plo[0]) + phi[0];
+      sg += (eg - plo[1]) + phi[1];
+      sb += (eb - plo[2]) + phi[2];
     }
   }
-  global float* out = partial + (size_t)id * 3;
-  for (int c = 0; c < 3; ++c) out[c] = nx * acc[3 * c] + ny * acc[3 * c + 1] + nz * acc[3 * c + 2];
+  const float4 n = (float4)(nx, ny, nz, 0.0f);
+  vstore3((float3)(dot(n, sr), dot(n, sg), dot(n, sb)), (size_t)b * N + o, partial);
+  if (pairs) {
+    const int ja = TH - 1 - j, ia = i < TW / 2 ? i + TW / 2 : i - TW / 2;
+    pb_ambient_map_normal(ia, ja, TW, TH, &nx, &ny, &nz);
+    const float4 na = (float4)(nx, ny, nz, 0.0f);
+    vstore3((float3)(dot(na, mr - sr), dot(na, mg - sg), dot(na, mb - sb)),
+            (size_t)b * N + (size_t)ja * TW + ia, partial);
+  }
 }
 
 // One work-item per table normal: the bands' partial sums in order, minus each light's irradiance.

@@ -28,12 +28,11 @@ constexpr int kCoeffs = 9;
 // reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
 constexpr std::size_t kTexelsPerItem = 16;
 constexpr std::size_t kMaxGroups = 1024;
-// Irradiance map (kernels/irradiance.cl): 9 running sums per map texel (RGB x xyz moment), and
-// the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of prefixes, 8 x
-// 37 KB, stays in cache while every normal reads it), at most kMaxPartials normal x band sums
-// (12 MB) however large the table.
-constexpr int kPrefixChannels = 9;
-constexpr std::size_t kBandRows = 8;
+// Irradiance map (kernels/irradiance.cl): running sums per map texel (RGB x xyz moment, 3
+// float4), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
+// prefixes, 8 x 49 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
+// band sums (12 MB) however large the table.
+constexpr std::size_t kBandRows = 32;
 constexpr std::size_t kMaxPartials = std::size_t(1) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
@@ -138,7 +137,7 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   // The rotation's whole and fractional columns as pb_env_world_column splits them.
   const float wholeF = std::floor(shift), frac = shift - wholeF;
   const int whole = ((int(wholeF) % W) + W) % W;
-  cl::Buffer prefixB = ctx.buffer(std::size_t(H) * (W + 1) * kPrefixChannels * sizeof(cl_float),
+  cl::Buffer prefixB = ctx.buffer(std::size_t(H) * (W + 1) * 3 * sizeof(cl_float4),
                                   "ambient map row prefix sums");
   {
     cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_prefix");
@@ -149,7 +148,7 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     k.setArg(4, m.rows);
     k.setArg(5, m.cols);
     k.setArg(6, prefixB);
-    ctx.launch("ambient/map-prefix", k, cl::NDRange(std::size_t(H) * kPrefixChannels));
+    ctx.launch("ambient/map-prefix", k, cl::NDRange(std::size_t(H)));
   }
   cl::Buffer hwB = ctx.buffer(std::size_t(H) * TH * sizeof(cl_float), "ambient map run widths");
   {
@@ -183,7 +182,9 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     k.setArg(6, cl_int(TH));
     k.setArg(7, cl_int(bandRows));
     k.setArg(8, partB);
-    ctx.launch("ambient/map-bands", k, cl::NDRange(std::size_t(usedBands) * N));
+    // TW even: each work-item also writes its normal's antipode (irradiance_bands)
+    const std::size_t computed = TW % 2 == 0 ? N / 2 : N;
+    ctx.launch("ambient/map-bands", k, cl::NDRange(std::size_t(usedBands) * computed));
   }
   // Lights as shade.cl reads them: (direction, cos alpha), (radiance, polygon vertex count).
   const int nl = int(lights.size());
