@@ -77,18 +77,27 @@ kernel void irradiance_prefix(global const float* equirect, int W, int H, int wh
   }
 }
 
+// One work-item per table normal: pb_ambient_map_normal once (w = 0), for the kernels below.
+kernel void irradiance_normals(int TW, int TH, global float4* normals) {
+  const int o = get_global_id(0);
+  if (o >= TW * TH) return;
+  float nx, ny, nz;
+  pb_ambient_map_normal(o % TW, o / TW, TW, TH, &nx, &ny, &nz);
+  normals[o] = (float4)(nx, ny, nz, 0.0f);
+}
+
 // One work-item per (table row j, map row r): the half-width, in columns, of the run of texels of
 // row r with n.m_t > 0 for the normals of table row j (header), -1 for none, W for all. chord =
 // 2 sin(pi / W), dphi = 2 pi / W (the host's doubles, so that W = 1 gives chord ~0, not a
 // negative float sin(pi)).
 kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW, int TH,
-                                 float chord, float dphi, global float* halfwidth) {
+                                 global const float4* normals, float chord, float dphi,
+                                 global float* halfwidth) {
   const int id = get_global_id(0);
   if (id >= H * TH) return;
   const int j = id / H, r = id - j * H;
-  float nx, ny, nz;
-  pb_ambient_map_normal(0, j, TW, TH, &nx, &ny, &nz);
-  const float rho = sqrt(nx * nx + nz * nz);
+  const float4 nj = normals[(size_t)j * TW];
+  const float ny = nj.y, rho = sqrt(nj.x * nj.x + nj.z * nj.z);
   const float8 T = rows[r];
   // n.m_t > 0  <=>  den cos(phi_t - phi_n) > num, den >= 0
   const float num = -ny * T.s2 * dphi, den = rho * T.s1 * chord;
@@ -116,16 +125,14 @@ kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW
 // the first half of the table, o < TW TH / 2 (R = TW TH / 2), is computed, each work-item writing
 // its normal's and its antipode's band sums; otherwise R = TW TH.
 kernel void irradiance_bands(global const float4* prefix, int W, int H, float frac,
-                             global const float* halfwidth, int TW, int TH, int band,
-                             global float* partial) {
+                             global const float* halfwidth, global const float4* normals, int TW,
+                             int TH, int band, global float* partial) {
   const int N = TW * TH;
   const int pairs = (TW & 1) == 0, R = pairs ? N / 2 : N;
   const int id = get_global_id(0);
   const int b = id / R, o = id - b * R;
   if (b * band >= H) return;
   const int j = o / TW, i = o - j * TW;
-  float nx, ny, nz;
-  pb_ambient_map_normal(i, j, TW, TH, &nx, &ny, &nz);
   // the normal's longitude in world columns (pb_equirect_dir at column i + 0.5 of TW), less the
   // centre of world column 0 (at 0.5 - frac): texel w is in the run when |w - x| < half-width
   const float x = ((float)i + 0.5f) / (float)TW * (float)W - 0.5f + frac;
@@ -166,28 +173,27 @@ kernel void irradiance_bands(global const float4* prefix, int W, int H, float fr
       sb += (eb - plo[2]) + phi[2];
     }
   }
-  const float4 n = (float4)(nx, ny, nz, 0.0f);
+  const float4 n = normals[o];
   vstore3((float3)(dot(n, sr), dot(n, sg), dot(n, sb)), (size_t)b * N + o, partial);
   if (pairs) {
-    const int ja = TH - 1 - j, ia = i < TW / 2 ? i + TW / 2 : i - TW / 2;
-    pb_ambient_map_normal(ia, ja, TW, TH, &nx, &ny, &nz);
-    const float4 na = (float4)(nx, ny, nz, 0.0f);
-    vstore3((float3)(dot(na, mr - sr), dot(na, mg - sg), dot(na, mb - sb)),
-            (size_t)b * N + (size_t)ja * TW + ia, partial);
+    const int oa = (TH - 1 - j) * TW + (i < TW / 2 ? i + TW / 2 : i - TW / 2);
+    const float4 na = normals[oa];
+    vstore3((float3)(dot(na, mr - sr), dot(na, mg - sg), dot(na, mb - sb)), (size_t)b * N + oa,
+            partial);
   }
 }
 
 // One work-item per table normal: the bands' partial sums in order, minus each light's irradiance.
 // lights: 2 float4 per light, (direction, cos alpha) and (radiance, vertex count: 0 for a cap);
 // polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's layout). table: TW x TH x RGB.
-kernel void irradiance_table(global const float* partial, int bands, global const float4* lights,
-                             int nlights, global const float4* polys, int TW, int TH,
-                             global float* table) {
+kernel void irradiance_table(global const float* partial, int bands, global const float4* normals,
+                             global const float4* lights, int nlights, global const float4* polys,
+                             int TW, int TH, global float* table) {
   const int N = TW * TH;
   const int o = get_global_id(0);
   if (o >= N) return;
-  float nx, ny, nz;
-  pb_ambient_map_normal(o % TW, o / TW, TW, TH, &nx, &ny, &nz);
+  const float4 n = normals[o];
+  const float nx = n.x, ny = n.y, nz = n.z;
   float3 acc = (float3)(0.0f);
   for (int b = 0; b < bands; ++b) acc += vload3((size_t)b * N + o, partial);
   for (int l = 0; l < nlights; ++l) {

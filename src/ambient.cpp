@@ -32,7 +32,7 @@ constexpr std::size_t kMaxGroups = 1024;
 // float4), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
 // prefixes, 8 x 49 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
 // band sums (12 MB) however large the table.
-constexpr std::size_t kBandRows = 32;
+constexpr std::size_t kBandRows = 8;
 constexpr std::size_t kMaxPartials = std::size_t(1) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
@@ -150,6 +150,14 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     k.setArg(6, prefixB);
     ctx.launch("ambient/map-prefix", k, cl::NDRange(std::size_t(H)));
   }
+  cl::Buffer normalB = ctx.buffer(N * sizeof(cl_float4), "ambient map normals");
+  {
+    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_normals");
+    k.setArg(0, cl_int(TW));
+    k.setArg(1, cl_int(TH));
+    k.setArg(2, normalB);
+    ctx.launch("ambient/map-normals", k, cl::NDRange(N));
+  }
   cl::Buffer hwB = ctx.buffer(std::size_t(H) * TH * sizeof(cl_float), "ambient map run widths");
   {
     cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_halfwidth");
@@ -158,9 +166,10 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     k.setArg(2, m.rows);
     k.setArg(3, cl_int(TW));
     k.setArg(4, cl_int(TH));
-    k.setArg(5, cl_float(2.0 * std::sin(kPi / W)));
-    k.setArg(6, cl_float(2.0 * kPi / W));
-    k.setArg(7, hwB);
+    k.setArg(5, normalB);
+    k.setArg(6, cl_float(2.0 * std::sin(kPi / W)));
+    k.setArg(7, cl_float(2.0 * kPi / W));
+    k.setArg(8, hwB);
     ctx.launch("ambient/map-widths", k, cl::NDRange(std::size_t(H) * TH));
   }
   // Bands of kBandRows map rows, fewer (taller bands) when the table is so large that the partial
@@ -178,10 +187,11 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     k.setArg(2, cl_int(H));
     k.setArg(3, cl_float(frac));
     k.setArg(4, hwB);
-    k.setArg(5, cl_int(TW));
-    k.setArg(6, cl_int(TH));
-    k.setArg(7, cl_int(bandRows));
-    k.setArg(8, partB);
+    k.setArg(5, normalB);
+    k.setArg(6, cl_int(TW));
+    k.setArg(7, cl_int(TH));
+    k.setArg(8, cl_int(bandRows));
+    k.setArg(9, partB);
     // TW even: each work-item also writes its normal's antipode (irradiance_bands)
     const std::size_t computed = TW % 2 == 0 ? N / 2 : N;
     ctx.launch("ambient/map-bands", k, cl::NDRange(std::size_t(usedBands) * computed));
@@ -212,12 +222,13 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_table");
   k.setArg(0, partB);
   k.setArg(1, cl_int(usedBands));
-  k.setArg(2, lightB);
-  k.setArg(3, cl_int(nl));
-  k.setArg(4, polyB);
-  k.setArg(5, cl_int(TW));
-  k.setArg(6, cl_int(TH));
-  k.setArg(7, tableB);
+  k.setArg(2, normalB);
+  k.setArg(3, lightB);
+  k.setArg(4, cl_int(nl));
+  k.setArg(5, polyB);
+  k.setArg(6, cl_int(TW));
+  k.setArg(7, cl_int(TH));
+  k.setArg(8, tableB);
   ctx.launch("ambient/map-table", k, cl::NDRange(N));
   out.rgb = ctx.download<cl_float>(tableB, N * 3, "ambient irradiance map");
   return out;

@@ -522,8 +522,8 @@ double lumOf(const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LU
 }  // namespace
 
 TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
-  // Maps: 1x1 (a constant sphere), one row, one column, odd sizes, one with more rows than a band
-  // (257x129: 5 bands of 32 rows, the last one partial), a rotated one. Tables of odd width
+  // Maps: 1x1 (a constant sphere), one row, one column, odd sizes, one with many bands of rows
+  // (257x129: 17 bands of 8 rows, the last one partial), a rotated one. Tables of odd width
   // (every normal's runs summed): 1x1, 1x3 (one column: the three nodes pole, equator, pole),
   // 5x3, 67x33 (more texels than a work-group); of even width (half of them summed, the other
   // half as their antipodes): 2x1 (one row: the equator, both halves), 4x3 (an odd middle row
