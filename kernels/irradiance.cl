@@ -22,19 +22,27 @@
 // of half-width acos(tau) with tau = -cos(theta_n) T2 dphi / (rho T1 2 sin(dphi / 2)), the same
 // for every normal of a table row. The run's sum of L_t m_t is a difference of two prefix sums
 // along the row, so a normal costs O(H), not O(W H), and the result is the same definition: every
-// texel with n.m_t > 0 counted whole, the others not (a texel whose n.m_t is within float rounding
-// of 0 may fall on either side; it adds ~1e-7 of its own |L_t m_t|).
+// texel with n.m_t > 0 counted whole, the others not. Only a texel whose centre lies within float
+// rounding of the run's computed ends (a few 1e-7 of a column's angle, or of tau near +-1) may
+// fall on the other side, and its n.m_t is then within a few 1e-7 of 0 relative to |m_t|; the
+// kernel-vs-texel-by-texel tests (tests/test_ambient.cpp AmbientMap.MatchesHostReference*) bound
+// the whole difference at 2e-6 of the map's scale. A table of even width holds every normal's
+// antipode, whose texels are the complement of the normal's (irradiance_bands): half the normals
+// are summed.
 //
 // Kernels, in order: irradiance_prefix (per map row, the running sums of L_t m_t in world column
 // order, compensated so that each stored prefix is the correctly rounded float of the exact one),
-// irradiance_halfwidth (per table row and map row, the run's half-width in columns),
-// irradiance_bands (per table normal and band of map rows, the band's sum), irradiance_table (per
-// normal, the bands in order minus the lights). Every sum runs in a fixed order: reproducible bit
-// for bit, and a map turned by whole columns gives the same table as the map with its columns
-// shifted (world column order: the same numbers summed in the same order).
+// irradiance_normals, irradiance_halfwidth (per table row and map row, the run's half-width in
+// columns), irradiance_bands (per table normal and band of map rows, the band's sum),
+// irradiance_table (per normal, the bands in order minus the lights). Every sum runs in a fixed
+// order: reproducible bit for bit, and a map turned by whole columns gives the same table as the
+// map with its columns shifted (world column order: the same numbers summed in the same order).
+// Work per extraction: W H (prefixes) + TW TH H / 2 (runs) + TW TH lights, against the
+// TW TH W H of summing every texel for every normal.
 #include "shared.h"
 
-// Compensated sums rely on each addition being rounded on its own.
+// Compensated sums rely on each addition being rounded on its own (back on after
+// irradiance_prefix).
 #pragma OPENCL FP_CONTRACT OFF
 
 // Prefix entry: 3 float4, the R, G and B sums of L_t m_t (xyz; w unused, 0).
@@ -76,6 +84,8 @@ kernel void irradiance_prefix(global const float* equirect, int W, int H, int wh
     if (++c == W) c = 0;
   }
 }
+
+#pragma OPENCL FP_CONTRACT ON
 
 // One work-item per table normal: pb_ambient_map_normal once (w = 0), for the kernels below.
 kernel void irradiance_normals(int TW, int TH, global float4* normals) {
@@ -156,7 +166,7 @@ kernel void irradiance_bands(global const float4* prefix, int W, int H, float fr
       sb += eb;
       continue;
     }
-    // x is in [-0.5, W), hw in [0, W / 2]: lo is in [-W / 2, 3 W / 2)
+    // x is in [-0.5, W + 0.5), hw in [0, W / 2]: lo is in [-W / 2, 3 W / 2)
     if (lo < 0) lo += W;
     else if (lo >= W) lo -= W;
     const int hi = lo + count;
