@@ -56,18 +56,19 @@ static float4 neumaier(float4* s, float4* comp, float4 x) {
   return t + *comp;
 }
 
-// One work-item per map row: prefix[(r (W + 1) + w) 3 + rgb] = sum over world columns < w of
-// L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
+// One work-item per map row r = r0 + k of a chunk of nrows rows: prefix[(k (W + 1) + w) 3 + rgb]
+// = sum over world columns < w of L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
 // holds each map column's world integrals. The running sums are Neumaier's (compensated): each
 // stored prefix then differs from the exact one by about half a float ulp, and a run's sum loses
 // at most an ulp of the prefixes at its two ends.
-kernel void irradiance_prefix(global const float* equirect, int W, int H, int whole,
-                              global const float8* rows, global const float8* cols,
-                              global float4* prefix) {
-  const int r = get_global_id(0);
-  if (r >= H) return;
+kernel void irradiance_prefix(global const float* equirect, int W, int whole,
+                              global const float8* rows, global const float8* cols, int r0,
+                              int nrows, global float4* prefix) {
+  const int k = get_global_id(0);
+  if (k >= nrows) return;
+  const int r = r0 + k;
   const float8 T = rows[r];
-  global float4* out = prefix + (size_t)r * (W + 1) * PREFIX_ENTRY;
+  global float4* out = prefix + (size_t)k * (W + 1) * PREFIX_ENTRY;
   float4 sr = (float4)(0.0f), sg = sr, sb = sr, cr = sr, cg = sr, cb = sr;
   out[0] = out[1] = out[2] = sr;
   int c = whole;
@@ -122,8 +123,9 @@ kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW
   halfwidth[id] = hw;
 }
 
-// One work-item per (band b of `band` map rows, table normal o): global id b * R + o, R = the
-// normals computed (below), so that neighbouring work-items read the same rows. partial[(b TW TH +
+// One work-item per (band b of `band` map rows, table normal o), for the nb bands from b0 whose
+// rows' prefixes are in `prefix` (the host's chunk): global id (b - b0) R + o, R = the normals
+// computed (below), so that neighbouring work-items read the same rows. partial[(b TW TH +
 // o) 3 + rgb] = n . (sum over the band's rows of the run's sum of L_t m_t). frac: the fractional
 // part of the map's rotation in columns (world column w covers longitude [w - frac, w - frac + 1)
 // in columns).
@@ -136,12 +138,13 @@ kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW
 // its normal's and its antipode's band sums; otherwise R = TW TH.
 kernel void irradiance_bands(global const float4* prefix, int W, int H, float frac,
                              global const float* halfwidth, global const float4* normals, int TW,
-                             int TH, int band, global float* partial) {
+                             int TH, int band, int b0, int nb, global float* partial) {
   const int N = TW * TH;
   const int pairs = (TW & 1) == 0, R = pairs ? N / 2 : N;
   const int id = get_global_id(0);
-  const int b = id / R, o = id - b * R;
-  if (b * band >= H) return;
+  const int bl = id / R, o = id - bl * R;
+  if (bl >= nb) return;
+  const int b = b0 + bl;  // prefix holds the chunk of rows from b0 band
   const int j = o / TW, i = o - j * TW;
   // the normal's longitude in world columns (pb_equirect_dir at column i + 0.5 of TW), less the
   // centre of world column 0 (at 0.5 - frac): texel w is in the run when |w - x| < half-width
@@ -151,7 +154,7 @@ kernel void irradiance_bands(global const float4* prefix, int W, int H, float fr
   const int r1 = min(H, (b + 1) * band);
   for (int r = b * band; r < r1; ++r) {
     const float hw = halfwidth[(size_t)j * H + r];
-    global const float4* row = prefix + (size_t)r * (W + 1) * PREFIX_ENTRY;
+    global const float4* row = prefix + (size_t)(r - b0 * band) * (W + 1) * PREFIX_ENTRY;
     global const float4* pend = row + (size_t)W * PREFIX_ENTRY;
     const float4 er = pend[0], eg = pend[1], eb = pend[2];
     mr += er;

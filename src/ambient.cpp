@@ -34,6 +34,9 @@ constexpr std::size_t kMaxGroups = 1024;
 // band sums (12 MB) however large the table.
 constexpr std::size_t kBandRows = 8;
 constexpr std::size_t kMaxPartials = std::size_t(1) << 20;
+// Row prefixes held at once (a chunk of bands): 64 MiB, a 1024x512 map's 25 MB in one chunk, a
+// 16384-wide map's in chunks of 80 rows.
+constexpr std::size_t kMaxPrefixBytes = std::size_t(64) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
 
@@ -137,19 +140,6 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   // The rotation's whole and fractional columns as pb_env_world_column splits them.
   const float wholeF = std::floor(shift), frac = shift - wholeF;
   const int whole = ((int(wholeF) % W) + W) % W;
-  cl::Buffer prefixB = ctx.buffer(std::size_t(H) * (W + 1) * 3 * sizeof(cl_float4),
-                                  "ambient map row prefix sums");
-  {
-    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_prefix");
-    k.setArg(0, m.eq);
-    k.setArg(1, cl_int(W));
-    k.setArg(2, cl_int(H));
-    k.setArg(3, cl_int(whole));
-    k.setArg(4, m.rows);
-    k.setArg(5, m.cols);
-    k.setArg(6, prefixB);
-    ctx.launch("ambient/map-prefix", k, cl::NDRange(std::size_t(H)));
-  }
   cl::Buffer normalB = ctx.buffer(N * sizeof(cl_float4), "ambient map normals");
   {
     cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_normals");
@@ -180,21 +170,42 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   const int usedBands = (H + bandRows - 1) / bandRows;
   cl::Buffer partB = ctx.buffer(std::size_t(usedBands) * N * 3 * sizeof(cl_float),
                                 "ambient map band sums");
-  {
-    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_bands");
-    k.setArg(0, prefixB);
-    k.setArg(1, cl_int(W));
-    k.setArg(2, cl_int(H));
-    k.setArg(3, cl_float(frac));
-    k.setArg(4, hwB);
-    k.setArg(5, normalB);
-    k.setArg(6, cl_int(TW));
-    k.setArg(7, cl_int(TH));
-    k.setArg(8, cl_int(bandRows));
-    k.setArg(9, partB);
-    // TW even: each work-item also writes its normal's antipode (irradiance_bands)
-    const std::size_t computed = TW % 2 == 0 ? N / 2 : N;
-    ctx.launch("ambient/map-bands", k, cl::NDRange(std::size_t(usedBands) * computed));
+  // The rows' prefixes in chunks of whole bands within kMaxPrefixBytes (one band at least): a
+  // 1024-wide map's rows all fit in one.
+  const std::size_t rowBytes = std::size_t(W + 1) * 3 * sizeof(cl_float4);
+  const int chunkBands = int(std::clamp<std::size_t>(
+      kMaxPrefixBytes / (rowBytes * std::size_t(bandRows)), 1, std::size_t(usedBands)));
+  const int chunkRows = std::min(H, chunkBands * bandRows);
+  cl::Buffer prefixB = ctx.buffer(std::size_t(chunkRows) * rowBytes, "ambient map row prefix sums");
+  cl::Kernel kp = ctx.kernel("irradiance.cl", "irradiance_prefix");
+  cl::Kernel kb = ctx.kernel("irradiance.cl", "irradiance_bands");
+  // TW even: each work-item also writes its normal's antipode (irradiance_bands)
+  const std::size_t computed = TW % 2 == 0 ? N / 2 : N;
+  for (int b0 = 0; b0 < usedBands; b0 += chunkBands) {
+    const int r0 = b0 * bandRows, nrows = std::min(H - r0, chunkRows);
+    const int nb = std::min(chunkBands, usedBands - b0);
+    kp.setArg(0, m.eq);
+    kp.setArg(1, cl_int(W));
+    kp.setArg(2, cl_int(whole));
+    kp.setArg(3, m.rows);
+    kp.setArg(4, m.cols);
+    kp.setArg(5, cl_int(r0));
+    kp.setArg(6, cl_int(nrows));
+    kp.setArg(7, prefixB);
+    ctx.launch("ambient/map-prefix", kp, cl::NDRange(std::size_t(nrows)));
+    kb.setArg(0, prefixB);
+    kb.setArg(1, cl_int(W));
+    kb.setArg(2, cl_int(H));
+    kb.setArg(3, cl_float(frac));
+    kb.setArg(4, hwB);
+    kb.setArg(5, normalB);
+    kb.setArg(6, cl_int(TW));
+    kb.setArg(7, cl_int(TH));
+    kb.setArg(8, cl_int(bandRows));
+    kb.setArg(9, cl_int(b0));
+    kb.setArg(10, cl_int(nb));
+    kb.setArg(11, partB);
+    ctx.launch("ambient/map-bands", kb, cl::NDRange(std::size_t(nb) * computed));
   }
   // Lights as shade.cl reads them: (direction, cos alpha), (radiance, polygon vertex count).
   const int nl = int(lights.size());

@@ -548,6 +548,15 @@ TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
               worst);
 }
 
+TEST(AmbientMap, MatchesHostReferenceOnAMapWiderThanThePrefixChunk) {
+  // 65536 x 64: a row's prefixes take 3 MB, so the 64 MiB of prefixes held at once (src/
+  // ambient.cpp kMaxPrefixBytes) are 2 bands of 8 rows: 4 chunks, each a prefix and a bands launch.
+  Environment env = synthetic(65536, 64, 5);
+  double worst = std::max(expectMapMatchesHost(env, 4, 3, "65536x64 map, 4x3 table"),
+                          expectMapMatchesHost(env, 5, 3, "65536x64 map, 5x3 table"));
+  std::printf("[ measured ] 65536x64 map in chunks: worst |error| / scale %.2g\n", worst);
+}
+
 TEST(AmbientMap, MatchesHostReferenceOnARealMap) {
   // A real map (1024x512), turned by a fraction of a column, on an even table (antipodes).
   Environment env = loadEnvironment(data(kMaps[0]));
