@@ -45,43 +45,45 @@
 // irradiance_prefix).
 #pragma OPENCL FP_CONTRACT OFF
 
-// Prefix entry: 3 float4, the R, G and B sums of L_t m_t (xyz; w unused, 0).
+// Prefix entry: 3 float3 (9 floats, vload3/vstore3), the R, G and B sums of L_t m_t (xyz).
 #define PREFIX_ENTRY 3
 
 // Neumaier's compensated step: *s + *comp is the running sum to about half an ulp; returns it.
-static float4 neumaier(float4* s, float4* comp, float4 x) {
-  const float4 t = *s + x;
+static float3 neumaier(float3* s, float3* comp, float3 x) {
+  const float3 t = *s + x;
   *comp += select((x - t) + *s, (*s - t) + x, isgreaterequal(fabs(*s), fabs(x)));
   *s = t;
   return t + *comp;
 }
 
-// One work-item per map row r = r0 + k of a chunk of nrows rows: prefix[(k (W + 1) + w) 3 + rgb]
-// = sum over world columns < w of L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
+// One work-item per map row r = r0 + k of a chunk of nrows rows: float3 (k (W + 1) + w) 3 + rgb
+// of prefix = sum over world columns < w of L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
 // holds each map column's world integrals. The running sums are Neumaier's (compensated): each
 // stored prefix then differs from the exact one by about half a float ulp, and a run's sum loses
 // at most an ulp of the prefixes at its two ends.
 kernel void irradiance_prefix(global const float* equirect, int W, int whole,
                               global const float8* rows, global const float8* cols, int r0,
-                              int nrows, global float4* prefix) {
+                              int nrows, global float* prefix) {
   const int k = get_global_id(0);
   if (k >= nrows) return;
   const int r = r0 + k;
   const float8 T = rows[r];
-  global float4* out = prefix + (size_t)k * (W + 1) * PREFIX_ENTRY;
-  float4 sr = (float4)(0.0f), sg = sr, sb = sr, cr = sr, cg = sr, cb = sr;
-  out[0] = out[1] = out[2] = sr;
+  global float* out = prefix + (size_t)k * (W + 1) * PREFIX_ENTRY * 3;
+  float3 sr = (float3)(0.0f), sg = sr, sb = sr, cr = sr, cg = sr, cb = sr;
+  vstore3(sr, 0, out);
+  vstore3(sr, 1, out);
+  vstore3(sr, 2, out);
   int c = whole;
   for (int w = 0; w < W; ++w) {
     const float8 P = cols[c];
     // texel moment: x = int sin^2 * int sin, y = int cos sin * int 1, z = -int sin^2 * int cos
     // (pb_equirect_dir: x = sin(theta) sin(phi), y = cos(theta), z = -sin(theta) cos(phi))
-    const float4 m = (float4)(T.s1 * P.s1, T.s2 * P.s0, -T.s1 * P.s2, 0.0f);
+    const float3 m = (float3)(T.s1 * P.s1, T.s2 * P.s0, -T.s1 * P.s2);
     const float3 L = vload3((size_t)r * W + c, equirect);
-    global float4* o = out + (size_t)(w + 1) * PREFIX_ENTRY;
-    o[0] = neumaier(&sr, &cr, L.x * m);
-    o[1] = neumaier(&sg, &cg, L.y * m);
-    o[2] = neumaier(&sb, &cb, L.z * m);
+    const size_t e = (size_t)(w + 1) * PREFIX_ENTRY;
+    vstore3(neumaier(&sr, &cr, L.x * m), e, out);
+    vstore3(neumaier(&sg, &cg, L.y * m), e + 1, out);
+    vstore3(neumaier(&sb, &cb, L.z * m), e + 2, out);
     if (++c == W) c = 0;
   }
 }
@@ -136,7 +138,7 @@ kernel void irradiance_halfwidth(int W, int H, global const float8* rows, int TW
 // is n'.(M_r - run) (n' its own float normal; a texel with n.m_t = 0 adds 0 either way). Then only
 // the first half of the table, o < TW TH / 2 (R = TW TH / 2), is computed, each work-item writing
 // its normal's and its antipode's band sums; otherwise R = TW TH.
-kernel void irradiance_bands(global const float4* prefix, int W, int H, float frac,
+kernel void irradiance_bands(global const float* prefix, int W, int H, float frac,
                              global const float* halfwidth, global const float4* normals, int TW,
                              int TH, int band, int b0, int nb, global float* partial) {
   const int N = TW * TH;
@@ -150,13 +152,15 @@ kernel void irradiance_bands(global const float4* prefix, int W, int H, float fr
   // centre of world column 0 (at 0.5 - frac): texel w is in the run when |w - x| < half-width
   const float x = ((float)i + 0.5f) / (float)TW * (float)W - 0.5f + frac;
   // runs' sums (s) and rows' totals (m), R, G, B
-  float4 sr = (float4)(0.0f), sg = sr, sb = sr, mr = sr, mg = sr, mb = sr;
+  float3 sr = (float3)(0.0f), sg = sr, sb = sr, mr = sr, mg = sr, mb = sr;
   const int r1 = min(H, (b + 1) * band);
   for (int r = b * band; r < r1; ++r) {
     const float hw = halfwidth[(size_t)j * H + r];
-    global const float4* row = prefix + (size_t)(r - b0 * band) * (W + 1) * PREFIX_ENTRY;
-    global const float4* pend = row + (size_t)W * PREFIX_ENTRY;
-    const float4 er = pend[0], eg = pend[1], eb = pend[2];
+    // entries (3 float3 each) of this row
+    const size_t row = (size_t)(r - b0 * band) * (W + 1) * PREFIX_ENTRY;
+    const size_t pend = row + (size_t)W * PREFIX_ENTRY;
+    const float3 er = vload3(pend, prefix), eg = vload3(pend + 1, prefix),
+                 eb = vload3(pend + 2, prefix);
     mr += er;
     mg += eg;
     mb += eb;
@@ -173,24 +177,24 @@ kernel void irradiance_bands(global const float4* prefix, int W, int H, float fr
     if (lo < 0) lo += W;
     else if (lo >= W) lo -= W;
     const int hi = lo + count;
-    global const float4* plo = row + (size_t)lo * PREFIX_ENTRY;
+    const size_t plo = row + (size_t)lo * PREFIX_ENTRY;
     if (hi <= W) {
-      global const float4* phi = row + (size_t)hi * PREFIX_ENTRY;
-      sr += phi[0] - plo[0];
-      sg += phi[1] - plo[1];
-      sb += phi[2] - plo[2];
+      const size_t phi = row + (size_t)hi * PREFIX_ENTRY;
+      sr += vload3(phi, prefix) - vload3(plo, prefix);
+      sg += vload3(phi + 1, prefix) - vload3(plo + 1, prefix);
+      sb += vload3(phi + 2, prefix) - vload3(plo + 2, prefix);
     } else {  // the run wraps past world column W - 1
-      global const float4* phi = row + (size_t)(hi - W) * PREFIX_ENTRY;
-      sr += (er - plo[0]) + phi[0];
-      sg += (eg - plo[1]) + phi[1];
-      sb += (eb - plo[2]) + phi[2];
+      const size_t phi = row + (size_t)(hi - W) * PREFIX_ENTRY;
+      sr += (er - vload3(plo, prefix)) + vload3(phi, prefix);
+      sg += (eg - vload3(plo + 1, prefix)) + vload3(phi + 1, prefix);
+      sb += (eb - vload3(plo + 2, prefix)) + vload3(phi + 2, prefix);
     }
   }
-  const float4 n = normals[o];
+  const float3 n = normals[o].xyz;
   vstore3((float3)(dot(n, sr), dot(n, sg), dot(n, sb)), (size_t)b * N + o, partial);
   if (pairs) {
     const int oa = (TH - 1 - j) * TW + (i < TW / 2 ? i + TW / 2 : i - TW / 2);
-    const float4 na = normals[oa];
+    const float3 na = normals[oa].xyz;
     vstore3((float3)(dot(na, mr - sr), dot(na, mg - sg), dot(na, mb - sb)), (size_t)b * N + oa,
             partial);
   }

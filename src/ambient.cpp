@@ -28,14 +28,15 @@ constexpr int kCoeffs = 9;
 // reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
 constexpr std::size_t kTexelsPerItem = 16;
 constexpr std::size_t kMaxGroups = 1024;
-// Irradiance map (kernels/irradiance.cl): running sums per map texel (RGB x xyz moment, 3
-// float4), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
-// prefixes, 8 x 49 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
+// Irradiance map (kernels/irradiance.cl): running sums per map texel (RGB x xyz moment, 9
+// floats), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
+// prefixes, 8 x 37 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
 // band sums (12 MB) however large the table.
 constexpr std::size_t kBandRows = 8;
 constexpr std::size_t kMaxPartials = std::size_t(1) << 20;
-// Row prefixes held at once (a chunk of bands): 64 MiB, a 1024x512 map's 25 MB in one chunk, a
-// 16384-wide map's in chunks of 80 rows.
+// Row prefixes held at once (a chunk of bands): 64 MiB, a 1024x512 map's 19 MB in one chunk, a
+// 16384-wide map's in chunks of 112 rows. (Smaller chunks, measured at 4 and 12 MiB, are no
+// faster: more launches, and the bands' reads hit the cache no more often.)
 constexpr std::size_t kMaxPrefixBytes = std::size_t(64) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
@@ -172,7 +173,7 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
                                 "ambient map band sums");
   // The rows' prefixes in chunks of whole bands within kMaxPrefixBytes (one band at least): a
   // 1024-wide map's rows all fit in one.
-  const std::size_t rowBytes = std::size_t(W + 1) * 3 * sizeof(cl_float4);
+  const std::size_t rowBytes = std::size_t(W + 1) * 9 * sizeof(cl_float);
   const int chunkBands = int(std::clamp<std::size_t>(
       kMaxPrefixBytes / (rowBytes * std::size_t(bandRows)), 1, std::size_t(usedBands)));
   const int chunkRows = std::min(H, chunkBands * bandRows);

@@ -549,8 +549,9 @@ TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
 }
 
 TEST(AmbientMap, MatchesHostReferenceOnAMapWiderThanThePrefixChunk) {
-  // 65536 x 64: a row's prefixes take 3 MB, so the 64 MiB of prefixes held at once (src/
-  // ambient.cpp kMaxPrefixBytes) are 2 bands of 8 rows: 4 chunks, each a prefix and a bands launch.
+  // 65536 x 64: a row's prefixes take 2.4 MB, so the 64 MiB of prefixes held at once (src/
+  // ambient.cpp kMaxPrefixBytes) are 3 bands of 8 rows: 3 chunks (the last of 2 bands), each a
+  // prefix and a bands launch.
   Environment env = synthetic(65536, 64, 5);
   double worst = std::max(expectMapMatchesHost(env, 4, 3, "65536x64 map, 4x3 table"),
                           expectMapMatchesHost(env, 5, 3, "65536x64 map, 5x3 table"));
