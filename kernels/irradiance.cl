@@ -34,11 +34,11 @@
 // order, compensated so that each stored prefix is the correctly rounded float of the exact one),
 // irradiance_normals, irradiance_halfwidth (per table row and map row, the run's half-width in
 // columns), irradiance_bands (per table normal and band of map rows, the band's sum),
-// irradiance_table (per normal, the bands in order minus the lights). Every sum runs in a fixed
-// order: reproducible bit for bit, and a map turned by whole columns gives the same table as the
-// map with its columns shifted (world column order: the same numbers summed in the same order).
-// Work per extraction: W H (prefixes) + TW TH H / 2 (runs) + TW TH lights, against the
-// TW TH W H of summing every texel for every normal.
+// irradiance_table (per normal, or pair of antipodes, the bands in order minus the lights). Every
+// sum runs in a fixed order: reproducible bit for bit, and a map turned by whole columns gives the
+// same table as the map with its columns shifted (world column order: the same numbers summed in
+// the same order). Work per extraction: W H (prefixes) + TW TH H / 2 (runs) + TW TH lights,
+// against the TW TH W H of summing every texel for every normal.
 #include "shared.h"
 
 // Compensated sums rely on each addition being rounded on its own (back on after
@@ -200,37 +200,65 @@ kernel void irradiance_bands(global const float* prefix, int W, int H, float fra
   }
 }
 
-// One work-item per table normal: the bands' partial sums in order, minus each light's irradiance.
-// lights: 2 float4 per light, (direction, cos alpha) and (radiance, vertex count: 0 for a cap);
-// polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's layout). table: TW x TH x RGB.
+// Light l's irradiance at unit normal n (shade.cl's formulas); *moment: for a cap, pi sin^2(alpha)
+// (its unclamped first moment's length, below), -1 for a polygon.
+static float light_irradiance(global const float4* lights, global const float4* polys, int l,
+                              float3 n, float* moment) {
+  const float4 dir = lights[2 * l], rad = lights[2 * l + 1];
+  const int nv = (int)rad.w;
+  if (nv >= 3) {
+    global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
+    float v[3 * PB_MAX_POLY_VERTS];
+    const int m = min(nv, PB_MAX_POLY_VERTS);
+    for (int k = 0; k < m; ++k) {
+      v[3 * k] = pv[k].x;
+      v[3 * k + 1] = pv[k].y;
+      v[3 * k + 2] = pv[k].z;
+    }
+    *moment = -1.0f;
+    return pb_polygon_irradiance(v, m, n.x, n.y, n.z);
+  }
+  *moment = 3.14159265358979323846f * fmax(0.0f, 1.0f - dir.w * dir.w);
+  return pb_cap_irradiance(dir.w, n.x * dir.x + n.y * dir.y + n.z * dir.z);
+}
+
+// One work-item per table normal (per pair of antipodes when TW is even, as irradiance_bands): the
+// bands' partial sums in order, minus each light's irradiance. For a cap the antipode's needs no
+// second evaluation: max(0, x) - max(0, -x) = x, so E(n) - E(-n) = integral over the cap of n.w =
+// pi sin^2(alpha) (n.d) exactly (n' = -n up to float rounding of the two normals, a few 1e-7 of
+// the cap's irradiance). lights: 2 float4 per light, (direction, cos alpha) and (radiance, vertex
+// count: 0 for a cap); polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's layout). table: TW x
+// TH x RGB.
 kernel void irradiance_table(global const float* partial, int bands, global const float4* normals,
                              global const float4* lights, int nlights, global const float4* polys,
                              int TW, int TH, global float* table) {
   const int N = TW * TH;
+  const int pairs = (TW & 1) == 0, R = pairs ? N / 2 : N;
   const int o = get_global_id(0);
-  if (o >= N) return;
-  const float4 n = normals[o];
-  const float nx = n.x, ny = n.y, nz = n.z;
-  float3 acc = (float3)(0.0f);
-  for (int b = 0; b < bands; ++b) acc += vload3((size_t)b * N + o, partial);
+  if (o >= R) return;
+  const int j = o / TW, i = o - j * TW;
+  const int oa = pairs ? (TH - 1 - j) * TW + (i < TW / 2 ? i + TW / 2 : i - TW / 2) : o;
+  const float3 n = normals[o].xyz, na = normals[oa].xyz;
+  float3 acc = (float3)(0.0f), acca = acc;
+  for (int b = 0; b < bands; ++b) {
+    acc += vload3((size_t)b * N + o, partial);
+    acca += vload3((size_t)b * N + oa, partial);
+  }
   for (int l = 0; l < nlights; ++l) {
-    const float4 dir = lights[2 * l], rad = lights[2 * l + 1];
-    const int nv = (int)rad.w;
-    float e;
-    if (nv >= 3) {
-      global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
-      float v[3 * PB_MAX_POLY_VERTS];
-      const int m = min(nv, PB_MAX_POLY_VERTS);
-      for (int k = 0; k < m; ++k) {
-        v[3 * k] = pv[k].x;
-        v[3 * k + 1] = pv[k].y;
-        v[3 * k + 2] = pv[k].z;
-      }
-      e = pb_polygon_irradiance(v, m, nx, ny, nz);
+    const float3 rad = lights[2 * l + 1].xyz;
+    float moment;
+    const float e = light_irradiance(lights, polys, l, n, &moment);
+    acc -= e * rad;
+    if (!pairs) continue;
+    float ea;
+    if (moment >= 0.0f) {
+      const float4 dir = lights[2 * l];
+      ea = fmax(0.0f, e + moment * (na.x * dir.x + na.y * dir.y + na.z * dir.z));
     } else {
-      e = pb_cap_irradiance(dir.w, nx * dir.x + ny * dir.y + nz * dir.z);
+      ea = light_irradiance(lights, polys, l, na, &moment);
     }
-    acc -= e * rad.xyz;
+    acca -= ea * rad;
   }
   vstore3(acc, o, table);
+  if (pairs) vstore3(acca, oa, table);
 }

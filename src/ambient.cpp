@@ -241,7 +241,7 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   k.setArg(6, cl_int(TW));
   k.setArg(7, cl_int(TH));
   k.setArg(8, tableB);
-  ctx.launch("ambient/map-table", k, cl::NDRange(N));
+  ctx.launch("ambient/map-table", k, cl::NDRange(computed));  // pairs of antipodes, as the bands
   out.rgb = ctx.download<cl_float>(tableB, N * 3, "ambient irradiance map");
   return out;
 }
