@@ -28,10 +28,16 @@ constexpr int kCoeffs = 9;
 // reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
 constexpr std::size_t kTexelsPerItem = 16;
 constexpr std::size_t kMaxGroups = 1024;
-// Irradiance map: cells of 8 x 8 map texels (a 1024 x 512 map gives 8192 cells, and a normal's
-// horizon crosses a few hundred of them), and 64 work-items per table normal.
-constexpr int kCellTexels = 8;
-constexpr std::size_t kTableGroup = 64;
+// Irradiance map (kernels/irradiance.cl): running sums per map texel (RGB x xyz moment, 9
+// floats), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
+// prefixes, 8 x 37 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
+// band sums (12 MB) however large the table.
+constexpr std::size_t kBandRows = 8;
+constexpr std::size_t kMaxPartials = std::size_t(1) << 20;
+// Row prefixes held at once (a chunk of bands): 64 MiB, a 1024x512 map's 19 MB in one chunk, a
+// 16384-wide map's in chunks of 112 rows. (Smaller chunks, measured at 4 and 12 MiB, are no
+// faster: more launches, and the bands' reads hit the cache no more often.)
+constexpr std::size_t kMaxPrefixBytes = std::size_t(64) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
 
@@ -57,9 +63,14 @@ void shTables(int W, int H, double shift, std::vector<cl_float8>& rows,
     };
     for (int k = 0; k < 6; ++k) rows[r].s[k] = float(v[k]);
   }
+  const double whole = std::floor(shift), frac = shift - whole;
   for (int c = 0; c < W; ++c) {
-    // phi = (s / W - 0.5) 2 pi at world column s, as pb_equirect_dir
-    const double s0 = double(c) - shift;
+    // phi = (s / W - 0.5) 2 pi at world column s, as pb_equirect_dir; s0 wrapped into
+    // [-frac, W - frac) as pb_env_world_column does, so that a turn by whole columns gives each
+    // world column the very same floats (kernels/irradiance.cl sums them in world order)
+    int w = (c - int(whole)) % W;
+    if (w < 0) w += W;
+    const double s0 = double(w) - frac;
     const double p = (s0 / W - 0.5) * 2 * kPi, q = ((s0 + 1) / W - 0.5) * 2 * kPi;
     const double sp = std::sin(p), sq = std::sin(q);
     const double v[6] = {
@@ -120,28 +131,82 @@ SH9 projectMap(Context& ctx, const DeviceMap& m) {
   return sh;
 }
 
-// The residual's irradiance table on the device (kernels/irradiance.cl): the map reduced into
-// cells of kCellTexels^2 texels, then one work-group per table normal.
+// The residual's irradiance table on the device (kernels/irradiance.cl): the map's running sums
+// of L_t m_t along each row, the runs' half-widths per table row, the sums per band of map rows,
+// then per normal the bands in order minus the lights.
 AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
                          const std::vector<AreaLight>& lights, int TW, int TH) {
-  const int cellsX = (m.W + kCellTexels - 1) / kCellTexels;
-  const int cellsY = (m.H + kCellTexels - 1) / kCellTexels;
-  const std::size_t ncells = std::size_t(cellsX) * cellsY;
-  cl::Buffer cellB = ctx.buffer(ncells * 4 * sizeof(cl_float4), "ambient map cells");
+  const int W = m.W, H = m.H;
+  const std::size_t N = std::size_t(TW) * TH;
+  // The rotation's whole and fractional columns as pb_env_world_column splits them.
+  const float wholeF = std::floor(shift), frac = shift - wholeF;
+  const int whole = ((int(wholeF) % W) + W) % W;
+  cl::Buffer normalB = ctx.buffer(N * sizeof(cl_float4), "ambient map normals");
   {
-    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_cells");
-    k.setArg(0, m.eq);
-    k.setArg(1, cl_int(m.W));
-    k.setArg(2, cl_int(m.H));
-    k.setArg(3, cl_int(kCellTexels));
-    k.setArg(4, cl_int(kCellTexels));
-    k.setArg(5, cl_int(cellsX));
-    k.setArg(6, cl_int(cellsY));
-    k.setArg(7, m.rows);
-    k.setArg(8, m.cols);
-    k.setArg(9, cl_float(shift));
-    k.setArg(10, cellB);
-    ctx.launch("ambient/map-cells", k, cl::NDRange(ncells));
+    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_normals");
+    k.setArg(0, cl_int(TW));
+    k.setArg(1, cl_int(TH));
+    k.setArg(2, normalB);
+    ctx.launch("ambient/map-normals", k, cl::NDRange(N));
+  }
+  cl::Buffer hwB = ctx.buffer(std::size_t(H) * TH * sizeof(cl_float), "ambient map run widths");
+  {
+    cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_halfwidth");
+    k.setArg(0, cl_int(W));
+    k.setArg(1, cl_int(H));
+    k.setArg(2, m.rows);
+    k.setArg(3, cl_int(TW));
+    k.setArg(4, cl_int(TH));
+    k.setArg(5, normalB);
+    k.setArg(6, cl_float(2.0 * std::sin(kPi / W)));
+    k.setArg(7, cl_float(2.0 * kPi / W));
+    k.setArg(8, hwB);
+    ctx.launch("ambient/map-widths", k, cl::NDRange(std::size_t(H) * TH));
+  }
+  // Bands of kBandRows map rows, fewer (taller bands) when the table is so large that the partial
+  // sums would pass kMaxPartials normals x bands.
+  const int bands = int(std::clamp<std::size_t>(
+      std::min<std::size_t>((H + kBandRows - 1) / kBandRows, kMaxPartials / N), 1, H));
+  const int bandRows = (H + bands - 1) / bands;
+  const int usedBands = (H + bandRows - 1) / bandRows;
+  cl::Buffer partB = ctx.buffer(std::size_t(usedBands) * N * 3 * sizeof(cl_float),
+                                "ambient map band sums");
+  // The rows' prefixes in chunks of whole bands within kMaxPrefixBytes (one band at least): a
+  // 1024-wide map's rows all fit in one.
+  const std::size_t rowBytes = std::size_t(W + 1) * 9 * sizeof(cl_float);
+  const int chunkBands = int(std::clamp<std::size_t>(
+      kMaxPrefixBytes / (rowBytes * std::size_t(bandRows)), 1, std::size_t(usedBands)));
+  const int chunkRows = std::min(H, chunkBands * bandRows);
+  cl::Buffer prefixB = ctx.buffer(std::size_t(chunkRows) * rowBytes, "ambient map row prefix sums");
+  cl::Kernel kp = ctx.kernel("irradiance.cl", "irradiance_prefix");
+  cl::Kernel kb = ctx.kernel("irradiance.cl", "irradiance_bands");
+  // TW even: each work-item also writes its normal's antipode (irradiance_bands)
+  const std::size_t computed = TW % 2 == 0 ? N / 2 : N;
+  for (int b0 = 0; b0 < usedBands; b0 += chunkBands) {
+    const int r0 = b0 * bandRows, nrows = std::min(H - r0, chunkRows);
+    const int nb = std::min(chunkBands, usedBands - b0);
+    kp.setArg(0, m.eq);
+    kp.setArg(1, cl_int(W));
+    kp.setArg(2, cl_int(whole));
+    kp.setArg(3, m.rows);
+    kp.setArg(4, m.cols);
+    kp.setArg(5, cl_int(r0));
+    kp.setArg(6, cl_int(nrows));
+    kp.setArg(7, prefixB);
+    ctx.launch("ambient/map-prefix", kp, cl::NDRange(std::size_t(nrows)));
+    kb.setArg(0, prefixB);
+    kb.setArg(1, cl_int(W));
+    kb.setArg(2, cl_int(H));
+    kb.setArg(3, cl_float(frac));
+    kb.setArg(4, hwB);
+    kb.setArg(5, normalB);
+    kb.setArg(6, cl_int(TW));
+    kb.setArg(7, cl_int(TH));
+    kb.setArg(8, cl_int(bandRows));
+    kb.setArg(9, cl_int(b0));
+    kb.setArg(10, cl_int(nb));
+    kb.setArg(11, partB);
+    ctx.launch("ambient/map-bands", kb, cl::NDRange(std::size_t(nb) * computed));
   }
   // Lights as shade.cl reads them: (direction, cos alpha), (radiance, polygon vertex count).
   const int nl = int(lights.size());
@@ -165,34 +230,19 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   AmbientMap out;
   out.width = TW;
   out.height = TH;
-  const std::size_t texels = std::size_t(TW) * TH;
-  cl::Buffer tableB = ctx.buffer(texels * 3 * sizeof(cl_float), "ambient irradiance map");
+  cl::Buffer tableB = ctx.buffer(N * 3 * sizeof(cl_float), "ambient irradiance map");
   cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_table");
-  const std::size_t wg = ctx.workGroupSize(k, kTableGroup);
-  // The rotation in whole cells when it is one (irradiance_table visits cells in world order).
-  int cellShift = 0;
-  if (shift == std::floor(shift) && m.W % kCellTexels == 0 && int(shift) % kCellTexels == 0)
-    cellShift = int(shift) / kCellTexels;
-  k.setArg(0, cellB);
-  k.setArg(1, cl_int(cellsX));
-  k.setArg(2, cl_int(cellsY));
-  k.setArg(3, cl_int(cellShift));
-  k.setArg(4, m.eq);
-  k.setArg(5, cl_int(m.W));
-  k.setArg(6, cl_int(m.H));
-  k.setArg(7, cl_int(kCellTexels));
-  k.setArg(8, cl_int(kCellTexels));
-  k.setArg(9, m.rows);
-  k.setArg(10, m.cols);
-  k.setArg(11, lightB);
-  k.setArg(12, cl_int(nl));
-  k.setArg(13, polyB);
-  k.setArg(14, cl_int(TW));
-  k.setArg(15, cl_int(TH));
-  k.setArg(16, cl::Local(3 * wg * sizeof(cl_float)));
-  k.setArg(17, tableB);
-  ctx.launch("ambient/map-table", k, cl::NDRange(texels * wg), cl::NDRange(wg));
-  out.rgb = ctx.download<cl_float>(tableB, texels * 3, "ambient irradiance map");
+  k.setArg(0, partB);
+  k.setArg(1, cl_int(usedBands));
+  k.setArg(2, normalB);
+  k.setArg(3, lightB);
+  k.setArg(4, cl_int(nl));
+  k.setArg(5, polyB);
+  k.setArg(6, cl_int(TW));
+  k.setArg(7, cl_int(TH));
+  k.setArg(8, tableB);
+  ctx.launch("ambient/map-table", k, cl::NDRange(computed));  // pairs of antipodes, as the bands
+  out.rgb = ctx.download<cl_float>(tableB, N * 3, "ambient irradiance map");
   return out;
 }
 

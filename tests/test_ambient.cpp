@@ -418,8 +418,8 @@ struct HostMap {
 
 // Plain C++ reference of the table: at every table normal (pb_ambient_map_normal), every map
 // texel's L_t max(0, n.m_t) with its exact first moment m_t in double, minus each light's
-// AreaLight::irradiance (the shading's formulas). No cells: the kernel's cell shortcut must give
-// the same sum.
+// AreaLight::irradiance (the shading's formulas). Texel by texel: the kernel's runs of columns
+// (and antipodes) must give the same sum.
 HostMap hostAmbientMap(const Environment& env, const std::vector<AreaLight>& lights, int TW,
                        int TH) {
   const Image& im = env.equirect;
@@ -473,11 +473,13 @@ std::vector<AreaLight> twoLights() {
   return {cap, poly};
 }
 
-// The device table against the host reference. The kernel sums float terms (cells of 64 texels,
-// then a work-group of partial sums), and both sides evaluate the lights' float formulas, whose
-// rounding scales with the light's size, not with its (possibly tiny, clipped) irradiance.
-// Measured worst |error| / (map scale + light scale) over the cases below: see the [ measured ]
-// line (~1e-7); 2e-6 leaves margin for other devices' rounding. Returns the worst ratio.
+// The device table against the host reference. The kernel sums float terms (compensated running
+// sums along each row, differences of two of them per row, then bands of rows), and both sides
+// evaluate the lights' float formulas, whose rounding scales with the light's size, not with its
+// (possibly tiny, clipped) irradiance. Measured worst |error| / (map scale + light scale) over the
+// cases below: see the [ measured ] line (2.7e-7, on the 1x1 map, whose one texel's moment is ~0:
+// the lights' rounding alone; 2.6e-7 with the kernel before the runs); 2e-6 leaves margin for
+// other devices' rounding. Returns the worst ratio.
 double expectMapMatchesHost(const Environment& env, int TW, int TH, const std::string& what) {
   LightSet set;
   set.lights = twoLights();
@@ -520,12 +522,14 @@ double lumOf(const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LU
 }  // namespace
 
 TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
-  // Maps: 1x1 (a constant sphere), one row, one column, sizes that are no multiple of the 8x8
-  // cells, one with more cells than a work-group (257x129: 33x17 cells), a rotated one. Tables:
-  // 1x1, 1x3 (one column: the three nodes pole, equator, pole), 5x3, 67x33 (more texels than a
-  // work-group, odd).
+  // Maps: 1x1 (a constant sphere), one row, one column, odd sizes, one with many bands of rows
+  // (257x129: 17 bands of 8 rows, the last one partial), a rotated one. Tables of odd width
+  // (every normal's runs summed): 1x1, 1x3 (one column: the three nodes pole, equator, pole),
+  // 5x3, 67x33 (more texels than a work-group); of even width (half of them summed, the other
+  // half as their antipodes): 2x1 (one row: the equator, both halves), 4x3 (an odd middle row
+  // paired with itself), 6x4, 64x32.
   const int maps[][2] = {{1, 1}, {7, 1}, {1, 9}, {37, 19}, {257, 129}};
-  const int tables[][2] = {{1, 1}, {1, 3}, {5, 3}, {67, 33}};
+  const int tables[][2] = {{1, 1}, {1, 3}, {5, 3}, {67, 33}, {2, 1}, {4, 3}, {6, 4}, {64, 32}};
   unsigned seed = 11;
   double worst = 0;
   for (auto& ms : maps) {
@@ -544,8 +548,18 @@ TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
               worst);
 }
 
+TEST(AmbientMap, MatchesHostReferenceOnAMapWiderThanThePrefixChunk) {
+  // 65536 x 64: a row's prefixes take 2.4 MB, so the 64 MiB of prefixes held at once (src/
+  // ambient.cpp kMaxPrefixBytes) are 3 bands of 8 rows: 3 chunks (the last of 2 bands), each a
+  // prefix and a bands launch.
+  Environment env = synthetic(65536, 64, 5);
+  double worst = std::max(expectMapMatchesHost(env, 4, 3, "65536x64 map, 4x3 table"),
+                          expectMapMatchesHost(env, 5, 3, "65536x64 map, 5x3 table"));
+  std::printf("[ measured ] 65536x64 map in chunks: worst |error| / scale %.2g\n", worst);
+}
+
 TEST(AmbientMap, MatchesHostReferenceOnARealMap) {
-  // A real map (1024x512): most cells are taken whole, a great circle's worth texel by texel.
+  // A real map (1024x512), turned by a fraction of a column, on an even table (antipodes).
   Environment env = loadEnvironment(data(kMaps[0]));
   env.rotationYDeg = -71.0f;
   const double worst = expectMapMatchesHost(env, 12, 7, "courtyard, 12x7 table");
@@ -612,9 +626,9 @@ TEST(AmbientMap, ConstantMapGivesPiL) {
 }
 
 TEST(AmbientMap, RotationIsTheRotatedMapsTable) {
-  // A quarter turn shifts the map by width/4 columns exactly, a whole number of 8-texel cells
-  // here; the table is in world directions and the kernel visits cells in world order, so the
-  // turned map's table is the shifted map's bit for bit. A 33-degree turn against the nearest-
+  // A quarter turn shifts the map by width/4 columns exactly; the table is in world directions
+  // and the kernels sum the columns in world order, so the turned map's table is the shifted
+  // map's bit for bit. A 33-degree turn against the nearest-
   // column resampling of withRotationApplied: a shift of under half a texel.
   Environment env = loadEnvironment(data(kMaps[1]));
   ASSERT_EQ(env.equirect.width % 32, 0);
@@ -778,6 +792,10 @@ TEST(AmbientMap, IrradianceMapMeetsIssue4OnEveryMethodAndMap) {
   }
 }
 
-// Under oclgrind (CTest oclgrind_kernels): both irradiance-map kernels on a small awkward map
-// (6x2 cells of 8x8, the last ones partial; wide enough that cells are taken whole) and table, with a cap and a polygon light.
-TEST(OclgrindAmbient, IrradianceMap) { expectMapMatchesHost(synthetic(41, 13, 7), 5, 3, "41x13"); }
+// Under oclgrind (CTest oclgrind_kernels): the irradiance-map kernels on a small awkward map with
+// a cap and a polygon light, on an odd table (every normal summed) and an even one (antipodes).
+TEST(OclgrindAmbient, IrradianceMap) {
+  const Environment env = synthetic(41, 13, 7);
+  expectMapMatchesHost(env, 5, 3, "41x13, 5x3 table");
+  expectMapMatchesHost(env, 4, 3, "41x13, 4x3 table");
+}
