@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <penumbra/penumbra.hpp>
 
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -31,6 +32,26 @@ inline Context& ctx() {
   }();
   return *c;
 }
+
+// Small double-precision vector helpers for tests that build light geometry by hand
+// (polygon, ellipse and textured lights); in their own namespace so that test files with
+// other `dot`/`unit` overloads are not affected.
+namespace dvec {
+using V3 = std::array<float, 3>;
+using D3 = std::array<double, 3>;
+inline D3 cross(const D3& a, const D3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+inline double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline D3 unitD(const D3& a) {
+  const double l = std::sqrt(dot(a, a));
+  return {a[0] / l, a[1] / l, a[2] / l};
+}
+inline V3 unit(double x, double y, double z) {
+  const D3 u = unitD({x, y, z});
+  return {float(u[0]), float(u[1]), float(u[2])};
+}
+}  // namespace dvec
 
 inline std::string data(const std::string& rel) { return std::string(PENUMBRA_TEST_DATA) + "/" + rel; }
 

@@ -18,17 +18,7 @@ using namespace penumbra::test;
 
 namespace {
 
-using V3 = std::array<float, 3>;
-using D3 = std::array<double, 3>;
-
-D3 cross(const D3& a, const D3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 unit(double x, double y, double z) {
-  double l = std::sqrt(x * x + y * y + z * z);
-  return {float(x / l), float(y / l), float(z / l)};
-}
+using namespace penumbra::test::dvec;
 
 // Inside test of a convex spherical polygon with counter-clockwise unit vertices (lights.hpp):
 // on the inner side of every edge's great circle.

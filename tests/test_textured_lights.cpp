@@ -23,21 +23,7 @@ using namespace penumbra::test;
 
 namespace {
 
-using V3 = std::array<float, 3>;
-using D3 = std::array<double, 3>;
-
-D3 cross(const D3& a, const D3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double dot(const D3& a, const D3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-D3 unitD(const D3& a) {
-  const double l = std::sqrt(dot(a, a));
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
-V3 unit(double x, double y, double z) {
-  const D3 u = unitD({x, y, z});
-  return {float(u[0]), float(u[1]), float(u[2])};
-}
+using namespace penumbra::test::dvec;
 constexpr double kDeg = M_PI / 180;
 
 // Quadrature of the true ellipse (half-angles a, b about d, frame right = d x up, up), written
