@@ -394,8 +394,8 @@ int cmdRender(int argc, char** argv) {
   if (has(a, "help")) {
     printHelp("penumbra render [options]",
               "Renders a scene lit by an environment map: area lights extracted from the map "
-              "(--extract), soft shadows (--shadows hard|pcss|cssm|mssm4|mssm6|brute|none), "
-              "diffuse shading.\n\n"
+              "(--extract) or given (--light-set) plus the ambient residual, soft shadows (--shadows, "
+              "filtered or exact; see below), diffuse shading.\n\n"
               "Animation (--frames N): frame i (from 0) is rendered at time i * frame-time (the "
               "built-in scene's sphere bounces and its slab turns; a loaded mesh stands still), "
               "with the map turned by env-rotate + i * rotate-step degrees, and with map "
