@@ -164,16 +164,21 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     ctx.launch("ambient/map-widths", k, cl::NDRange(std::size_t(H) * TH));
   }
   // Bands of kBandRows map rows, fewer (taller bands) when the table is so large that the partial
-  // sums would pass kMaxPartials normals x bands.
+  // sums would pass kMaxPartials normals x bands; but never so tall that one band's row prefixes
+  // pass kMaxPrefixBytes (that bound wins: a 1024x1024 table on an 8192x4096 map would otherwise
+  // put every row's prefixes, 1.2 GB, in one buffer).
+  const std::size_t rowBytes = std::size_t(W + 1) * 9 * sizeof(cl_float);
+  const std::size_t maxBandRows = std::max<std::size_t>(1, kMaxPrefixBytes / rowBytes);
+  const std::size_t minBands = (std::size_t(H) + maxBandRows - 1) / maxBandRows;
   const int bands = int(std::clamp<std::size_t>(
-      std::min<std::size_t>((H + kBandRows - 1) / kBandRows, kMaxPartials / N), 1, H));
+      std::max(std::min<std::size_t>((H + kBandRows - 1) / kBandRows, kMaxPartials / N), minBands),
+      1, H));
   const int bandRows = (H + bands - 1) / bands;
   const int usedBands = (H + bandRows - 1) / bandRows;
   cl::Buffer partB = ctx.buffer(std::size_t(usedBands) * N * 3 * sizeof(cl_float),
                                 "ambient map band sums");
   // The rows' prefixes in chunks of whole bands within kMaxPrefixBytes (one band at least): a
   // 1024-wide map's rows all fit in one.
-  const std::size_t rowBytes = std::size_t(W + 1) * 9 * sizeof(cl_float);
   const int chunkBands = int(std::clamp<std::size_t>(
       kMaxPrefixBytes / (rowBytes * std::size_t(bandRows)), 1, std::size_t(usedBands)));
   const int chunkRows = std::min(H, chunkBands * bandRows);
@@ -385,6 +390,9 @@ const char* toString(ExtractionMethod m) {
 }
 
 LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt) {
+  if (opt.lightTexture < 0 || opt.lightTexture > 64)
+    badInput("ExtractOptions::lightTexture must be 0 (none) or in [1, 64], got " +
+             std::to_string(opt.lightTexture));
   LightSet set;
   switch (opt.method) {
     case ExtractionMethod::MedianCut: set = extractMedianCut(ctx, env, opt.medianCut); break;

@@ -386,6 +386,11 @@ void setLightTexture(AreaLight& l, LightTexture t) {
       const float* rgb = &tx.radiance[(std::size_t(j) * tx.width + i) * 3];
       for (int c = 0; c < 3; ++c) sum[c] += rgb[c] * om;
     }
+  if (!(PB_LUM_R * sum[0] + PB_LUM_G * sum[1] + PB_LUM_B * sum[2] > 0)) {
+    l.texture = LightTexture{};  // leave the light as it was given
+    badInput("light texture is black over the light (its bright texels lie outside the " +
+             std::string(ellipse ? "ellipse" : "disk") + "): the light would carry no power");
+  }
   for (int c = 0; c < 3; ++c) {
     l.power[c] = float(sum[c]);
     l.radiance[c] = omega > 0 ? float(sum[c] / omega) : 0.0f;

@@ -441,6 +441,10 @@ TEST(TexturedLights, LightSetJsonRoundTripAndBadInput) {
   EXPECT_NEAR(a.lights[1].radiance[0], 2.0f, 1e-5f);
   EXPECT_EQ(a.lights[2].texture.height, 2);
   EXPECT_EQ(a.lights[3].power, (std::array<float, 3>{1, 1, 1}));  // as given
+  // "power" beside a texture scales the texture to it: its mean (the radiance) times the solid
+  // angle is the power, as for every other light (it kept the texture's own scale before).
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(a.lights[3].radiance[c] * a.lights[3].solidAngle(), 1.0f, 1e-4f) << c;
   const LightSet b = lightSetFromJson(a.toJson(), "again.json");
   ASSERT_EQ(b.lights.size(), 4u);
   for (std::size_t i = 0; i < 4; ++i) {
@@ -472,6 +476,9 @@ TEST(TexturedLights, LightSetJsonRoundTripAndBadInput) {
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 0, "height": 1, "radiance": []}})", "integers"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1, "height": 1, "radiance": [0, 0, 0]}})", "black"},
       {R"({"shape": "polygon", "vertices": [[0.1, 1, 0.1], [-0.1, 1, 0.1], [0, 1, -0.1]], "texture": {"width": 1, "height": 1, "radiance": [1, 1, 1]}})", "no frame"},
+      // only the corner texel (0, 0) is bright, and it lies wholly outside the disk
+      {R"({"shape": "cap", "direction": [0, 1, 0], "half_angle_deg": 10, "texture": {"width": 8, "height": 8, "radiance": [1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]}})", "black over the light"},
+      {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "power": [1, 1, 1], "texture": {"width": 1, "height": 1, "radiance": [1, 0, 0]}})", "where the texture is black"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": [1, 2]})", "texture"},
       {R"({"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10]})", "needs \"radiance\""},
   };
@@ -586,6 +593,21 @@ TEST(TexturedLights, EveryTechniqueRendersTheExampleFile) {
 // Extracted lights textured from their map (textureLightsFromMap): power and mean radiance stay
 // as extracted, each light's sample weights follow the map's luminance towards the samples, and
 // more closely with finer textures.
+TEST(TexturedLights, ExtractOptionsRefuseATextureSizeOutOfRange) {
+  const Environment env = builtinEnvironment();
+  for (int bad : {-1, 65}) {
+    ExtractOptions eo;
+    eo.lightTexture = bad;
+    try {
+      extractLights(ctx(), env, eo);
+      ADD_FAILURE() << "accepted lightTexture " << bad;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_NE(std::string(e.what()).find("lightTexture"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(TexturedLights, ExtractedLightsTakeTheirMapsRadiance) {
   const Environment env = loadEnvironment(data(kMaps[0]));
   MedianCutOptions mo;

@@ -135,7 +135,9 @@ void main() {
     // pb_ambient_map_taps: column s = (phi / 2 pi + 0.5) W (texel centres at i + 0.5, as GL's),
     // node row v = theta / pi (H - 1), which is GL's texel centre v + 0.5.
     float cy = clamp(n.y / length(n), -1.0, 1.0);
-    float s = atan(n.x, -n.z) / (2.0 * PI) + 0.5;
+    // atan(0, 0) is undefined in GLSL (OpenCL's atan2 gives pi): at the poles every column of the
+    // node row holds the same value, so any s will do.
+    float s = (n.x == 0.0 && n.z == 0.0) ? 0.5 : atan(n.x, -n.z) / (2.0 * PI) + 0.5;
     float v = uAmbientMapH > 1 ? acos(cy) / PI * float(uAmbientMapH - 1) : 0.0;
     acc += texture(uAmbientMap, vec2(s, (v + 0.5) / float(uAmbientMapH))).rgb;
   } else {
