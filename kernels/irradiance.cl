@@ -40,6 +40,7 @@
 // the same order). Work per extraction: W H (prefixes) + TW TH H / 2 (runs) + TW TH lights,
 // against the TW TH W H of summing every texel for every normal.
 #include "shared.h"
+#include "lights.clh"
 
 // Compensated sums rely on each addition being rounded on its own (back on after
 // irradiance_prefix).
@@ -200,34 +201,22 @@ kernel void irradiance_bands(global const float* prefix, int W, int H, float fra
   }
 }
 
-// Light l's irradiance at unit normal n (shade.cl's formulas); *moment: for a cap, pi sin^2(alpha)
-// (its unclamped first moment's length, below), -1 for a polygon.
+// Light l's irradiance at unit normal n: shading's own (kernels/lights.clh). *moment: for a cap,
+// pi sin^2(alpha) (its unclamped first moment's length, below), -1 for a polygon.
 static float light_irradiance(global const float4* lights, global const float4* polys, int l,
                               float3 n, float* moment) {
-  const float4 dir = lights[2 * l], rad = lights[2 * l + 1];
-  const int nv = (int)rad.w;
-  if (nv >= 3) {
-    global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
-    float v[3 * PB_MAX_POLY_VERTS];
-    const int m = min(nv, PB_MAX_POLY_VERTS);
-    for (int k = 0; k < m; ++k) {
-      v[3 * k] = pv[k].x;
-      v[3 * k + 1] = pv[k].y;
-      v[3 * k + 2] = pv[k].z;
-    }
-    *moment = -1.0f;
-    return pb_polygon_irradiance(v, m, n.x, n.y, n.z);
-  }
-  *moment = 3.14159265358979323846f * fmax(0.0f, 1.0f - dir.w * dir.w);
-  return pb_cap_irradiance(dir.w, n.x * dir.x + n.y * dir.y + n.z * dir.z);
+  global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
+  const float4 dir = lights[2 * l];
+  *moment = pv[0].w >= 3.0f ? -1.0f : 3.14159265358979323846f * fmax(0.0f, 1.0f - dir.w * dir.w);
+  return pb_light_irradiance(dir, pv, n);
 }
 
 // One work-item per table normal (per pair of antipodes when TW is even, as irradiance_bands): the
 // bands' partial sums in order, minus each light's irradiance. For a cap the antipode's needs no
 // second evaluation: max(0, x) - max(0, -x) = x, so E(n) - E(-n) = integral over the cap of n.w =
 // pi sin^2(alpha) (n.d) exactly (n' = -n up to float rounding of the two normals, a few 1e-7 of
-// the cap's irradiance). lights: 2 float4 per light, (direction, cos alpha) and (radiance, vertex
-// count: 0 for a cap); polys: PB_MAX_POLY_VERTS float4 per light (shade.cl's layout). table: TW x
+// the cap's irradiance). lights: 2 float4 per light, (direction, cos alpha) and (radiance, 0);
+// polys: PB_MAX_POLY_VERTS float4 per light (src/light_buffers.hpp, shade.cl's layout). table: TW x
 // TH x RGB.
 kernel void irradiance_table(global const float* partial, int bands, global const float4* normals,
                              global const float4* lights, int nlights, global const float4* polys,

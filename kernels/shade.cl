@@ -11,6 +11,7 @@
 // weights (RenderOptions::bentNormals), with the blend's scale bend_c.
 #include "shared.h"
 #include "bent.clh"
+#include "lights.clh"
 
 kernel void shade(global const float4* gpos, global const float4* gnrm, global const float4* galb,
                   global const pb_light* lights, int nlights, global const float* vis,
@@ -45,24 +46,12 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
   float3 acc = (float3)(0.0f);
   for (int l = 0; l < nlights; ++l) {
     pb_light L = lights[l];
-    // polys: PB_MAX_POLY_VERTS float4 per light, w of the first = vertex count, 0 for a cap.
+    // polys: the light's PB_MAX_POLY_VERTS float4 (src/light_buffers.hpp; a cap's are zero)
     global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
-    int nv = (int)pv[0].w;
-    float e, e0 = 0.0f;
-    if (nv >= 3) {
-      float v[3 * PB_MAX_POLY_VERTS];
-      for (int i = 0; i < nv && i < PB_MAX_POLY_VERTS; ++i) {
-        v[3 * i] = pv[i].x;
-        v[3 * i + 1] = pv[i].y;
-        v[3 * i + 2] = pv[i].z;
-      }
-      e = pb_polygon_irradiance(v, min(nv, PB_MAX_POLY_VERTS), n.x, n.y, n.z);
-      if (bent) e0 = pb_polygon_irradiance(v, min(nv, PB_MAX_POLY_VERTS), L.dir[0], L.dir[1], L.dir[2]);
-    } else {
-      float cb = n.x * L.dir[0] + n.y * L.dir[1] + n.z * L.dir[2];
-      e = pb_cap_irradiance(L.dir[3], cb);
-      if (bent) e0 = pb_cap_irradiance(L.dir[3], 1.0f);
-    }
+    const float4 dc = (float4)(L.dir[0], L.dir[1], L.dir[2], L.dir[3]);
+    float e = pb_light_irradiance(dc, pv, n);
+    // e0: the irradiance at normal incidence, facing the light's direction
+    const float e0 = bent ? pb_light_irradiance(dc, pv, dc.xyz) : 0.0f;
     if (bent) {
       // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
       // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl,

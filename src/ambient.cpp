@@ -17,6 +17,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
 #include "penumbra/shared.h"
+#include "light_buffers.hpp"
 
 namespace penumbra {
 
@@ -213,23 +214,16 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
     kb.setArg(11, partB);
     ctx.launch("ambient/map-bands", kb, cl::NDRange(std::size_t(nb) * computed));
   }
-  // Lights as shade.cl reads them: (direction, cos alpha), (radiance, polygon vertex count).
+  // Lights: (direction, cos alpha), (radiance, 0); polygons as shade.cl reads them.
   const int nl = int(lights.size());
   std::vector<cl_float4> lightV(std::max<std::size_t>(1, 2 * std::size_t(nl)),
                                 cl_float4{{0, 0, 0, 0}});
-  std::vector<cl_float4> polyV(std::max<std::size_t>(1, std::size_t(nl) * PB_MAX_POLY_VERTS),
-                               cl_float4{{0, 0, 0, 0}});
   for (int l = 0; l < nl; ++l) {
     const AreaLight& a = lights[l];
-    const int nv = a.shape == LightShape::Polygon
-                       ? int(std::min<std::size_t>(a.vertices.size(), PB_MAX_POLY_VERTS))
-                       : 0;
     lightV[2 * l] = cl_float4{{a.direction[0], a.direction[1], a.direction[2], a.cosAlpha}};
-    lightV[2 * l + 1] = cl_float4{{a.radiance[0], a.radiance[1], a.radiance[2], float(nv)}};
-    for (int i = 0; i < nv; ++i)
-      for (int c = 0; c < 3; ++c)
-        polyV[std::size_t(l) * PB_MAX_POLY_VERTS + i].s[c] = a.vertices[i][c];
+    lightV[2 * l + 1] = cl_float4{{a.radiance[0], a.radiance[1], a.radiance[2], 0.0f}};
   }
+  const std::vector<cl_float4> polyV = detail::polygonVertexBlocks(lights);
   cl::Buffer lightB = ctx.upload(lightV, "ambient map lights");
   cl::Buffer polyB = ctx.upload(polyV, "ambient map polygon vertices");
   AmbientMap out;

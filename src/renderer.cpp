@@ -16,6 +16,7 @@
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
 #include "bent_normals.hpp"
+#include "light_buffers.hpp"
 #include "shadow_pass.hpp"
 #include "vec3.hpp"
 
@@ -361,18 +362,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
       for (int c = 0; c < 3; ++c) amb[i].s[c] = lightSet.ambientSH[i][c];
     k.setArg(14, impl_->pool.upload("ambient SH", amb));
-    // Polygon lights' vertices, PB_MAX_POLY_VERTS float4 per light, w of the first = the vertex
-    // count (0: a cap); the shading uses the polygon's exact irradiance (shared.h).
-    std::vector<cl_float4> poly(std::max<std::size_t>(1, std::size_t(nl) * PB_MAX_POLY_VERTS),
-                                cl_float4{{0, 0, 0, 0}});
-    for (int l = 0; l < nl; ++l) {
-      const AreaLight& a = lightSet.lights[l];
-      if (a.shape != LightShape::Polygon) continue;
-      const int nv = int(std::min<std::size_t>(a.vertices.size(), PB_MAX_POLY_VERTS));
-      for (int i = 0; i < nv; ++i)
-        for (int c = 0; c < 3; ++c) poly[std::size_t(l) * PB_MAX_POLY_VERTS + i].s[c] = a.vertices[i][c];
-      poly[std::size_t(l) * PB_MAX_POLY_VERTS].s[3] = float(nv);
-    }
+    // Polygon lights' vertices (src/light_buffers.hpp); the shading uses the polygon's exact
+    // irradiance (shared.h).
+    const std::vector<cl_float4> poly = detail::polygonVertexBlocks(lightSet.lights);
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
     // The ambient's irradiance map when it has one (else amap_w = 0: the SH9 above).
     const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();

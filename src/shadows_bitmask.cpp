@@ -251,7 +251,7 @@ class BitmaskPass : public ShadowPass {
         dirs[k] = bitmaskSampleDirection(L, ta, frames[l], disk_[k][0], disk_[k][1]);
       const std::vector<float> tw = lightSampleWeights(*al, dirs);
       const std::size_t nv = al->vertices.size();
-      int kept = 0;
+      double kept = 0;  // the weight left to the light's samples
       for (int k = 0; k < N; ++k) {
         const auto& d = dirs[k];
         bool in = true;
@@ -263,11 +263,14 @@ class BitmaskPass : public ShadowPass {
           in = e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= 0.0f;
         }
         weights[std::size_t(l) * N + k] = in ? tw[k] : 0.0f;
-        kept += in;
+        kept += in ? tw[k] : 0.0f;
       }
-      if (kept == 0)
-        badInput("light " + std::to_string(l) + ": a polygon too thin for " + std::to_string(N) +
-                 " bitmask light samples (none falls inside it); use more --light-samples");
+      // Every weight 0 would leave the light unshadowed (the resolve's empty sum reads as lit).
+      if (!(kept > 0))
+        badInput("light " + std::to_string(l) + ": none of its " + std::to_string(N) +
+                 " bitmask light samples falls inside " +
+                 (polygon ? "the polygon" : "a lit texel of its texture") +
+                 " (a light too thin for them); use more --light-samples");
     }
     std::vector<cl_float4> frameData(frames.size() * 2);
     for (std::size_t l = 0; l < frames.size(); ++l)
@@ -449,11 +452,7 @@ std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation) {
 }
 
 std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, float u, float v) {
-  std::array<float, 3> d;
-  for (int i = 0; i < 3; ++i) d[i] = L.dir[i] + tanAlpha * (u * L.ex[i] + v * L.ey[i]);
-  float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  for (float& x : d) x /= len;
-  return d;
+  return bitmaskSampleDirection(L, tanAlpha, bitmaskFrame(L, nullptr), u, v);
 }
 
 BitmaskFrame bitmaskFrame(const pb_light& L, const AreaLight* al) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "../light_buffers.hpp"
 #include "../shadow_pass.hpp"
 #include "glfuncs.hpp"
 #include "penumbra/context.hpp"
@@ -381,18 +382,15 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   t0 = Clock::now();
   // Lights: (dir, cos alpha), (radiance, polygon vertex count: 0 for a cap). Polygon lights'
   // vertices as renderer.cpp hands them to shade.cl: PB_MAX_POLY_VERTS per light.
+  const std::vector<cl_float4> blocks = penumbra::detail::polygonVertexBlocks(lightSet.lights);
   std::vector<float> lightTexels(std::size_t(2) * 4 * std::max(nl, 1), 0.0f);
-  std::vector<float> polys(std::size_t(4) * PB_MAX_POLY_VERTS * std::max(nl, 1), 0.0f);
+  std::vector<float> polys(blocks.size() * 4);
+  for (std::size_t i = 0; i < blocks.size(); ++i)
+    for (int c = 0; c < 4; ++c) polys[i * 4 + c] = blocks[i].s[c];
   for (int l = 0; l < nl; ++l) {
     for (int c = 0; c < 4; ++c) lightTexels[std::size_t(l) * 8 + c] = lights[l].dir[c];
     for (int c = 0; c < 3; ++c) lightTexels[std::size_t(l) * 8 + 4 + c] = lights[l].radiance[c];
-    const AreaLight& a = lightSet.lights[l];
-    if (a.shape != LightShape::Polygon) continue;
-    const int nv = int(std::min<std::size_t>(a.vertices.size(), PB_MAX_POLY_VERTS));
-    for (int i = 0; i < nv; ++i)
-      for (int c = 0; c < 3; ++c)
-        polys[(std::size_t(l) * PB_MAX_POLY_VERTS + i) * 4 + c] = a.vertices[i][c];
-    lightTexels[std::size_t(l) * 8 + 7] = float(nv);
+    lightTexels[std::size_t(l) * 8 + 7] = blocks[std::size_t(l) * PB_MAX_POLY_VERTS].s[3];
   }
   lightTexels.resize(std::size_t(2) * 4 * m.maxLights, 0.0f);  // the block's declared size
   GLint prevUbo = 0;
