@@ -282,17 +282,12 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
     if (hasTex && !hasRad && !hasPow) {
       // radiance and power as setLightTexture computed them
     } else if (hasTex && !hasRad) {
-      // The texture gives the shape, "power" the scale: every channel of the texture (and so the
-      // radiance, its mean) is scaled so that its integral is the given power.
-      for (int c = 0; c < 3; ++c) {
+      // The texture gives the shape, "power" the scale (scaleLightTexture); a channel the
+      // texture leaves black cannot carry power.
+      for (int c = 0; c < 3; ++c)
         if (!(l.power[c] > 0) && pow[c] > 0)
           r.fail("\"power\" has channel " + std::to_string(c) + " > 0 where the texture is black");
-        const double f = l.power[c] > 0 ? double(pow[c]) / l.power[c] : 0.0;
-        for (std::size_t i = c; i < l.texture.radiance.size(); i += 3)
-          l.texture.radiance[i] = float(l.texture.radiance[i] * f);
-        l.radiance[c] = float(l.radiance[c] * f);
-        l.power[c] = pow[c];
-      }
+      scaleLightTexture(l, pow);
     } else if (hasRad) {
       l.radiance = rad;
       const float omega = l.solidAngle();

@@ -11,6 +11,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/shared.h"
+#include "bitmask.hpp"
 #include "cubemap.hpp"
 
 namespace penumbra {
@@ -67,15 +68,18 @@ D3 defaultAxisU(const D3& w) {
   const D3 ref = std::fabs(w[1]) < 0.99 ? D3{0, 1, 0} : D3{1, 0, 0};
   return unit3(cross3(ref, w));
 }
-// Fibonacci disk points (bitmaskDiskSamples in src/shadows_bitmask.cpp is the same set): radius
-// sqrt((k + 1/2) / n), golden-angle turns, turned by `rotation`.
-std::array<double, 2> diskPoint(int k, int n, double rotation) {
+float luminanceOf(const float* rgb) { return PB_LUM_R * rgb[0] + PB_LUM_G * rgb[1] + PB_LUM_B * rgb[2]; }
+}  // namespace
+
+namespace detail {
+// Fibonacci disk points: radius sqrt((k + 1/2) / n), golden-angle turns, turned by `rotation`
+// (the bitmask technique's disk samples and the ellipse's samples here; src/bitmask.hpp).
+std::array<double, 2> fibonacciDiskPoint(int k, int n, double rotation) {
   const double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
   const double r = std::sqrt((k + 0.5) / n), a = kGoldenAngle * k + rotation;
   return {r * std::cos(a), r * std::sin(a)};
 }
-float luminanceOf(const float* rgb) { return PB_LUM_R * rgb[0] + PB_LUM_G * rgb[1] + PB_LUM_B * rgb[2]; }
-}  // namespace
+}  // namespace detail
 
 float AreaLight::halfAngle() const { return std::acos(std::clamp(cosAlpha, -1.0f, 1.0f)); }
 float AreaLight::solidAngle() const {
@@ -397,6 +401,19 @@ void setLightTexture(AreaLight& l, LightTexture t) {
   }
 }
 
+void scaleLightTexture(AreaLight& l, const std::array<float, 3>& power) {
+  const float omega = l.solidAngle();
+  for (int c = 0; c < 3; ++c) {
+    const bool lit = l.power[c] > 0;
+    const double f = lit ? double(power[c]) / l.power[c] : 0.0;
+    const float uniform = omega > 0 ? power[c] / omega : 0.0f;
+    for (std::size_t k = c; k < l.texture.radiance.size(); k += 3)
+      l.texture.radiance[k] = lit ? float(l.texture.radiance[k] * f) : uniform;
+    l.radiance[c] = uniform;
+    l.power[c] = power[c];
+  }
+}
+
 void textureLightsFromMap(const Environment& env, LightSet& set, int size, int supersample) {
   if (size < 1 || size > 64) badInput("light texture size must be in [1, 64], got " + std::to_string(size));
   if (supersample < 1 || supersample > 16)
@@ -422,20 +439,18 @@ void textureLightsFromMap(const Environment& env, LightSet& set, int size, int s
         for (int c = 0; c < 3; ++c) t.radiance[(std::size_t(j) * size + i) * 3 + c] = float(sum[c] / (q * q));
       }
     if (!(maxTexelLuminance(t) > 0)) continue;
-    // the raw texture's integral over the cap, then each channel scaled to the light's power (a
-    // channel the map leaves black over the cap gets the light's uniform radiance instead)
-    AreaLight probe = l;
-    probe.axisU = {float(u[0]), float(u[1]), float(u[2])};
-    setLightTexture(probe, t);
-    const float omega = l.solidAngle();
-    for (int c = 0; c < 3; ++c) {
-      const double scale = probe.power[c] > 0 ? double(l.power[c]) / probe.power[c] : 0.0;
-      for (std::size_t k = c; k < t.radiance.size(); k += 3)
-        t.radiance[k] = probe.power[c] > 0 ? float(t.radiance[k] * scale) : (omega > 0 ? l.power[c] / omega : 0.0f);
+    // the raw texture over the cap, then scaled to the light's power (which extraction keeps)
+    AreaLight textured = l;
+    textured.axisU = {float(u[0]), float(u[1]), float(u[2])};
+    try {
+      setLightTexture(textured, std::move(t));
+    } catch (const Error& e) {
+      if (e.kind() != ErrorKind::BadInput) throw;
+      continue;  // the map is black over the cap itself: the light stays uniform
     }
-    if (!(maxTexelLuminance(t) > 0)) continue;
-    l.axisU = probe.axisU;
-    setLightTexture(l, std::move(t));
+    scaleLightTexture(textured, l.power);
+    if (!(maxTexelLuminance(textured.texture) > 0)) continue;  // a light of zero power
+    l = std::move(textured);
   }
 }
 
@@ -449,7 +464,7 @@ std::vector<LightSample> lightSamples(const AreaLight& light, int n, float rotat
     std::vector<std::array<float, 3>> dirs;
     std::vector<double> area;
     for (int k = 0; k < n; ++k) {
-      const auto p = diskPoint(k, n, rotation);
+      const auto p = detail::fibonacciDiskPoint(k, n, rotation);
       const double x = p[0] * ta, y = p[1] * tb, q = 1 + x * x + y * y;
       const D3 d = unit3({w[0] + x * u[0] + y * v[0], w[1] + x * u[1] + y * v[1],
                           w[2] + x * u[2] + y * v[2]});

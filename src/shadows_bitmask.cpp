@@ -442,11 +442,10 @@ class BitmaskPass : public ShadowPass {
 }  // namespace
 
 std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation) {
-  const double kGoldenAngle = 2.39996322972865332;  // pi (3 - sqrt 5)
   std::vector<std::array<float, 2>> d(std::max(n, 0));
   for (int k = 0; k < n; ++k) {
-    double r = std::sqrt((k + 0.5) / n), a = kGoldenAngle * k + rotation;
-    d[k] = {float(r * std::cos(a)), float(r * std::sin(a))};
+    const auto p = fibonacciDiskPoint(k, n, rotation);
+    d[k] = {float(p[0]), float(p[1])};
   }
   return d;
 }

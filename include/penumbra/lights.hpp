@@ -109,6 +109,11 @@ AreaLight makeEllipseLight(const std::array<float, 3>& direction, const std::arr
 // equal gives that radiance exactly, so the light renders as the untextured one bit for bit.
 // Throws Error(BadInput) naming the problem.
 void setLightTexture(AreaLight& light, LightTexture texture);
+// Scales a textured light's texture, channel by channel, so that its power is `power` (radiance =
+// power / solid angle, the texture's mean); a channel the texture leaves black is filled with that
+// uniform radiance. Used where the power is given and the texture gives only the shape: a light-set
+// file's "texture" beside "power", extracted lights textured from their map.
+void scaleLightTexture(AreaLight& light, const std::array<float, 3>& power);
 
 // sampleWeight for many directions at once (the texture's largest luminance found once).
 std::vector<float> lightSampleWeights(const AreaLight& light,
