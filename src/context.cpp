@@ -251,15 +251,18 @@ cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_fl
   }
 }
 
-cl::Buffer Context::scratch(const std::string& role, std::size_t bytes) {
-  bytes = std::max<std::size_t>(1, bytes);
-  auto& slot = scratch_[role];
-  if (slot.first < bytes) {
-    slot = {0, cl::Buffer()};  // release the smaller one before allocating
-    slot.second = buffer(bytes, role);
-    slot.first = bytes;
+cl::Buffer& Context::reuse(BufferSlots& slots, const std::string& role, std::size_t bytes) {
+  auto& slot = slots[role];
+  if (slot.second < bytes) {
+    slot = {cl::Buffer(), 0};  // release the smaller one before allocating
+    slot.first = buffer(bytes, role);
+    slot.second = bytes;
   }
-  return slot.second;
+  return slot.first;
+}
+
+cl::Buffer Context::scratch(const std::string& role, std::size_t bytes) {
+  return reuse(scratch_, role, std::max<std::size_t>(1, bytes));
 }
 
 void Context::write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what) {

@@ -90,13 +90,7 @@ constexpr int kStripes = 8;
 namespace detail {
 
 cl::Buffer& BufferPool::buffer(const std::string& role, std::size_t bytes) {
-  auto& slot = pool_[role];
-  if (slot.second < bytes) {
-    slot.first = cl::Buffer();  // release before allocating the larger one
-    slot.first = ctx_.buffer(bytes, role);
-    slot.second = bytes;
-  }
-  return slot.first;
+  return ctx_.reuse(pool_, role, bytes);
 }
 
 // Orthographic shadow-map frame of a directional light, fitted to the scene's bounding box: the

@@ -34,7 +34,7 @@ class BufferPool {
 
  private:
   Context& ctx_;
-  std::map<std::string, std::pair<cl::Buffer, std::size_t>> pool_;
+  Context::BufferSlots pool_;
 };
 
 // Which faces a depth map keeps, judged against the view direction.

@@ -99,6 +99,10 @@ class Context {
   // the context holds the largest size each role has needed until it is destroyed. Its contents
   // are the last user's: valid until the next scratch() call for the same role.
   cl::Buffer scratch(const std::string& role, std::size_t bytes);
+  // The one rule behind scratch() and the renderer's per-frame buffer pool: the buffer kept in
+  // slots[role], reallocated (the smaller one released first) only when `bytes` exceeds it.
+  using BufferSlots = std::map<std::string, std::pair<cl::Buffer, std::size_t>>;
+  cl::Buffer& reuse(BufferSlots& slots, const std::string& role, std::size_t bytes);
 
   // Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
   std::vector<std::pair<std::string, double>> stageTimesMs();
@@ -111,7 +115,7 @@ class Context {
   cl::CommandQueue queue_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
   std::vector<std::pair<std::string, cl::Event>> events_;
-  std::map<std::string, std::pair<std::size_t, cl::Buffer>> scratch_;  // role -> (bytes, buffer)
+  BufferSlots scratch_;  // role -> (buffer, bytes)
 };
 
 // Converts a cl::Error into a penumbra::Error with `what` in the message.
