@@ -343,15 +343,18 @@ std::array<double, 3> LightSet::ambientPower() const {
 // R&H 2001 eq. 13 with the Ahat_l of shared.h: the SH radiance convolved with the clamped cosine.
 // Not clamped at 0: a residual may be negative in places (a cap brighter than the texels it
 // replaced) and only lights + ambient together are an irradiance.
+void AmbientMap::check() const {
+  if (rgb.size() != std::size_t(std::max(width, 0)) * std::max(height, 0) * 3)
+    badInput("LightSet::ambientMap: " + std::to_string(width) + "x" + std::to_string(height) +
+             " texels need " + std::to_string(std::size_t(std::max(width, 0)) * std::max(height, 0) * 3) +
+             " values, got " + std::to_string(rgb.size()));
+}
+
 std::array<double, 3> LightSet::ambientIrradiance(const std::array<float, 3>& n) const {
   std::array<double, 3> e{0, 0, 0};
   if (!hasAmbient) return e;
   if (!ambientMap.empty()) {
-    if (ambientMap.rgb.size() != std::size_t(ambientMap.width) * ambientMap.height * 3)
-      badInput("LightSet::ambientMap: " + std::to_string(ambientMap.width) + "x" +
-               std::to_string(ambientMap.height) + " texels need " +
-               std::to_string(std::size_t(ambientMap.width) * ambientMap.height * 3) +
-               " values, got " + std::to_string(ambientMap.rgb.size()));
+    ambientMap.check();
     int idx[4];
     float wt[4];
     pb_ambient_map_taps(n[0], n[1], n[2], ambientMap.width, ambientMap.height, idx, wt);

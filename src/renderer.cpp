@@ -362,7 +362,7 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
     k.setArg(15, impl_->pool.upload("polygon light vertices", poly));
     // The ambient's irradiance map when it has one (else amap_w = 0: the SH9 above).
     const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
-    if (amap) lightSet.ambientIrradiance({0, 1, 0});  // throws BadInput for a table of the wrong size
+    if (amap) lightSet.ambientMap.check();
     k.setArg(16, impl_->pool.upload("ambient irradiance map",
                                     amap ? lightSet.ambientMap.rgb : std::vector<float>(3, 0.0f)));
     k.setArg(17, cl_int(amap ? lightSet.ambientMap.width : 0));

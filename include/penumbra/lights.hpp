@@ -155,6 +155,10 @@ struct AmbientMap {
   int width = 0, height = 0;
   std::vector<float> rgb;  // height x width x 3, row-major, RGB interleaved
   bool empty() const { return width <= 0 || height <= 0; }
+  // Throws Error(BadInput) when rgb does not hold width x height x 3 values (a table set by hand,
+  // e.g. from Python): every reader (LightSet::ambientIrradiance, the renderer, the GL pass)
+  // checks it before indexing.
+  void check() const;
 };
 
 struct LightSet {

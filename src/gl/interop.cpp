@@ -407,7 +407,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
                 GL_FLOAT, env.equirect.pixels.data());
   // The ambient's irradiance map (LightSet::ambientMap), a 1x1 black texel when it has none.
   const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
-  if (amap) lightSet.ambientIrradiance({0, 1, 0});  // throws BadInput for a table of the wrong size
+  if (amap) lightSet.ambientMap.check();
   const float black[3] = {0, 0, 0};
   gl.BindTexture(GL_TEXTURE_2D, m.ambientTex);
   gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, amap ? lightSet.ambientMap.width : 1,
