@@ -271,7 +271,7 @@ ExtractOptions parseExtractOptions(const Args& a) {
   };
   using M = ExtractionMethod;
   if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
-    int n = int(parseInt("lights", get(a, "lights", ""), 1, PB_MAX_LIGHTS));
+    int n = int(parseInt("lights", get(a, "lights", ""), 1, kMaxLights));
     eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
   }
   if (only("face-size", {M::MedianCut, M::Greedy})) {

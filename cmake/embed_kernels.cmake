@@ -1,9 +1,23 @@
-# Writes OUT: a C++ source with one string constant per kernel file (kernels/*.cl). A line
-# `#include "shared.h"` is replaced by SHARED_H's text and `#include "NAME.clh"` by
-# kernels/NAME.clh's (recursively, once each), so the embedded source is self-contained while the
-# .cl files still compile on their own with -I include/penumbra -I kernels.
-file(GLOB KERNELS ${KERNEL_DIR}/*.cl)
+# Writes OUT: a C++ source with one string constant per kernel file (kernels/<family>/*.cl), keyed
+# by the file's name alone (names are unique across families). A line `#include "NAME.h"` or
+# `#include "NAME.clh"` is replaced by that file's text, wherever under kernels/ it lives
+# (recursively, once each), so the embedded source is self-contained while the .cl files still
+# compile on their own with -I for each kernels/ folder.
+file(GLOB_RECURSE KERNELS ${KERNEL_DIR}/*.cl)
+file(GLOB_RECURSE HEADERS ${KERNEL_DIR}/*.clh ${KERNEL_DIR}/*.h)
 list(SORT KERNELS)
+
+# name -> path, refusing two files of one name (the kernel cache and the includes key by name)
+set(names "")
+foreach(f ${KERNELS} ${HEADERS})
+  get_filename_component(n ${f} NAME)
+  list(FIND names ${n} at)
+  if(NOT at EQUAL -1)
+    message(FATAL_ERROR "two kernel files are named ${n}")
+  endif()
+  list(APPEND names ${n})
+  set(path_of_${n} ${f})
+endforeach()
 
 function(splice text_var out_var seen_var)
   set(text "${${text_var}}")
@@ -11,14 +25,10 @@ function(splice text_var out_var seen_var)
   string(REGEX MATCHALL "#include \"[A-Za-z0-9_]+\\.(h|clh)\"" incs "${text}")
   foreach(inc ${incs})
     string(REGEX REPLACE "#include \"([A-Za-z0-9_]+\\.(h|clh))\"" "\\1" name "${inc}")
-    if(name STREQUAL "shared.h")
-      set(path ${SHARED_H})
-    else()
-      set(path ${KERNEL_DIR}/${name})
+    if(NOT DEFINED path_of_${name})
+      message(FATAL_ERROR "kernel include ${name} not found under ${KERNEL_DIR}")
     endif()
-    if(NOT EXISTS ${path})
-      message(FATAL_ERROR "kernel include ${name} not found")
-    endif()
+    set(path ${path_of_${name}})
     list(FIND seen ${name} at)
     if(at EQUAL -1)
       list(APPEND seen ${name})

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <penumbra/penumbra.hpp>
 
+#include "common/shared.h"  // the kernels' constants and helpers (kernels/common/shared.h)
+
 #include <array>
 #include <cmath>
 #include <string>

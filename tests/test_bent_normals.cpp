@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "../src/bent_normals.hpp"
+#include "render/bent_normals.hpp"
 #include "common.hpp"
 
 using namespace penumbra;

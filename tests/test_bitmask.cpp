@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "../src/bitmask.hpp"
-#include "../src/shadow_pass.hpp"
+#include "shadows/bitmask.hpp"
+#include "shadows/shadow_pass.hpp"
 #include "common.hpp"
 
 using namespace penumbra;

@@ -12,7 +12,7 @@
 #include <cstring>
 #include <vector>
 
-#include "../src/center_surround.hpp"
+#include "environment/center_surround.hpp"
 #include "common.hpp"
 
 namespace penumbra {

@@ -9,7 +9,7 @@
 #include <tuple>
 
 #include "common.hpp"
-#include "../src/cubemap.hpp"
+#include "environment/cubemap.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;

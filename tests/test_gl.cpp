@@ -16,8 +16,8 @@
 #include <random>
 #include <sstream>
 
-#include "../src/gl/glfuncs.hpp"
-#include "../src/shadow_pass.hpp"
+#include "gl/glfuncs.hpp"
+#include "shadows/shadow_pass.hpp"
 #include "common.hpp"
 #include "penumbra/gl/interop.hpp"
 #include "penumbra/penumbra.hpp"

@@ -11,8 +11,8 @@
 #include <random>
 #include <vector>
 
-#include "../src/cubemap.hpp"
-#include "../src/greedy.hpp"
+#include "environment/cubemap.hpp"
+#include "environment/greedy.hpp"
 #include "common.hpp"
 
 using namespace penumbra;

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "common.hpp"
-#include "../src/shadows_mssm.hpp"
+#include "shadows/mssm.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "../src/shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 #include "common.hpp"
 
 using namespace penumbra;

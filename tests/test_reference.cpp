@@ -19,7 +19,7 @@
 #include "penumbra/lights.hpp"
 #include "penumbra/reference.hpp"
 #include "penumbra/scene.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace {
 

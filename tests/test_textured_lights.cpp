@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "../src/bitmask.hpp"
+#include "shadows/bitmask.hpp"
 #include "common.hpp"
 
 using namespace penumbra;

@@ -20,6 +20,9 @@ struct Environment;
 //            cosAlpha the cosine of its bounding cap about that direction (the cap every
 //            filtered technique sizes its filters by); radiance is uniform over the polygon and
 //            power = radiance * the polygon's solid angle.
+// Most lights a frame may have (the kernels' PB_MAX_LIGHTS; src/lights/lights.cpp checks they agree).
+constexpr int kMaxLights = 1024;
+
 enum class LightShape { Cap, Polygon };
 const char* toString(LightShape s);  // "cap" | "polygon"
 

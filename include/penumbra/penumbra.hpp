@@ -10,4 +10,3 @@
 #include "penumbra/scan.hpp"
 #include "penumbra/scene.hpp"
 #include "penumbra/version.hpp"
-#include "penumbra/shared.h"

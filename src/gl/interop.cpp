@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "../light_buffers.hpp"
-#include "../shadow_pass.hpp"
+#include "lights/light_buffers.hpp"
+#include "shadows/shadow_pass.hpp"
 #include "glfuncs.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"

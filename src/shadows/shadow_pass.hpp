@@ -14,7 +14,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/renderer.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra::detail {
 

@@ -1,7 +1,7 @@
 // Internal: what MSSM4 and MSSM6 (src/shadows_mssm4.cpp, src/shadows_mssm6.cpp) share, the
 // parameter block of kernels/moments.cl.
 #pragma once
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 

@@ -42,10 +42,10 @@
 #include <string>
 #include <unordered_map>
 
-#include "bitmask.hpp"
+#include "shadows/bitmask.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 namespace {

@@ -1,6 +1,6 @@
 // MSSM6: moment soft shadow mapping with six moments (seed 003 §4.2.1), kernels/moments.cl.
 #include "penumbra/scan.hpp"
-#include "shadows_mssm.hpp"
+#include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
 namespace {

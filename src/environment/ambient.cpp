@@ -16,8 +16,8 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "penumbra/shared.h"
-#include "light_buffers.hpp"
+#include "common/shared.h"
+#include "lights/light_buffers.hpp"
 
 namespace penumbra {
 

@@ -1,7 +1,7 @@
 // Shadow techniques by name, and the prefilter shared by the filtered ones.
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 

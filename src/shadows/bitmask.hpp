@@ -9,7 +9,7 @@
 
 #include "penumbra/lights.hpp"
 #include "penumbra/scene.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra::detail {
 

@@ -23,8 +23,8 @@
 
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
-#include "penumbra/shared.h"
-#include "embree_scene.hpp"
+#include "common/shared.h"
+#include "reference/embree_scene.hpp"
 
 namespace penumbra {
 namespace {

@@ -17,12 +17,12 @@
 #include <string>
 #include <vector>
 
-#include "center_surround.hpp"
+#include "environment/center_surround.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra {
 namespace {

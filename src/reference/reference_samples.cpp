@@ -6,8 +6,8 @@
 #include <limits>
 #include <string>
 
-#include "bitmask.hpp"
-#include "embree_scene.hpp"
+#include "shadows/bitmask.hpp"
+#include "reference/embree_scene.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra::detail {

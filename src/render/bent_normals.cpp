@@ -1,6 +1,6 @@
 // Bent normals at light silhouettes (seed 001 §4.3): the host side of kernels/bent.cl (welding,
 // launches) and the plain C++ reference of its per-vertex stage.
-#include "bent_normals.hpp"
+#include "render/bent_normals.hpp"
 
 #include <climits>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <limits>
 #include <unordered_map>
 
-#include "vec3.hpp"
+#include "core/vec3.hpp"
 
 namespace penumbra::detail {
 

@@ -7,7 +7,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/lights.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra::detail {
 

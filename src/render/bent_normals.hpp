@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "penumbra/context.hpp"
-#include "penumbra/shared.h"
-#include "shadow_pass.hpp"
+#include "common/shared.h"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 

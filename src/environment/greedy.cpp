@@ -1,18 +1,18 @@
 // Greedy fitting of square or rectangular area lights to the cube-map faces (seed 000 §4.2,
 // Figure 6): the fit runs on the device (kernels/greedy.cl, one work-group per face); the host
 // turns each fitted rectangle's taken energy into a cap light and keeps the strongest.
-#include "greedy.hpp"
+#include "environment/greedy.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <string>
 
-#include "cubemap.hpp"
+#include "environment/cubemap.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra {
 

@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "penumbra/error.hpp"
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 namespace {

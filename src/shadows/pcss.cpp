@@ -5,7 +5,7 @@
 #include <string>
 
 #include "penumbra/error.hpp"
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra {
 namespace {

@@ -14,11 +14,11 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
-#include "penumbra/shared.h"
-#include "bent_normals.hpp"
-#include "light_buffers.hpp"
-#include "shadow_pass.hpp"
-#include "vec3.hpp"
+#include "common/shared.h"
+#include "render/bent_normals.hpp"
+#include "lights/light_buffers.hpp"
+#include "shadows/shadow_pass.hpp"
+#include "core/vec3.hpp"
 
 namespace penumbra {
 

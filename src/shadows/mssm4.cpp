@@ -2,7 +2,7 @@
 #include <algorithm>
 
 #include "penumbra/scan.hpp"
-#include "shadows_mssm.hpp"
+#include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
 namespace {

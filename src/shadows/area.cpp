@@ -26,8 +26,8 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "shadow_pass.hpp"
-#include "vec3.hpp"
+#include "shadows/shadow_pass.hpp"
+#include "core/vec3.hpp"
 
 namespace penumbra::detail {
 namespace {

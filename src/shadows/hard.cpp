@@ -1,7 +1,7 @@
 // Hard shadows: one depth test per pixel and light against the standard depth map at the light's
 // centre (nearest texel, no filtering), kernels/pcss.cl's hard_visibility. The baseline that
 // bounds the problem from below: what every soft technique must improve on.
-#include "shadow_pass.hpp"
+#include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 namespace {

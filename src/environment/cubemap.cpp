@@ -1,5 +1,5 @@
 // Environment map -> cube map of radiant energy on the device (kernels/envmap.cl).
-#include "cubemap.hpp"
+#include "environment/cubemap.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "penumbra/error.hpp"
-#include "penumbra/shared.h"
+#include "common/shared.h"
 
 namespace penumbra {
 

@@ -10,9 +10,11 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
-#include "penumbra/shared.h"
-#include "bitmask.hpp"
-#include "cubemap.hpp"
+#include "common/shared.h"
+
+static_assert(penumbra::kMaxLights == PB_MAX_LIGHTS, "lights.hpp kMaxLights and shared.h PB_MAX_LIGHTS differ");
+#include "shadows/bitmask.hpp"
+#include "environment/cubemap.hpp"
 
 namespace penumbra {
 
