@@ -52,8 +52,10 @@ class Context {
   // Waits for the work still queued: a program that ends right after its last enqueue must not
   // leave PoCL compiling or running kernels while the process tears its libraries down.
   ~Context();
-  Context(const Context&) = default;
-  Context& operator=(const Context&) = default;
+  // One owner: the destructor drains the queue, and the program cache, stage timings and scratch
+  // buffers belong to this object alone. Share a Context by reference.
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
 
   const DeviceInfo& info() const { return info_; }
   cl::Context& context() { return context_; }
@@ -72,6 +74,26 @@ class Context {
   // such kernels must return early for ids beyond their range.
   void launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
               const cl::NDRange& local = cl::NullRange);
+  // The typed form of launch(): sets k's arguments from `args` in order (a cl::Buffer, a scalar
+  // such as cl_int or cl_float, a struct passed by value, or cl::Local(bytes) for local memory)
+  // after checking that their count is the kernel's, then launches it as launch() does. A
+  // kernel whose parameter list changes without its call site fails here with both counts.
+  template <class... A>
+  void launchWith(const std::string& stage, cl::Kernel& k, const cl::NDRange& global,
+                  const cl::NDRange& local, const A&... args) {
+    setArgs(stage, k, args...);
+    launch(stage, k, global, local);
+  }
+  // Only the argument setting of launchWith (for a kernel launched several times with the same
+  // arguments, or with one changed by setArg between launches).
+  template <class... A>
+  static void setArgs(const std::string& stage, cl::Kernel& k, const A&... args) {
+    checkArgCount(stage, k, sizeof...(A));
+    cl_uint i = 0;
+    (k.setArg(i++, args), ...);
+  }
+  // Throws Error(Internal) naming the stage and both counts unless k takes exactly `count`.
+  static void checkArgCount(const std::string& stage, const cl::Kernel& k, std::size_t count);
   // Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
   cl::Buffer buffer(std::size_t bytes, const std::string& what,
                     cl_mem_flags flags = CL_MEM_READ_WRITE);

@@ -209,6 +209,19 @@ std::size_t Context::workGroupSize(const cl::Kernel& k, std::size_t preferred) c
   return p;
 }
 
+void Context::checkArgCount(const std::string& stage, const cl::Kernel& k, std::size_t count) {
+  cl_uint n = 0;
+  try {
+    n = k.getInfo<CL_KERNEL_NUM_ARGS>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "reading the argument count of " + stage);
+  }
+  if (n != count)
+    throw Error(ErrorKind::Internal, stage + ": the kernel " + k.getInfo<CL_KERNEL_FUNCTION_NAME>() +
+                                         " takes " + std::to_string(n) + " arguments, " +
+                                         std::to_string(count) + " were given");
+}
+
 void Context::launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
                      const cl::NDRange& local) {
   cl::Event ev;

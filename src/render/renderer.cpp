@@ -16,46 +16,13 @@
 #include "penumbra/scan.hpp"
 #include "common/shared.h"
 #include "render/bent_normals.hpp"
+#include "render/options_check.hpp"
 #include "lights/light_buffers.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "core/vec3.hpp"
 
 namespace penumbra {
 
-namespace {
-const std::pair<ShadowTechnique, const char*> kTechniques[] = {
-    {ShadowTechnique::None, "none"},   {ShadowTechnique::Hard, "hard"},
-    {ShadowTechnique::PCSS, "pcss"},   {ShadowTechnique::CSSM, "cssm"},
-    {ShadowTechnique::MSSM4, "mssm4"}, {ShadowTechnique::MSSM6, "mssm6"},
-    {ShadowTechnique::Brute, "brute"},  {ShadowTechnique::Bitmask, "bitmask"},
-    {ShadowTechnique::BitmaskHard, "bitmask-hard"},
-    {ShadowTechnique::AreaApprox, "area-approx"},
-};
-}  // namespace
-
-ShadowTechnique parseShadowTechnique(const std::string& name) {
-  std::string list;
-  for (auto& [t, n] : kTechniques) {
-    if (name == n && detail::techniqueAvailable(t)) return t;
-    if (detail::techniqueAvailable(t)) list += (list.empty() ? "" : ", ") + std::string(n);
-  }
-  badInput("--shadows: unknown technique '" + name + "' (available: " + list + ")");
-}
-
-const char* toString(ShadowTechnique t) {
-  for (auto& [k, n] : kTechniques)
-    if (k == t) return n;
-  return "?";
-}
-
-Prefilter parsePrefilter(const std::string& name) {
-  if (name == "sat") return Prefilter::SAT;
-  if (name == "mip" && detail::prefilterAvailable(Prefilter::Mip)) return Prefilter::Mip;
-  badInput("--prefilter: unknown prefilter '" + name + "' (available: sat" +
-           std::string(detail::prefilterAvailable(Prefilter::Mip) ? ", mip" : "") + ")");
-}
-
-const char* toString(Prefilter p) { return p == Prefilter::SAT ? "sat" : "mip"; }
 
 namespace {
 
@@ -167,22 +134,7 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
                        const Environment& env, const RenderOptions& opt) {
   auto t0 = std::chrono::steady_clock::now();
   Context& ctx = impl_->ctx;
-  if (opt.width < 1 || opt.height < 1 || opt.width > 16384 || opt.height > 16384)
-    badInput("--size must be between 1x1 and 16384x16384, got " + std::to_string(opt.width) +
-             "x" + std::to_string(opt.height));
-  if (opt.shadowMapSize < 1 || opt.shadowMapSize > 4096)
-    badInput("--shadow-map-size must be in [1, 4096], got " + std::to_string(opt.shadowMapSize));
-  const MSSMOptions& mo = opt.mssm;
-  if (!(mo.momentBias >= 0 && mo.momentBias < 1)) badInput("moment bias must be in [0, 1)");
-  if (!(mo.lightSizeScale >= 0) || !std::isfinite(mo.lightSizeScale))
-    badInput("light-size scale must be >= 0");
-  if (!(mo.minFilterTexels > 0) || !(mo.maxFilterTexels >= mo.minFilterTexels))
-    badInput("filter sizes must satisfy 0 < min <= max");
-  if (scene.triangleCount() == 0) badInput("scene has no triangles");
-  if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
-    badInput("--bent-normals-scale must be finite and > 0, got " +
-             std::to_string(opt.bentNormalsScale));
-  if (env.equirect.empty()) badInput("environment map is empty");
+  detail::validateFrameInputs(scene, env, opt);
 
   // --- scene upload
   std::vector<cl_float4> pos, nrm, alb;
@@ -278,10 +230,6 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   impl_->lastPixels = npx;
   impl_->lastLights = nl;
   Frame frame;
-  if (!detail::techniqueAvailable(opt.shadows))
-    badInput(std::string("--shadows ") + toString(opt.shadows) + " is not available");
-  if (!detail::prefilterAvailable(opt.prefilter))
-    badInput(std::string("--prefilter ") + toString(opt.prefilter) + " is not available");
   // The pass is kept between frames of the same technique: passes hold what depends only on
   // their options (the bitmask's light samples and look-up tables), not on the frame.
   if (!impl_->pass || impl_->passKind != opt.shadows) {
@@ -386,49 +334,6 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
 std::vector<float> Renderer::lastVisibility() {
   return impl_->ctx.download<float>(impl_->vis, std::size_t(impl_->lastPixels) * impl_->lastLights,
                                     "visibility");
-}
-
-std::string renderReportJson(const std::string& device, const LightSet& lights,
-                             const Environment& env, const RenderOptions& opt, const Frame& f) {
-  std::ostringstream o;
-  o.precision(6);
-  o << "{\n  \"device\": \"" << device << "\",\n  \"environment\": \"" << env.source
-    << "\",\n  \"lights\": " << lights.lights.size() << ",\n  \"extract\": \"" << lights.method
-    << "\",\n  \"sanitized_pixels\": " << env.sanitizedPixels
-    << ",\n  \"non_finite_values\": " << env.nonFiniteValues
-    << ",\n  \"negative_values\": " << env.negativeValues << ",\n  \"shadows\": \""
-    << toString(opt.shadows) << "\",\n  \"width\": " << opt.width << ",\n  \"height\": "
-    << opt.height << ",\n  \"shadow_map_size\": " << opt.shadowMapSize
-    << ",\n  \"shadow_map_bytes\": " << f.shadowMapBytes
-    << ",\n  \"shadow_map_bytes_per_texel\": "
-    << (f.shadowMapBytes / std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size())) << ",\n  \"mssm\": {\"moment_bias\": "
-    << opt.mssm.momentBias << ", \"depth_bias\": " << opt.mssm.depthBias
-    << ", \"slope_bias\": " << opt.mssm.slopeBias
-    << ", \"light_size_scale\": " << opt.mssm.lightSizeScale
-    << ", \"max_filter_texels\": " << opt.mssm.maxFilterTexels
-    << ", \"min_filter_texels\": " << opt.mssm.minFilterTexels
-    << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon
-    << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
-    << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
-    << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
-    << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")
-    << ",\n  \"bent_normals_scale\": " << opt.bentNormalsScale
-    << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
-    << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
-    << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps
-    << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"bitmask\": {\"light_samples\": "
-    << opt.bitmask.lightSamples << ", \"list_size\": " << opt.bitmask.listSize << "},\n  \"stats\": {";
-  for (std::size_t i = 0; i < f.stats.size(); ++i)
-  {
-    const double v = f.stats[i].second;  // counts as integers, not in 6-digit scientific form
-    o << (i ? ", " : "") << "\"" << f.stats[i].first << "\": ";
-    if (v == std::floor(v) && std::fabs(v) < 9e15) o << static_cast<long long>(v); else o << v;
-  }
-  o << "},\n  \"timings_ms\": {";
-  for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
-    o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
-  o << "}\n}\n";
-  return o.str();
 }
 
 }  // namespace penumbra

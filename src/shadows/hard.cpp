@@ -11,16 +11,9 @@ class HardPass : public ShadowPass {
   void computeVisibility(ShadowFrame& f) override {
     const int nl = int(f.lights.size());
     cl::Kernel k = f.ctx.kernel("pcss.cl", "hard_visibility");
-    k.setArg(0, f.gpos);
-    k.setArg(1, f.gnrm);
-    k.setArg(2, f.ggeo);
-    k.setArg(3, f.lightBuffer);
-    k.setArg(4, f.depth);
-    k.setArg(5, cl_int(f.mapSize));
-    k.setArg(6, cl_int(f.pixels));
-    k.setArg(7, cl_float(f.opt.mssm.depthBias));
-    k.setArg(8, f.vis);
-    f.ctx.launch("hard/visibility", k, cl::NDRange(f.pixels, nl));
+    f.ctx.launchWith("hard/visibility", k, cl::NDRange(f.pixels, nl), cl::NullRange, f.gpos,
+                     f.gnrm, f.ggeo, f.lightBuffer, f.depth, cl_int(f.mapSize), cl_int(f.pixels),
+                     cl_float(f.opt.mssm.depthBias), f.vis);
   }
   // the standard depth map itself: one uint per texel
   std::size_t bytesPerTexel(const RenderOptions&) const override { return sizeof(cl_uint); }

@@ -1,0 +1,54 @@
+// The JSON report of a rendered frame (renderReportJson, include/penumbra/renderer.hpp).
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "penumbra/environment.hpp"
+#include "penumbra/renderer.hpp"
+
+namespace penumbra {
+
+std::string renderReportJson(const std::string& device, const LightSet& lights,
+                             const Environment& env, const RenderOptions& opt, const Frame& f) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "{\n  \"device\": \"" << device << "\",\n  \"environment\": \"" << env.source
+    << "\",\n  \"lights\": " << lights.lights.size() << ",\n  \"extract\": \"" << lights.method
+    << "\",\n  \"sanitized_pixels\": " << env.sanitizedPixels
+    << ",\n  \"non_finite_values\": " << env.nonFiniteValues
+    << ",\n  \"negative_values\": " << env.negativeValues << ",\n  \"shadows\": \""
+    << toString(opt.shadows) << "\",\n  \"width\": " << opt.width << ",\n  \"height\": "
+    << opt.height << ",\n  \"shadow_map_size\": " << opt.shadowMapSize
+    << ",\n  \"shadow_map_bytes\": " << f.shadowMapBytes
+    << ",\n  \"shadow_map_bytes_per_texel\": "
+    << (f.shadowMapBytes / std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size())) << ",\n  \"mssm\": {\"moment_bias\": "
+    << opt.mssm.momentBias << ", \"depth_bias\": " << opt.mssm.depthBias
+    << ", \"slope_bias\": " << opt.mssm.slopeBias
+    << ", \"light_size_scale\": " << opt.mssm.lightSizeScale
+    << ", \"max_filter_texels\": " << opt.mssm.maxFilterTexels
+    << ", \"min_filter_texels\": " << opt.mssm.minFilterTexels
+    << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon
+    << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
+    << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
+    << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
+    << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")
+    << ",\n  \"bent_normals_scale\": " << opt.bentNormalsScale
+    << ",\n  \"cssm\": {\"order\": " << opt.cssm.order << ", \"sharpen_a\": " << opt.cssm.sharpenA
+    << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
+    << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps
+    << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"bitmask\": {\"light_samples\": "
+    << opt.bitmask.lightSamples << ", \"list_size\": " << opt.bitmask.listSize << "},\n  \"stats\": {";
+  for (std::size_t i = 0; i < f.stats.size(); ++i)
+  {
+    const double v = f.stats[i].second;  // counts as integers, not in 6-digit scientific form
+    o << (i ? ", " : "") << "\"" << f.stats[i].first << "\": ";
+    if (v == std::floor(v) && std::fabs(v) < 9e15) o << static_cast<long long>(v); else o << v;
+  }
+  o << "},\n  \"timings_ms\": {";
+  for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
+    o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
+  o << "}\n}\n";
+  return o.str();
+}
+
+}  // namespace penumbra
