@@ -40,6 +40,10 @@ struct DeviceInfo {
   bool int64Atomics = false;
 };
 
+// Converts a cl::Error into a penumbra::Error with `what` in the message.
+[[noreturn]] void rethrowCl(const cl::Error& e, const std::string& what);
+const char* clErrorName(cl_int code);
+
 // All OpenCL devices on all platforms, in a stable order. Throws Error(NoPlatform) with the
 // package that provides one if there is none.
 std::vector<DeviceInfo> listDevices();
@@ -86,11 +90,16 @@ class Context {
   }
   // Only the argument setting of launchWith (for a kernel launched several times with the same
   // arguments, or with one changed by setArg between launches).
+  // An argument the device refuses throws Error naming the stage.
   template <class... A>
   static void setArgs(const std::string& stage, cl::Kernel& k, const A&... args) {
     checkArgCount(stage, k, sizeof...(A));
     cl_uint i = 0;
-    (k.setArg(i++, args), ...);
+    try {
+      (k.setArg(i++, args), ...);
+    } catch (const cl::Error& e) {
+      rethrowCl(e, "setting argument " + std::to_string(i - 1) + " of " + stage);
+    }
   }
   // Throws Error(Internal) naming the stage and both counts unless k takes exactly `count`.
   static void checkArgCount(const std::string& stage, const cl::Kernel& k, std::size_t count);
@@ -129,6 +138,12 @@ class Context {
   // Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
   std::vector<std::pair<std::string, double>> stageTimesMs();
   void resetTimings();
+  // Launches whose profiling events are still held. Once they reach kEventBound, launch() folds
+  // the finished ones into per-stage totals (waiting for the older half of them if too few have
+  // finished), so a long run's memory does not grow with its launches; stageTimesMs() adds the
+  // same durations in the same order either way.
+  static constexpr std::size_t kEventBound = 4096;
+  std::size_t heldEvents() const { return events_.size(); }
 
  private:
   DeviceInfo info_;
@@ -136,12 +151,11 @@ class Context {
   cl::Device device_;
   cl::CommandQueue queue_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
+  // Folds events_[0, count) into folded_ and drops them.
+  void foldEvents(std::size_t count);
   std::vector<std::pair<std::string, cl::Event>> events_;
+  std::vector<std::pair<std::string, double>> folded_;  // per-stage totals of dropped events
   BufferSlots scratch_;  // role -> (buffer, bytes)
 };
-
-// Converts a cl::Error into a penumbra::Error with `what` in the message.
-[[noreturn]] void rethrowCl(const cl::Error& e, const std::string& what);
-const char* clErrorName(cl_int code);
 
 }  // namespace penumbra

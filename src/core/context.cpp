@@ -249,6 +249,50 @@ void Context::launch(const std::string& stage, const cl::Kernel& k, const cl::ND
     rethrowCl(e, "launching " + stage);
   }
   events_.emplace_back(stage, ev);
+  if (events_.size() < kEventBound) return;
+  // The queue is in order: the finished events are a prefix. Fold it, or, when fewer than half
+  // have finished (a long queue of short launches), wait for the older half and fold that.
+  std::size_t done = 0;
+  for (; done < events_.size(); ++done) {
+    cl_int status = CL_COMPLETE;
+    try {
+      status = events_[done].second.getInfo<CL_EVENT_COMMAND_EXECUTION_STATUS>();
+    } catch (const cl::Error&) {
+    }
+    if (status > CL_COMPLETE) break;  // queued, submitted or running; negative: failed, final
+  }
+  if (done < events_.size() / 2) {
+    done = events_.size() / 2;
+    try {
+      events_[done - 1].second.wait();
+    } catch (const cl::Error&) {  // a failed command: its duration reads as 0 ms, as before
+    }
+  }
+  foldEvents(done);
+}
+
+namespace {
+// Adds one event's profiled milliseconds to its stage's total (appended in first-launch order).
+void addEvent(std::vector<std::pair<std::string, double>>& totals, const std::string& stage,
+              const cl::Event& ev) {
+  double ms = 0;
+  try {
+    auto t0 = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+    auto t1 = ev.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+    ms = double(t1 - t0) * 1e-6;
+  } catch (const cl::Error&) {
+  }
+  auto it = std::find_if(totals.begin(), totals.end(), [&](auto& p) { return p.first == stage; });
+  if (it == totals.end())
+    totals.emplace_back(stage, ms);
+  else
+    it->second += ms;
+}
+}  // namespace
+
+void Context::foldEvents(std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) addEvent(folded_, events_[i].first, events_[i].second);
+  events_.erase(events_.begin(), events_.begin() + std::ptrdiff_t(count));
 }
 
 cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_flags flags) {
@@ -315,24 +359,14 @@ void Context::finish() {
 
 std::vector<std::pair<std::string, double>> Context::stageTimesMs() {
   finish();
-  std::vector<std::pair<std::string, double>> out;
-  for (auto& [stage, ev] : events_) {
-    double ms = 0;
-    try {
-      auto t0 = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
-      auto t1 = ev.getProfilingInfo<CL_PROFILING_COMMAND_END>();
-      ms = double(t1 - t0) * 1e-6;
-    } catch (const cl::Error&) {
-    }
-    auto it = std::find_if(out.begin(), out.end(), [&](auto& p) { return p.first == stage; });
-    if (it == out.end())
-      out.emplace_back(stage, ms);
-    else
-      it->second += ms;
-  }
+  std::vector<std::pair<std::string, double>> out = folded_;
+  for (auto& [stage, ev] : events_) addEvent(out, stage, ev);
   return out;
 }
 
-void Context::resetTimings() { events_.clear(); }
+void Context::resetTimings() {
+  events_.clear();
+  folded_.clear();
+}
 
 }  // namespace penumbra

@@ -87,31 +87,6 @@ std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
          " -DCOL_LOCKSTEP=" + (lockstep ? "1" : "0");
 }
 
-// One typed argument setter per kernel (STYLE.md): the signatures mirror kernels/scan.cl.
-void setRowArgs(cl::Kernel& k, cl::Buffer& data, cl_int width) {
-  k.setArg(0, data);
-  k.setArg(1, width);
-}
-void setSegmentArgs(cl::Kernel& k, cl::Buffer& data, cl::Buffer& segSums, cl_int width,
-                    cl_int height) {
-  k.setArg(0, data);
-  k.setArg(1, segSums);
-  k.setArg(2, width);
-  k.setArg(3, height);
-}
-void setOffsetArgs(cl::Kernel& k, cl::Buffer& segSums, cl_int width, cl_int nseg) {
-  k.setArg(0, segSums);
-  k.setArg(1, width);
-  k.setArg(2, nseg);
-}
-void setApplyArgs(cl::Kernel& k, cl::Buffer& data, cl::Buffer& segSums, cl_int width,
-                  cl_int height) {
-  k.setArg(0, data);
-  k.setArg(1, segSums);
-  k.setArg(2, width);
-  k.setArg(3, height);
-}
-
 }  // namespace
 
 std::size_t scanElementBytes(ScanType t) {
@@ -223,12 +198,9 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   const std::size_t rowGlobal = checkedMul(rows, wg, "row-pass global size");
 
   // --- row pass --------------------------------------------------------------------------------
-  try {
-    setRowArgs(rowsK, data, width);
-  } catch (const cl::Error& e) {
-    rethrowCl(e, "summedAreaTable: setting scan_rows arguments");
-  }
-  ctx.launch(stage + "/rows", rowsK, cl::NDRange(rowGlobal), cl::NDRange(wg));
+  // Arguments in kernels/scan.cl's order; launchWith checks their count against the kernel's.
+  ctx.launchWith(stage + "/rows", rowsK, cl::NDRange(rowGlobal), cl::NDRange(wg), data,
+                 cl_int(width));
 
   // --- column pass -----------------------------------------------------------------------------
   cl::Kernel applyK = ctx.kernel(kFile, "scan_col_apply", opts);
@@ -249,25 +221,18 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
     std::vector<unsigned char> zeros(sumsBytes);
     ctx.write(segSums, zeros.data(), sumsBytes, stage + " segment sums");
   }
-  try {
-    if (nseg > 1) {
-      cl::Kernel segK = ctx.kernel(kFile, "scan_col_segments", opts);
-      cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets", opts);
-      const std::size_t swg = std::min(cwg, ctx.workGroupSize(segK, kColumnWg));
-      const std::size_t owg = std::min(cwg, ctx.workGroupSize(offK, kColumnWg));
-      setSegmentArgs(segK, data, segSums, width, height);
-      ctx.launch(stage + "/cols/segments", segK, cl::NDRange(roundUp(width, swg), nseg, batch),
-                 cl::NDRange(swg, 1, 1));
-      setOffsetArgs(offK, segSums, width, cl_int(nseg));
-      ctx.launch(stage + "/cols/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
-                 cl::NDRange(owg, 1));
-    }
-    setApplyArgs(applyK, data, segSums, width, height);
-    ctx.launch(stage + "/cols", applyK, cl::NDRange(colGlobal, nseg, batch),
-               cl::NDRange(cwg, 1, 1));
-  } catch (const cl::Error& e) {
-    rethrowCl(e, "summedAreaTable: setting column-pass arguments");
+  if (nseg > 1) {
+    cl::Kernel segK = ctx.kernel(kFile, "scan_col_segments", opts);
+    cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets", opts);
+    const std::size_t swg = std::min(cwg, ctx.workGroupSize(segK, kColumnWg));
+    const std::size_t owg = std::min(cwg, ctx.workGroupSize(offK, kColumnWg));
+    ctx.launchWith(stage + "/cols/segments", segK, cl::NDRange(roundUp(width, swg), nseg, batch),
+                   cl::NDRange(swg, 1, 1), data, segSums, cl_int(width), cl_int(height));
+    ctx.launchWith(stage + "/cols/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
+                   cl::NDRange(owg, 1), segSums, cl_int(width), cl_int(nseg));
   }
+  ctx.launchWith(stage + "/cols", applyK, cl::NDRange(colGlobal, nseg, batch),
+                 cl::NDRange(cwg, 1, 1), data, segSums, cl_int(width), cl_int(height));
 }
 
 }  // namespace penumbra

@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "lights/light_buffers.hpp"
+#include "render/visibility.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "glfuncs.hpp"
 #include "penumbra/context.hpp"
@@ -39,16 +40,22 @@ const char* formatName(GLint f) {
   }
 }
 
+// The interop has depth textures but no triangles: a technique that asks for more depth maps is
+// refused (shade() already refuses those techniques by name; this names what was asked for).
+class NoRasterizer : public penumbra::detail::DepthRasterizer {
+ public:
+  void depthMaps(const std::vector<pb_view>&, cl::Buffer&, const std::string& prefix) override {
+    badInput("GL interop: " + prefix + " needs depth maps rasterized from the scene");
+  }
+};
+
 }  // namespace
 
 struct Interop::Impl {
   Context& ctx;
   detail::GLFunctions gl;
   penumbra::detail::BufferPool pool;
-  std::unique_ptr<penumbra::detail::ShadowPass> pass;
-  ShadowTechnique passKind = ShadowTechnique::None;
-  cl::Buffer vis;
-  int lastPixels = 0, lastLights = 0;
+  penumbra::detail::Visibility visibility;
   std::vector<std::pair<std::string, double>> timings;
   GLuint programs[2] = {0, 0}, program = 0;  // shade.frag without, with polygon lights
   GLuint vao = 0, fbo = 0, sampler = 0, lightUbo = 0;
@@ -60,7 +67,7 @@ struct Interop::Impl {
   int visW = 0, visH = 0, visL = 0;
   std::vector<float> hostGL, hostVis;
 
-  Impl(Context& c, ProcLoader loader) : ctx(c), pool(c) {
+  Impl(Context& c, ProcLoader loader) : ctx(c), pool(c), visibility(c, pool) {
     gl.load(loader ? loader : currentContextLoader());
     // The lights' uniform block holds 32 bytes a light; GL 3.3 guarantees 16 KiB blocks.
     GLint blockBytes = 16384;
@@ -309,48 +316,33 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   {
     cl::Kernel k = ctx.kernel("gl_interop.cl", "gl_flip_gbuffer");
     auto flip = [&](cl::Buffer& src, int kind, cl::Buffer& dst) {
-      k.setArg(0, src);
-      k.setArg(1, cl_int(W));
-      k.setArg(2, cl_int(H));
-      k.setArg(3, cl_int(kind));
-      k.setArg(4, dst);
-      ctx.launch("interop/convert", k, cl::NDRange(W, H));
+      ctx.launchWith("interop/convert", k, cl::NDRange(W, H), cl::NullRange, src, cl_int(W),
+                     cl_int(H), cl_int(kind), dst);
     };
     flip(rawPos, 0, gpos);
     flip(rawNrm, 1, gnrm);
     flip(g.geometricNormal ? rawGeo : rawNrm, 1, ggeo);
     if (nl > 0) {
       cl::Kernel d = ctx.kernel("gl_interop.cl", "gl_depth_to_distance");
-      d.setArg(0, rawDepth);
-      d.setArg(1, lightB);
-      d.setArg(2, cl_int(S));
-      d.setArg(3, cl_int(nl));
-      d.setArg(4, depth);
-      ctx.launch("interop/convert", d, cl::NDRange(S, S, nl));
+      ctx.launchWith("interop/convert", d, cl::NDRange(S, S, nl), cl::NullRange, rawDepth, lightB,
+                     cl_int(S), cl_int(nl), depth);
     }
   }
-  m.vis = m.pool.buffer("visibility buffer",
-                        std::max<std::size_t>(1, std::size_t(npx) * std::max(nl, 1)) * 4);
-  m.lastPixels = npx;
-  m.lastLights = nl;
-  if (!m.pass || m.passKind != opt.shadows) {
-    m.pass = penumbra::detail::makeShadowPass(opt.shadows);
-    m.passKind = opt.shadows;
-  }
-  if (nl > 0 && m.pass) {
-    auto noRaster = [](const std::vector<pb_view>&, cl::Buffer&, const std::string& prefix) {
-      badInput("GL interop: " + prefix + " needs depth maps rasterized from the scene");
-    };
-    cl::Buffer none;
-    penumbra::detail::ShadowFrame sf{ctx,  m.pool, opt,  W,     H,     npx,      S,
-                                     lights, lightB, gpos, gnrm,  ggeo,  depth,    m.vis,
-                                     noRaster, none, none, none,  0};
-    sf.areaLights = &lightSet.lights;
-    m.pass->computeVisibility(sf);
-  } else if (nl > 0) {
-    cl_float one = 1.0f;
-    ctx.fill(m.vis, &one, 4, std::size_t(npx) * nl * 4, "visibility buffer");
-  }
+  m.visibility.begin(opt.shadows, npx, nl);
+  NoRasterizer noRaster;
+  penumbra::detail::ShadowFrame sf(ctx, m.pool, opt, lights);
+  sf.width = W;
+  sf.height = H;
+  sf.pixels = npx;
+  sf.mapSize = S;
+  sf.lightBuffer = lightB;
+  sf.gpos = gpos;
+  sf.gnrm = gnrm;
+  sf.ggeo = ggeo;
+  sf.depth = depth;
+  sf.rasterizer = &noRaster;
+  sf.areaLights = &lightSet.lights;
+  m.visibility.compute(sf);
   ctx.finish();
   m.timings.emplace_back("interop/visibility", msSince(t0));
 
@@ -358,7 +350,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   t0 = Clock::now();
   const int layers = std::max(nl, 1);
   m.hostVis.assign(std::size_t(npx) * layers, 1.0f);
-  if (nl > 0) ctx.read(m.vis, m.hostVis.data(), std::size_t(npx) * nl * 4, "visibility");
+  if (nl > 0) ctx.read(m.visibility.buffer(), m.hostVis.data(), std::size_t(npx) * nl * 4, "visibility");
   while (gl.GetError() != GL_NO_ERROR) {
   }
   gl.ActiveTexture(GL_TEXTURE0);
@@ -482,10 +474,6 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   m.timings.emplace_back("gl/shade", msSince(t0));
 }
 
-std::vector<float> Interop::lastVisibility() {
-  return impl_->ctx.download<float>(impl_->vis,
-                                    std::size_t(impl_->lastPixels) * impl_->lastLights,
-                                    "visibility");
-}
+std::vector<float> Interop::lastVisibility() { return impl_->visibility.download(); }
 
 }  // namespace penumbra::gl

@@ -56,14 +56,9 @@ void bentVertices(Context& ctx, const cl::Buffer& pos, const cl::Buffer& nrm,
   ctx.fill(bend, &empty, sizeof empty, std::size_t(nlights) * nverts * sizeof empty,
            "bent normals per vertex");
   cl::Kernel k = ctx.kernel("bent.cl", "bent_vertices");
-  k.setArg(0, pos);
-  k.setArg(1, nrm);
-  k.setArg(2, tris);
-  k.setArg(3, cl_int(ntris));
-  k.setArg(4, cl_int(nlights));
-  k.setArg(5, lights);
-  k.setArg(6, bend);
-  ctx.launch("bent-normals/vertices", k, cl::NDRange(std::size_t(ntris), std::size_t(nlights)));
+  ctx.launchWith("bent-normals/vertices", k,
+                 cl::NDRange(std::size_t(ntris), std::size_t(nlights)), cl::NullRange, pos, nrm,
+                 tris, cl_int(ntris), cl_int(nlights), lights, bend);
 }
 
 std::vector<std::array<float, 2>> bentVerticesReference(
@@ -92,29 +87,24 @@ std::vector<std::array<float, 2>> bentVerticesReference(
   return out;
 }
 
-BentBuffers bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
-                        const std::vector<cl_float4>& nrm, const std::vector<cl_int4>& tris,
-                        const cl::Buffer& posB, const cl::Buffer& nrmB, const cl::Buffer& lights,
-                        int nlights, const cl::Buffer& gids, const cl::Buffer& gpos,
-                        const cl::Buffer& gnrm, int npixels) {
+BentBuffers bentNormals(Context& ctx, BufferPool& pool, const DeviceScene& scene,
+                        const cl::Buffer& lights, int nlights, const DeviceGBuffer& g,
+                        int npixels) {
+  const std::vector<cl_float4>& pos = scene.positions();
+  const std::vector<cl_int4>& tris = scene.triangles();
   const int nverts = int(pos.size()), ntris = int(tris.size());
-  cl::Buffer& welded = pool.upload("welded triangles", weldedTriangles(pos, nrm, tris));
+  cl::Buffer& welded =
+      pool.upload("welded triangles", weldedTriangles(pos, scene.normals(), tris));
   cl::Buffer& bend = pool.buffer("bent normals per vertex",
                                  std::max<std::size_t>(1, std::size_t(nlights) * nverts) * 8);
-  bentVertices(ctx, posB, nrmB, welded, ntris, nverts, lights, nlights, bend);
+  bentVertices(ctx, scene.positionBuffer(), scene.normalBuffer(), welded, ntris, nverts, lights,
+               nlights, bend);
   cl::Buffer& vert = pool.buffer("bent normals: pixel vertices", std::size_t(npixels) * 16);
   cl::Buffer& weight = pool.buffer("bent normals: pixel weights", std::size_t(npixels) * 16);
   cl::Kernel k = ctx.kernel("bent.cl", "bent_pixels");
-  k.setArg(0, posB);
-  k.setArg(1, nrmB);
-  k.setArg(2, welded);
-  k.setArg(3, gids);
-  k.setArg(4, gpos);
-  k.setArg(5, gnrm);
-  k.setArg(6, cl_int(npixels));
-  k.setArg(7, vert);
-  k.setArg(8, weight);
-  ctx.launch("bent-normals/pixels", k, cl::NDRange(std::size_t(npixels)));
+  ctx.launchWith("bent-normals/pixels", k, cl::NDRange(std::size_t(npixels)), cl::NullRange,
+                 scene.positionBuffer(), scene.normalBuffer(), welded, g.ids, g.position,
+                 g.normal, cl_int(npixels), vert, weight);
   return {bend, vert, weight};
 }
 

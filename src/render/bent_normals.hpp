@@ -7,6 +7,8 @@
 
 #include "penumbra/context.hpp"
 #include "common/shared.h"
+#include "render/device_scene.hpp"
+#include "render/rasterizer.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
@@ -38,12 +40,10 @@ struct BentBuffers {
   cl::Buffer bend, vert, weight;
 };
 
-// The frame's bent-normal inputs to the shading, in pool buffers: welds, runs bent_vertices and
-// bent_pixels (stage "bent-normals/pixels").
-BentBuffers bentNormals(Context& ctx, BufferPool& pool, const std::vector<cl_float4>& pos,
-                        const std::vector<cl_float4>& nrm, const std::vector<cl_int4>& tris,
-                        const cl::Buffer& posB, const cl::Buffer& nrmB, const cl::Buffer& lights,
-                        int nlights, const cl::Buffer& gids, const cl::Buffer& gpos,
-                        const cl::Buffer& gnrm, int npixels);
+// The frame's bent-normal inputs to the shading, in pool buffers: welds the scene's triangles,
+// runs bent_vertices and bent_pixels (stage "bent-normals/pixels") for the camera G-buffer.
+BentBuffers bentNormals(Context& ctx, BufferPool& pool, const DeviceScene& scene,
+                        const cl::Buffer& lights, int nlights, const DeviceGBuffer& gbuffer,
+                        int npixels);
 
 }  // namespace penumbra::detail

@@ -60,8 +60,6 @@ constexpr int kLutPhi = 512, kLutDelta = 128;
 constexpr int kStripes = 16;
 
 BitmaskCapture* gCapture = nullptr;
-bool gStats = false;
-BitmaskStats gLastStats;
 
 std::size_t roundUp(std::size_t v, std::size_t m) { return (v + m - 1) / m * m; }
 
@@ -362,7 +360,7 @@ class BitmaskPass : public ShadowPass {
   bool usesShadowMaps() const override { return false; }
   std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return heldBytes_; }
   std::vector<std::pair<std::string, double>> frameStats() const override {
-    const BitmaskStats& st = gLastStats;
+    const BitmaskStats& st = stats_;
     return {{"list_size", double(listSize_)},
             {"view_samples", double(st.viewSamples)},
             {"list_texels", double(st.texels)},
@@ -373,10 +371,12 @@ class BitmaskPass : public ShadowPass {
   }
 
  private:
-  // Per-mesh orientation of the frame's triangles (meshOrientation), from a read-back of the
-  // scene as uploaded: a few hundred KiB for the built-in scene, against seconds of triangle work.
+  // Per-mesh orientation of the frame's triangles (meshOrientation), from the renderer's host
+  // copy of the scene as uploaded (ShadowFrame::hostTriangles, hostPositions).
   std::vector<cl_int> orientation(ShadowFrame& f) {
-    auto t4 = f.ctx.download<cl_int4>(f.triangles, std::size_t(f.triangleCount), "triangles");
+    if (!f.hostTriangles || !f.hostPositions)
+      throw Error(ErrorKind::Internal, "bitmask: the renderer gave no host copy of the scene");
+    const std::vector<cl_int4>& t4 = *f.hostTriangles;
     std::vector<std::array<int, 4>> tris(t4.size());
     int maxV = -1, meshes = 0;
     for (std::size_t i = 0; i < t4.size(); ++i) {
@@ -384,9 +384,9 @@ class BitmaskPass : public ShadowPass {
       maxV = std::max({maxV, tris[i][0], tris[i][1], tris[i][2]});
       meshes = std::max(meshes, tris[i][3] + 1);
     }
-    auto p4 = f.ctx.download<cl_float4>(f.positions, std::size_t(maxV + 1), "vertex positions");
-    std::vector<std::array<float, 3>> pos(p4.size());
-    for (std::size_t i = 0; i < p4.size(); ++i) pos[i] = {p4[i].s[0], p4[i].s[1], p4[i].s[2]};
+    const std::vector<cl_float4>& p4 = *f.hostPositions;
+    std::vector<std::array<float, 3>> pos(std::size_t(maxV + 1));
+    for (std::size_t i = 0; i < pos.size(); ++i) pos[i] = {p4[i].s[0], p4[i].s[1], p4[i].s[2]};
     std::vector<int> o = meshOrientation(pos, tris, meshes);
     return std::vector<cl_int>(o.begin(), o.end());
   }
@@ -405,7 +405,7 @@ class BitmaskPass : public ShadowPass {
       st.maxList = std::max(st.maxList, int(v));
     }
     st.meanList = st.occupiedTexels ? double(st.viewSamples) / double(st.occupiedTexels) : 0.0;
-    gLastStats = st;
+    stats_ = st;
     if (!cap) return;
     cap->hard = hard_;
     cap->pixels = f.pixels;
@@ -437,6 +437,7 @@ class BitmaskPass : public ShadowPass {
   double diskRot_ = -1;
   std::size_t heldBytes_ = 0;
   int listSize_ = 0;
+  BitmaskStats stats_;  // the last frame's, reported by frameStats()
 };
 
 }  // namespace
@@ -547,8 +548,6 @@ double bitmaskJitterAngle(int jitter) {
 }
 
 void setBitmaskCapture(BitmaskCapture* capture) { gCapture = capture; }
-void setBitmaskStats(bool on) { gStats = on; }
-BitmaskStats lastBitmaskStats() { return gLastStats; }
 
 std::unique_ptr<ShadowPass> makeBitmaskPass(bool hard) { return std::make_unique<BitmaskPass>(hard); }
 

@@ -81,11 +81,6 @@ std::vector<int> meshOrientation(const std::vector<std::array<float, 3>>& positi
 // tests and benchmarks.
 void setBitmaskCapture(BitmaskCapture* capture);
 
-// Statistics of the last bitmask frame (computed from the list lengths; costs a read-back, so
-// only when a capture is installed or statistics were asked for with setBitmaskStats(true)).
-void setBitmaskStats(bool on);
-BitmaskStats lastBitmaskStats();
-
 // Exact occlusion of rays from explicit origins along explicit directions by the scene's
 // triangles (Embree 3, robust mode): the ground truth for per-(view sample, light sample) pairs.
 // occluded() is safe to call from several threads at once.

@@ -4,15 +4,17 @@
 // orthographic frame fitted to the scene), then asks the technique for the visibility of every
 // light at every pixel. A technique adds its own stages (named "<technique>/<stage>") and may
 // rasterize more depth maps through ShadowFrame::rasterizeDepth (front/back faces, sample views).
+// The renderer's visibility stage (src/render/visibility.hpp) keeps the pass between frames and
+// runs it, for the OpenCL renderer and the GL interop alike.
 #pragma once
 #include <array>
-#include <functional>
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
 #include "penumbra/renderer.hpp"
 #include "common/shared.h"
 
@@ -40,30 +42,55 @@ class BufferPool {
 // Which faces a depth map keeps, judged against the view direction.
 enum class Cull { None = 0, KeepFront = 1, KeepBack = 2 };
 
+// What a technique asks of the rasterizer stage (src/render/rasterizer.hpp): depth maps of the
+// scene for `views` (orthographic pb_view, S x S each) into `out` (views.size()*S*S uint), the
+// encoding of ShadowFrame::depth, front and back faces averaged when opt.frontBackFaces. Stages
+// "<prefix>/raster" (or /raster-front, /raster-back, /front-back). The GL interop, which has no
+// triangles, hands techniques one that refuses.
+class DepthRasterizer {
+ public:
+  virtual ~DepthRasterizer() = default;
+  virtual void depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
+                         const std::string& prefix) = 0;
+};
+
+// One frame as a technique sees it. The four references are what every frame has; the rest is
+// assigned by name where the frame is built (src/render/renderer.cpp, src/gl/interop.cpp), and
+// what a caller cannot give keeps its empty default (the GL interop has no triangles).
 struct ShadowFrame {
+  ShadowFrame(Context& c, BufferPool& p, const RenderOptions& o, const std::vector<pb_light>& l)
+      : ctx(c), pool(p), opt(o), lights(l) {}
   Context& ctx;
   BufferPool& pool;
   const RenderOptions& opt;
+  const std::vector<pb_light>& lights;    // frames of the lights, as uploaded in `lightBuffer`
   int width = 0, height = 0, pixels = 0;  // camera image
   int mapSize = 0;                        // S: every depth map is S x S
-  const std::vector<pb_light>& lights;    // frames of the lights, as uploaded in `lightBuffer`
   cl::Buffer lightBuffer;                 // pb_light[lights.size()]
   cl::Buffer gpos, gnrm, ggeo;            // G-buffer: position (w = 1 on geometry), shading and
                                           // geometric normal (facing the camera), float4 each
   cl::Buffer depth;                       // per light S*S uint: ray distance bits from the near
                                           // plane (as_float), PB_DEPTH_EMPTY where nothing
-  cl::Buffer vis;                         // out: float [light][pixel], 1 = unshadowed
-  // Renders depth maps of the scene for `views` (orthographic pb_view, S x S each) into `out`
-  // (views.size()*S*S uint), same encoding as `depth`, front and back faces averaged when
-  // opt.frontBackFaces. Stages "<prefix>/raster" (or /raster-front, /raster-back, /front-back).
-  std::function<void(const std::vector<pb_view>& views, cl::Buffer& out, const std::string& prefix)>
-      rasterizeDepth;
+  cl::Buffer vis;                         // out: float [light][pixel], 1 = unshadowed (set by
+                                          // the visibility stage, src/render/visibility.hpp)
+  DepthRasterizer* rasterizer = nullptr;  // more depth maps of the scene (rasterizeDepth)
   cl::Buffer gids;                        // camera triangle id per pixel (PB_ID_EMPTY: none)
   cl::Buffer positions, triangles;        // the scene as rasterized: float4 vertices, int4
   int triangleCount = 0;                  // (v0, v1, v2, mesh) triangles
+  // The same scene on the host, as uploaded (src/render/device_scene.hpp), for techniques that
+  // need it there (the bitmask's mesh orientation): no read-back of what was just uploaded.
+  const std::vector<cl_float4>* hostPositions = nullptr;
+  const std::vector<cl_int4>* hostTriangles = nullptr;
   // The lights themselves (shape, polygon vertices), parallel to `lights`: for techniques that
   // sample a light (lightSampleDirections in lights.hpp). Set by the renderer.
   const std::vector<AreaLight>* areaLights = nullptr;
+
+  // Depth maps of the scene for `views` through `rasterizer` (DepthRasterizer::depthMaps).
+  void rasterizeDepth(const std::vector<pb_view>& views, cl::Buffer& out,
+                      const std::string& prefix) {
+    if (!rasterizer) throw Error(ErrorKind::Internal, prefix + ": the frame has no rasterizer");
+    rasterizer->depthMaps(views, out, prefix);
+  }
 };
 
 class ShadowPass {
@@ -79,7 +106,8 @@ class ShadowPass {
   virtual std::size_t frameBytes(const RenderOptions& opt, std::size_t mapTexels) const {
     return mapTexels * bytesPerTexel(opt);
   }
-  // Technique statistics of the last frame, for the report (Frame::stats).
+  // Technique statistics of the last frame, for the report (Frame::stats): kept by the pass
+  // itself, so two renderers (two passes) never see each other's.
   virtual std::vector<std::pair<std::string, double>> frameStats() const { return {}; }
 };
 

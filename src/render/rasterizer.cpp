@@ -1,0 +1,72 @@
+// The rasterizer stage: raster_triangles for the camera and for depth maps, the G-buffer resolve
+// and the front/back combination (kernels/render/raster.cl).
+#include "render/rasterizer.hpp"
+
+namespace penumbra::detail {
+
+namespace {
+// Rows of the bounding box each triangle's work is split into: large triangles (the ground) are
+// shared by this many work-items.
+constexpr int kStripes = 8;
+}  // namespace
+
+void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackFaces) {
+  scene_ = &scene;
+  mapSize_ = mapSize;
+  frontBack_ = frontBackFaces;
+  // One kernel object for every launch (a technique may rasterize in a loop of batches).
+  if (!raster_()) raster_ = ctx_.kernel("raster.cl", "raster_triangles");
+}
+
+void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
+                        cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
+  const int ntris = scene_->triangleCount();
+  ctx_.launchWith(stage, raster_, cl::NDRange(ntris, kStripes, nviews), cl::NullRange,
+                  scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), views,
+                  cl_int(kStripes), cl_int(pass), depth, ids, cl_int(cull));
+}
+
+DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H) {
+  const std::size_t npx = std::size_t(W) * H;
+  DeviceGBuffer g;
+  g.depth = pool_.buffer("camera depth", npx * 4);
+  g.ids = pool_.buffer("camera triangle ids", npx * 4);
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
+  ctx_.fill(g.depth, &emptyDepth, 4, npx * 4, "camera depth");
+  ctx_.fill(g.ids, &emptyId, 4, npx * 4, "camera triangle ids");
+  raster(camera, 1, 0, Cull::None, g.depth, g.ids, "gbuffer/depth");
+  raster(camera, 1, 1, Cull::None, g.depth, g.ids, "gbuffer/ids");
+  g.position = pool_.buffer("G-buffer positions", npx * 16);
+  g.normal = pool_.buffer("G-buffer normals", npx * 16);
+  g.geometricNormal = pool_.buffer("G-buffer geometric normals", npx * 16);
+  g.albedo = pool_.buffer("G-buffer albedo", npx * 16);
+  cl::Kernel k = ctx_.kernel("raster.cl", "gbuffer_resolve");
+  ctx_.launchWith("gbuffer/resolve", k, cl::NDRange(W, H), cl::NullRange,
+                  scene_->positionBuffer(), scene_->normalBuffer(), scene_->triangleBuffer(),
+                  scene_->albedoBuffer(), camera, g.ids, g.position, g.normal, g.geometricNormal,
+                  g.albedo);
+  return g;
+}
+
+void Rasterizer::depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
+                           const std::string& prefix) {
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY;
+  cl::Buffer& vb = pool_.upload("views " + prefix, views);
+  const std::size_t texels = views.size() * std::size_t(mapSize_) * mapSize_;
+  auto one = [&](Cull cull, cl::Buffer& dst, const std::string& stage) {
+    ctx_.fill(dst, &emptyDepth, 4, texels * 4, stage);
+    raster(vb, int(views.size()), 0, cull, dst, dst, stage);
+  };
+  if (!frontBack_) {
+    one(Cull::None, out, prefix + "/raster");
+    return;
+  }
+  cl::Buffer& back = pool_.buffer("back-face maps " + prefix, texels * 4);
+  one(Cull::KeepFront, out, prefix + "/raster-front");
+  one(Cull::KeepBack, back, prefix + "/raster-back");
+  cl::Kernel k = ctx_.kernel("raster.cl", "combine_front_back");
+  ctx_.launchWith(prefix + "/front-back", k, cl::NDRange(texels), cl::NullRange, out, back,
+                  cl_int(texels));
+}
+
+}  // namespace penumbra::detail

@@ -1,0 +1,54 @@
+// Internal: the rasterizer stage (kernels/render/raster.cl). From the scene on the device it
+// renders the camera G-buffer and depth maps for any set of views: the lights' shadow maps and
+// the extra maps techniques ask for through DepthRasterizer (ShadowFrame::rasterizeDepth).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "common/shared.h"
+#include "render/device_scene.hpp"
+#include "shadows/shadow_pass.hpp"
+
+namespace penumbra::detail {
+
+// The camera G-buffer, W x H each, in pool buffers valid until the next frame.
+struct DeviceGBuffer {
+  cl::Buffer depth;     // uint: depth bits, PB_DEPTH_EMPTY where nothing
+  cl::Buffer ids;       // uint: triangle id, PB_ID_EMPTY where nothing
+  cl::Buffer position;  // float4: world position, w = 1 on geometry, 0 on the background
+  cl::Buffer normal;    // float4: shading normal facing the camera
+  cl::Buffer geometricNormal;  // float4: geometric normal facing the camera
+  cl::Buffer albedo;    // float4
+};
+
+class Rasterizer : public DepthRasterizer {
+ public:
+  Rasterizer(Context& ctx, BufferPool& pool) : ctx_(ctx), pool_(pool) {}
+  // What the frame's rasterizations draw: the scene, the depth maps' size S and whether depth
+  // maps average front- and back-facing surfaces (RenderOptions::frontBackFaces).
+  void setFrame(const DeviceScene& scene, int mapSize, bool frontBackFaces);
+  // The camera G-buffer for `camera` (one pb_view): stages gbuffer/depth, gbuffer/ids,
+  // gbuffer/resolve. Every face counts (no culling).
+  DeviceGBuffer gbuffer(const cl::Buffer& camera, int width, int height);
+  // Every depth map of the frame (the lights' and any a technique adds) goes through here, so
+  // front/back applies to all of them alike: nearest surface, or the average of the front- and
+  // back-facing surfaces' depths (seed 003 §4.2.3).
+  void depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
+                 const std::string& prefix) override;
+
+ private:
+  // One raster_triangles launch over `nviews` views: pass 0 writes depth, pass 1 the ids of the
+  // triangles that won it.
+  void raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
+              cl::Buffer& ids, const std::string& stage);
+
+  Context& ctx_;
+  BufferPool& pool_;
+  const DeviceScene* scene_ = nullptr;
+  int mapSize_ = 0;
+  bool frontBack_ = false;
+  cl::Kernel raster_;
+};
+
+}  // namespace penumbra::detail

@@ -1,0 +1,43 @@
+// The shading stage: the light set's ambient and polygon vertices in the layouts shade.cl reads,
+// and its launch.
+#include "render/shading.hpp"
+
+#include <vector>
+
+#include "lights/light_buffers.hpp"
+
+namespace penumbra::detail {
+
+cl::Buffer shade(Context& ctx, BufferPool& pool, const ShadeInputs& in, const LightSet& lightSet,
+                 const Environment& env, const RenderOptions& opt) {
+  const int npx = opt.width * opt.height, nl = int(lightSet.lights.size());
+  cl::Buffer outB = pool.buffer("frame", std::size_t(npx) * 16);
+  cl::Kernel k = ctx.kernel("shade.cl", "shade");
+  std::size_t wg = ctx.workGroupSize(k, 64);
+  // The ambient residual, added unshadowed (zeros when the light set has none).
+  std::vector<cl_float4> amb(9, cl_float4{{0, 0, 0, 0}});
+  for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
+    for (int c = 0; c < 3; ++c) amb[i].s[c] = lightSet.ambientSH[i][c];
+  cl::Buffer ambB = pool.upload("ambient SH", amb);
+  // Polygon lights' vertices (src/lights/light_buffers.hpp); the shading uses the polygon's
+  // exact irradiance (shared.h).
+  cl::Buffer polyB =
+      pool.upload("polygon light vertices", polygonVertexBlocks(lightSet.lights));
+  // The ambient's irradiance map when it has one (else amap_w = 0: the SH9 above).
+  const bool amap = lightSet.hasAmbient && !lightSet.ambientMap.empty();
+  if (amap) lightSet.ambientMap.check();
+  cl::Buffer amapB = pool.upload("ambient irradiance map",
+                                 amap ? lightSet.ambientMap.rgb : std::vector<float>(3, 0.0f));
+  const DeviceGBuffer& g = in.gbuffer;
+  ctx.launchWith("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg), g.position,
+                 g.normal, g.albedo, in.lights, cl_int(nl), in.visibility, cl_int(npx), in.camera,
+                 in.environment, cl_int(env.equirect.width), cl_int(env.equirect.height),
+                 cl_float(env.rotationColumns()), cl_int(opt.environmentBackground ? 1 : 0), outB,
+                 ambB, polyB, amapB, cl_int(amap ? lightSet.ambientMap.width : 0),
+                 cl_int(amap ? lightSet.ambientMap.height : 0), in.bent.vert, in.bent.weight,
+                 in.bent.bend, cl_int(opt.bentNormals && nl > 0 ? 1 : 0),
+                 cl_float(opt.bentNormalsScale));
+  return outB;
+}
+
+}  // namespace penumbra::detail

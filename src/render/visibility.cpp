@@ -1,0 +1,38 @@
+// The visibility stage: the technique cache, the visibility buffer and the frame's report.
+#include "render/visibility.hpp"
+
+#include <algorithm>
+
+namespace penumbra::detail {
+
+void Visibility::begin(ShadowTechnique t, int pixels, int lights) {
+  const std::size_t bytes =
+      std::max<std::size_t>(1, std::size_t(pixels) * std::max(lights, 1)) * 4;
+  vis_ = pool_.buffer("visibility buffer", bytes);
+  pixels_ = pixels;
+  lights_ = lights;
+  if (!pass_ || passKind_ != t) {
+    pass_ = makeShadowPass(t);
+    passKind_ = t;
+  }
+  bytes_ = 0;
+  stats_.clear();
+}
+
+void Visibility::compute(ShadowFrame& f) {
+  f.vis = vis_;
+  if (runsPass()) {
+    pass_->computeVisibility(f);
+    bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
+    stats_ = pass_->frameStats();
+  } else if (lights_ > 0) {
+    const cl_float one = 1.0f;
+    ctx_.fill(vis_, &one, 4, std::size_t(pixels_) * lights_ * 4, "visibility buffer");
+  }
+}
+
+std::vector<float> Visibility::download() {
+  return ctx_.download<float>(vis_, std::size_t(pixels_) * lights_, "visibility");
+}
+
+}  // namespace penumbra::detail
