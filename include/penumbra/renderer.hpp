@@ -1,8 +1,10 @@
-// The frame: environment -> lights -> shadow maps -> moments -> SATs -> visibility -> shading.
+// The frame, stage by stage (src/render/): scene on the device -> camera G-buffer -> bent normals
+// -> the lights' shadow maps and the technique's visibility -> shading.
 //
 // Usage: build a Renderer on a Context once, call render() per frame with the scene, camera and
 // light set (extract the lights with extractMedianCut, or pass your own). Buffers are reused
-// between frames of the same sizes. The returned Frame is complete when render() returns.
+// between frames of the same sizes; the scene and the environment map stay on the device and are
+// uploaded again only when they change. The returned Frame is complete when render() returns.
 #pragma once
 #include <array>
 #include <memory>

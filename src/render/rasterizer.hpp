@@ -12,6 +12,9 @@
 
 namespace penumbra::detail {
 
+// Which faces a depth map keeps, judged against the view direction (raster_triangles' cull).
+enum class Cull { None = 0, KeepFront = 1, KeepBack = 2 };
+
 // The camera G-buffer, W x H each, in pool buffers valid until the next frame.
 struct DeviceGBuffer {
   cl::Buffer depth;     // uint: depth bits, PB_DEPTH_EMPTY where nothing

@@ -21,7 +21,6 @@
 
 namespace penumbra {
 
-
 namespace {
 
 using detail::V3;
@@ -108,18 +107,6 @@ pb_view orthoView(const pb_light& L, int size) {
 
 }  // namespace detail
 
-struct Renderer::Impl {
-  Context& ctx;
-  detail::BufferPool pool;
-  detail::DeviceScene scene;
-  detail::Rasterizer raster;
-  detail::Visibility visibility;
-  explicit Impl(Context& c) : ctx(c), pool(c), scene(c), raster(c, pool), visibility(c, pool) {}
-};
-
-Renderer::Renderer(Context& ctx) : impl_(std::make_unique<Impl>(ctx)) {}
-Renderer::~Renderer() = default;
-
 namespace {
 
 // The lights' orthographic frames fitted to the scene, and their shadow-map views.
@@ -138,70 +125,86 @@ LightFrames lightFrames(const LightSet& lightSet, const Bounds& bounds, int mapS
 
 }  // namespace
 
+struct Renderer::Impl {
+  Context& ctx;
+  detail::BufferPool pool;
+  detail::DeviceScene scene;
+  detail::Rasterizer raster;
+  detail::Visibility visibility;
+  explicit Impl(Context& c) : ctx(c), pool(c), scene(c), raster(c, pool), visibility(c, pool) {}
+
+  // What the shading needs to bend normals (seed 001 §4.3), or small stand-ins it never reads.
+  detail::BentBuffers bentNormals(const RenderOptions& opt, const cl::Buffer& lightB, int nl,
+                                  const detail::DeviceGBuffer& g) {
+    if (opt.bentNormals && nl > 0)
+      return detail::bentNormals(ctx, pool, scene, lightB, nl, g, opt.width * opt.height);
+    return {pool.buffer("bent normals off", 16), pool.buffer("bent normals off", 16),
+            pool.buffer("bent normals off", 16)};
+  }
+
+  // The lights' shadow maps when the technique reads them, then its visibility.
+  void shadows(const RenderOptions& opt, const LightSet& lightSet, const LightFrames& lf,
+               const cl::Buffer& lightB, const detail::DeviceGBuffer& g) {
+    const int S = opt.shadowMapSize, nl = int(lf.lights.size());
+    visibility.begin(opt.shadows, opt.width * opt.height, nl);
+    detail::ShadowFrame sf(ctx, pool, opt, lf.lights);
+    if (visibility.runsPass()) {
+      // Techniques with their own light-space structures (the bitmask's lists) never read them.
+      const bool maps = visibility.readsShadowMaps();
+      sf.depth = pool.buffer("shadow maps", maps ? std::size_t(S) * S * nl * 4 : 4);
+      if (maps) raster.depthMaps(lf.views, sf.depth, "shadow-maps");
+    }
+    sf.width = opt.width;
+    sf.height = opt.height;
+    sf.pixels = opt.width * opt.height;
+    sf.mapSize = S;
+    sf.lightBuffer = lightB;
+    sf.gpos = g.position;
+    sf.gnrm = g.normal;
+    sf.ggeo = g.geometricNormal;
+    sf.rasterizer = &raster;
+    sf.gids = g.ids;
+    sf.positions = scene.positionBuffer();
+    sf.triangles = scene.triangleBuffer();
+    sf.triangleCount = scene.triangleCount();
+    sf.hostPositions = &scene.positions();
+    sf.hostTriangles = &scene.triangles();
+    sf.areaLights = &lightSet.lights;
+    visibility.compute(sf);
+  }
+};
+
+Renderer::Renderer(Context& ctx) : impl_(std::make_unique<Impl>(ctx)) {}
+Renderer::~Renderer() = default;
+
 Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet& lightSet,
                        const Environment& env, const RenderOptions& opt) {
   auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   detail::validateFrameInputs(scene, env, opt);
-  const int W = opt.width, H = opt.height, npx = W * H, S = opt.shadowMapSize;
-  const int nl = int(lightSet.lights.size());
+  const int W = opt.width, H = opt.height, nl = int(lightSet.lights.size());
 
-  // --- scene, camera and lights on the device
+  // scene, camera and lights on the device
   m.scene.update(scene);
-  const LightFrames lf = lightFrames(lightSet, scene.bounds(), S);
+  const LightFrames lf = lightFrames(lightSet, scene.bounds(), opt.shadowMapSize);
   cl::Buffer camB = m.pool.upload("camera", std::vector<pb_view>{cameraView(camera, W, H)});
   cl::Buffer lightB = m.pool.upload("lights", lf.lights);
-
-  // --- camera G-buffer
-  m.raster.setFrame(m.scene, S, opt.frontBackFaces);
+  // camera G-buffer
+  m.raster.setFrame(m.scene, opt.shadowMapSize, opt.frontBackFaces);
   const detail::DeviceGBuffer g = m.raster.gbuffer(camB, W, H);
-
-  // --- bent normals: what the shading needs to bend normals (seed 001 §4.3), or small
-  // stand-ins it never reads
-  const bool bent = opt.bentNormals && nl > 0;
-  const detail::BentBuffers bentB =
-      bent ? detail::bentNormals(m.ctx, m.pool, m.scene, lightB, nl, g, npx)
-           : detail::BentBuffers{m.pool.buffer("bent normals off", 16),
-                                 m.pool.buffer("bent normals off", 16),
-                                 m.pool.buffer("bent normals off", 16)};
-
-  // --- shadow maps and visibility per light
-  m.visibility.begin(opt.shadows, npx, nl);
-  detail::ShadowFrame sf(m.ctx, m.pool, opt, lf.lights);
-  if (m.visibility.runsPass()) {
-    // Techniques with their own light-space structures (the bitmask's lists) never read them.
-    const bool maps = m.visibility.readsShadowMaps();
-    sf.depth = m.pool.buffer("shadow maps", maps ? std::size_t(S) * S * nl * 4 : 4);
-    if (maps) m.raster.depthMaps(lf.views, sf.depth, "shadow-maps");
-  }
-  sf.width = W;
-  sf.height = H;
-  sf.pixels = npx;
-  sf.mapSize = S;
-  sf.lightBuffer = lightB;
-  sf.gpos = g.position;
-  sf.gnrm = g.normal;
-  sf.ggeo = g.geometricNormal;
-  sf.rasterizer = &m.raster;
-  sf.gids = g.ids;
-  sf.positions = m.scene.positionBuffer();
-  sf.triangles = m.scene.triangleBuffer();
-  sf.triangleCount = m.scene.triangleCount();
-  sf.hostPositions = &m.scene.positions();
-  sf.hostTriangles = &m.scene.triangles();
-  sf.areaLights = &lightSet.lights;
-  m.visibility.compute(sf);
-
-  // --- shading
+  // bent normals, shadow maps and visibility
+  const detail::BentBuffers bent = m.bentNormals(opt, lightB, nl, g);
+  m.shadows(opt, lightSet, lf, lightB, g);
+  // shading
   const detail::ShadeInputs in{g, lightB, m.visibility.buffer(), camB, m.scene.environment(env),
-                               bentB};
+                               bent};
   cl::Buffer outB = detail::shade(m.ctx, m.pool, in, lightSet, env, opt);
 
   Frame frame;
   frame.shadowMapBytes = m.visibility.frameBytes();
   frame.stats = m.visibility.stats();
   frame.image = Image(W, H, 4);
-  m.ctx.read(outB, frame.image.pixels.data(), std::size_t(npx) * 16, "frame");
+  m.ctx.read(outB, frame.image.pixels.data(), std::size_t(W) * H * 16, "frame");
   frame.timingsMs = m.ctx.stageTimesMs();
   double total =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

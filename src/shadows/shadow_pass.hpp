@@ -39,9 +39,6 @@ class BufferPool {
   Context::BufferSlots pool_;
 };
 
-// Which faces a depth map keeps, judged against the view direction.
-enum class Cull { None = 0, KeepFront = 1, KeepBack = 2 };
-
 // What a technique asks of the rasterizer stage (src/render/rasterizer.hpp): depth maps of the
 // scene for `views` (orthographic pb_view, S x S each) into `out` (views.size()*S*S uint), the
 // encoding of ShadowFrame::depth, front and back faces averaged when opt.frontBackFaces. Stages
