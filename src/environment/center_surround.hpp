@@ -5,7 +5,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
-#include "penumbra/lights.hpp"
+#include "penumbra/extraction.hpp"
 
 namespace penumbra::detail {
 
