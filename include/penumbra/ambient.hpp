@@ -27,7 +27,8 @@ struct AmbientOptions {
   // Table size (IrradianceMap), texels; each in 1..1024. Default 128 x 64, chosen by measurement
   // (lights + ambient against the map's irradiance on 26 + 200 random normals, every method and
   // test map, two random sets): the worst error is 2.9% at 64 x 32, 1.8% at 80 x 40 and
-  // 96 x 48, 1.4% at 128 x 64 (interior.exr, center-surround), 1.3% at 160 x 80; it falls slower than the square of the spacing because compact bright sources left
+  // 96 x 48, 1.4% at 128 x 64 (interior.exr, center-surround), 1.3% at 160 x 80; it falls
+  // slower than the square of the spacing because compact bright sources left
   // in the residual, and lights whose shape differs from their region, make the irradiance kink
   // where their horizon passes, which bilinear interpolation resolves only to first order.
   int mapWidth = 128, mapHeight = 64;

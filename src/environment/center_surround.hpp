@@ -1,4 +1,4 @@
-// Internal: a look inside the center-surround extraction (src/extract_center_surround.cpp) for the
+// Internal: a look inside the center-surround extraction (center_surround.cpp) for the
 // tests, which compare the device's filter responses with a brute-force loop.
 #pragma once
 #include <vector>

@@ -416,8 +416,9 @@ void textureLightsFromMap(const Environment& env, LightSet& set, int size, int s
         for (int b = 0; b < q; ++b)
           for (int a = 0; a < q; ++a) {
             const double x = -1 + 2 * (i + (a + 0.5) / q) / size, y = 1 - 2 * (j + (b + 0.5) / q) / size;
-            const D3 d = normalize(D3{w[0] + ta * (x * u[0] + y * v[0]), w[1] + ta * (x * u[1] + y * v[1]),
-                                w[2] + ta * (x * u[2] + y * v[2])});
+            const D3 d = normalize(D3{w[0] + ta * (x * u[0] + y * v[0]),
+                                      w[1] + ta * (x * u[1] + y * v[1]),
+                                      w[2] + ta * (x * u[2] + y * v[2])});
             float rgb[3];
             env.lookup(float(d[0]), float(d[1]), float(d[2]), rgb);
             for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
@@ -478,7 +479,7 @@ std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, 
   return detail::sphericalPolygonSamples(light.vertices, n, rotation);
 }
 
-// lightsPower, ambientPower and ambientIrradiance live in src/ambient.cpp.
+// lightsPower, ambientPower and ambientIrradiance live in src/environment/ambient.cpp.
 std::array<double, 3> LightSet::power() const {
   std::array<double, 3> p = lightsPower(), a = ambientPower();
   for (int c = 0; c < 3; ++c) p[c] += a[c];

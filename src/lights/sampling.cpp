@@ -47,7 +47,8 @@ std::vector<std::array<float, 3>> sphericalFibonacciCap(const std::array<float, 
     const float st = std::sqrt(std::max(0.0f, 1.0f - ct * ct));
     const float ph = kGoldenAngle * k + rotation;
     V3 d;
-    for (int i = 0; i < 3; ++i) d[i] = ct * w[i] + st * (std::cos(ph) * ex[i] + std::sin(ph) * ey[i]);
+    for (int i = 0; i < 3; ++i)
+      d[i] = ct * w[i] + st * (std::cos(ph) * ex[i] + std::sin(ph) * ey[i]);
     out.push_back(normalize(d));
   }
   return out;

@@ -371,8 +371,9 @@ Mesh convertMesh(const aiScene* scene, const aiMesh* mesh, unsigned index) {
   }
   for (std::size_t v = 0; v < out.normals.size(); ++v) {
     const Vec3 faceNormal = detail::normalizeOr(faceSum[v], {0, 1, 0}, kMinLength);
-    out.normals[v] =
-        isFinite(out.normals[v]) ? detail::normalizeOr(out.normals[v], faceNormal, kMinLength) : faceNormal;
+    out.normals[v] = isFinite(out.normals[v])
+                         ? detail::normalizeOr(out.normals[v], faceNormal, kMinLength)
+                         : faceNormal;
   }
   return out;
 }
