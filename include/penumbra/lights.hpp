@@ -1,4 +1,6 @@
-// Directional area lights extracted from an environment map, and the extraction itself.
+// The light model: directional area lights (caps and convex spherical polygons, optionally
+// textured), their samples, the light set with its ambient residual, and light-set files. How
+// lights are found in a map is extraction.hpp; how the ambient residual is computed, ambient.hpp.
 //
 // Light model (seed 003 §4.1.3): a uniform spherical cap of half-angle alpha around `direction`
 // with RGB radiance L. Its "power" M = L * 2 pi (1 - cos alpha) is the integral of the map's
@@ -10,7 +12,6 @@
 
 namespace penumbra {
 
-class Context;
 struct Environment;
 
 // A light's shape on the sphere of directions (all lights are at infinity).
@@ -222,119 +223,5 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source = "
 // map's luminance there. Polygon lights (no frame) and lights over black map regions are left
 // untextured. Throws Error(BadInput) for size outside [1, 64] or supersample outside [1, 16].
 void textureLightsFromMap(const Environment& env, LightSet& set, int size = 8, int supersample = 4);
-
-struct MedianCutOptions {
-  int lights = 32;        // number of regions/lights, >= 1 (any N, not only powers of two)
-  int faceSize = 256;     // cube face resolution used for the SATs, 1..4096
-  int supersample = 4;    // sub-samples per equirect texel side when splatting to the cube
-  float minHalfAngleDeg = 0.0f;  // lower clamp on the extracted half-angle (0: one texel's cap)
-  float maxHalfAngleDeg = 85.0f; // upper clamp: the cap model needs alpha < 90 degrees
-  // Merge lights whose regions touch across a cube-face edge and whose caps overlap (angle
-  // between directions < sum of half-angles) into one light with their summed moments: a source
-  // cut by a face edge stays one light, with one shadow instead of two with a seam between them.
-  // The light count can then end below `lights` (`lights` regions are still cut). Default true;
-  // false keeps one light per median-cut region.
-  bool mergeAcrossFaces = true;
-  // Only compact lights are merged: those whose cap covers at most this fraction of their
-  // regions' solid angle (a source brighter than its surroundings; the cap of a uniformly bright
-  // region is about as large as the region, 1.05 for a square). In (0, 1], default 0.5.
-  float mergeCompactness = 0.5f;
-  // Shape of the extracted lights. Cap: seed 003's disc of the region's moments. Polygon: a light
-  // made from a single region is that region's exact shape, the convex spherical quadrilateral
-  // whose edges are the region's (great circles, since a cube face is a gnomonic projection),
-  // with radiance = region power / region solid angle (exact power). Lights merged from several
-  // regions (across face edges, or whole faces when fewer than 6 lights are asked for) stay caps:
-  // their union is not one convex polygon.
-  // Measured (tests/test_polygon_lights.cpp): the polygon is exact where the map is uniform over
-  // each region, but median-cut regions are not (they are cut at the energy median, so a bright
-  // source shares its region with darker texels), and a uniform polygon moves the region's first
-  // moment to the polygon's centroid, which the cap keeps. On the test maps the polygon shape's
-  // irradiance error on issue 4's 26 normals is 3-9x the cap's (see the test's report); the cap
-  // is the default for that reason.
-  LightShape shape = LightShape::Cap;
-};
-
-// Median cut on the device (seed 003 §3.1, §4.1): resample to a cube map, luminance and RGB SATs
-// over the solid-angle weighted faces, split at the illuminance median along the longer edge until
-// `lights` regions, then resolve each region to a light. Throws Error(BadInput) for lights < 1,
-// lights > 6*faceSize^2 or a faceSize out of range.
-LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutOptions& opt = {});
-
-// Greedy fitting of square or rectangular lights to each cube face (seed 000 §4.2, Figure 6).
-struct GreedyOptions {
-  float threshold = 0.02f;  // a side grows while (energy it adds) / (energy of the grown light) > t
-  bool square = true;       // square lights (the paper's results); false: rectangular
-  int faceSize = 64;        // cube face resolution the fit runs on, 1..1024
-  int maxLights = 64;       // the strongest this many are kept; the rest goes to the ambient
-  int supersample = 4;
-};
-LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions& opt = {});
-
-// Center-surround filter bank on the sphere (seed 004 §3).
-struct CenterSurroundOptions {
-  int width = 512;              // working equirect resolution (width x width/2) the filters run on
-  int sizes = 20;               // filter sizes, geometric from minDeg to maxDeg (outer diameter)
-  float minDeg = 4.5f, maxDeg = 45.0f;
-  float innerRatio = 0.75f;     // inner radius / outer radius
-  float surroundWeight = -10.0f;// weight of the ring; the centre's is +1
-  float candidateFraction = 0.10f;  // the brightest this fraction of texels are candidate centres
-  float stopFraction = 0.02f;   // stop when a light carries less than this of the lights so far
-  int maxLights = 256;
-};
-LightSet extractCenterSurround(Context& ctx, const Environment& env,
-                               const CenterSurroundOptions& opt = {});
-
-// How the ambient residual is represented for shading.
-//   IrradianceMap: the residual's irradiance tabulated over normals (LightSet::ambientMap, seed
-//                  004's pre-integrated irradiance map): exact at the table's normals, bilinear
-//                  between them; lights + ambient reproduce the map's irradiance on every normal
-//                  to the table's interpolation error (tests/test_ambient.cpp measures it).
-//   SH9:           the residual's radiance as 9 SH coefficients only (R&H 2001): smooth, but
-//                  it drops the residual's bands l >= 3, up to several % of the irradiance.
-enum class AmbientModel { IrradianceMap, SH9 };
-AmbientModel parseAmbientModel(const std::string& name);  // "map" | "sh9"
-const char* toString(AmbientModel m);
-struct AmbientOptions {
-  AmbientModel model = AmbientModel::IrradianceMap;
-  // Table size (IrradianceMap), texels; each in 1..1024. Default 128 x 64, chosen by measurement
-  // (lights + ambient against the map's irradiance on 26 + 200 random normals, every method and
-  // test map, two random sets): the worst error is 2.9% at 64 x 32, 1.8% at 80 x 40 and
-  // 96 x 48, 1.4% at 128 x 64 (interior.exr, center-surround), 1.3% at 160 x 80; it falls slower than the square of the spacing because compact bright sources left
-  // in the residual, and lights whose shape differs from their region, make the irradiance kink
-  // where their horizon passes, which bilinear interpolation resolves only to first order.
-  int mapWidth = 128, mapHeight = 64;
-};
-
-// Sets set.ambientSH to SH9(map) - sum of SH9(each light), computed on the device, and
-// set.hasAmbient = true; with AmbientModel::IrradianceMap also set.ambientMap (on the device,
-// kernels/irradiance.cl), else clears it. Honours env.rotationYDeg. Throws Error(BadInput) for a
-// table size outside 1..1024.
-void addAmbientResidual(Context& ctx, const Environment& env, LightSet& set,
-                        const AmbientOptions& opt = {});
-
-enum class ExtractionMethod { MedianCut, Greedy, CenterSurround };
-ExtractionMethod parseExtractionMethod(const std::string& name);  // "median-cut" | "greedy" | "center-surround"
-const char* toString(ExtractionMethod m);
-struct ExtractOptions {
-  ExtractionMethod method = ExtractionMethod::MedianCut;
-  MedianCutOptions medianCut;
-  GreedyOptions greedy;
-  CenterSurroundOptions centerSurround;
-  bool ambient = true;  // add the ambient residual (addAmbientResidual)
-  AmbientOptions ambientOptions;  // its representation (default: the irradiance map, 128 x 64)
-  // Texture every extracted cap with lightTexture x lightTexture texels of the map's radiance
-  // (textureLightsFromMap; power kept), so that the sample-based techniques (bitmask, brute
-  // force, the light-set reference) weight each light sample by the map. 0 (default): none;
-  // else in [1, 64].
-  int lightTexture = 0;
-};
-// Runs the chosen method, then the light textures when opt.lightTexture > 0, then the ambient
-// residual when opt.ambient.
-LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt = {});
-
-// Draws the map (tone-mapped) with each light's region(s) outlined and its centre marked; a light
-// without regions (center-surround) gets its cap's outline, the circle at its half-angle.
-// Writes PNG atomically.
-void writeLightOverlay(const std::string& path, const Environment& env, const LightSet& lights);
 
 }  // namespace penumbra

@@ -1,8 +1,10 @@
 // Umbrella header: everything a user of penumbra needs.
 #pragma once
+#include "penumbra/ambient.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/extraction.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/lights.hpp"
 #include "penumbra/reference.hpp"

@@ -1,7 +1,8 @@
 // Center-surround light extraction (seed 004 §3) on the sphere: a bank of circular filters with a
 // centre cap of weight +1 and a surround ring of weight surroundWeight (-10) per unit solid angle,
 // evaluated at the brightest texels; the strongest normalized response becomes a light and its
-// centre cap is removed from the map (kernels below, driven by src/extract_center_surround.cpp).
+// centre cap is removed from the map (kernels below, driven by
+// src/environment/center_surround.cpp).
 //
 // Parameterization. The filters are circles on the sphere (geodesic caps), so we evaluate them on
 // the sphere itself rather than on a flat image: the working grid is an equirect map of

@@ -222,9 +222,9 @@ kernel void env_gather(global const float* equirect, global const int* cols, int
 // and Z need their own: 6 channels where (Y, moments) + (R, G, B, padding) took 8).
 // Y is computed exactly in fixed point with the Rec. 709 weights, then truncated to the energy's
 // units, as before (the median-cut splits depend on it bit for bit). X and Z are kept in 1/10000
-// units, exact: every channel of the cube's energy sums to at most 2^48 (src/cubemap.cpp's
-// scale), so X <= 0.9505e4 * 2^48 < 2^61.3 and Z <= 1.089e4 * 2^48 < 2^61.5 for the whole cube,
-// and no SAT entry can overflow. xz: 3 images of m x m long4, image f/2 holding (X, Z) of face f
+// units, exact: every channel of the cube's energy sums to at most 2^48
+// (src/environment/cubemap.cpp's scale), so X <= 0.9505e4 * 2^48 < 2^61.3 and
+// Z <= 1.089e4 * 2^48 < 2^61.5 for the whole cube, and no SAT entry can overflow. xz: 3 images of m x m long4, image f/2 holding (X, Z) of face f
 // in lanes 2(f%2), 2(f%2)+1: the two planes of two faces per long4, so the colour SAT is 3 long4
 // images where RGB took 6, and runs in the scan's long4 path (12 scalar Long images take longer
 // than 6 long4 ones on the CPU here: per-element overhead, not bytes, limits that scan).

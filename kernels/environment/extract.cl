@@ -167,8 +167,8 @@ kernel void median_cut(global const long4* sat, int m, int target, global pb_reg
 //  - power M: the region's colour integral (seed 003 eq. 11) as exact fixed-point CIE XYZ sums
 //    (X and Z from the xz SAT in 1/10000 units, packed two faces per long4 as envmap.cl's
 //    env_sat_inputs writes them; Y from the luminance SAT); the host converts them
-//    to RGB in double (src/lights.cpp), and radiance = M / (2 pi (1 - cos a)) (eqs. 16-17), so the
-//    cap carries exactly the region's energy.
+//    to RGB in double (src/environment/median_cut.cpp), and radiance = M / (2 pi (1 - cos a))
+//    (eqs. 16-17), so the cap carries exactly the region's energy.
 // out_dir: (direction, cos a); out_sums: (X * 10^4, Y, Z * 10^4, region texel count), fixed point.
 kernel void resolve_lights(global const long4* lum_sat, global const long4* xz_sat, int m,
                            global const pb_region* regions, int region_count, int light_count,

@@ -2,13 +2,13 @@
 // Figure 6), on the fixed-point energies of kernels/envmap.cl. Faces are independent, so one
 // work-group fits one face: the loops of the algorithm run inside the kernel, every sum is of
 // 64-bit integers (exact, so the result depends on neither the work-group size nor the device).
-// src/extract_greedy.cpp turns the fitted rectangles into cap lights; tests/test_greedy.cpp holds
-// a plain C++ copy of the same algorithm.
+// src/environment/greedy.cpp turns the fitted rectangles into cap lights; tests/test_greedy.cpp
+// holds a plain C++ copy of the same algorithm.
 //
 // Cost. A face of m^2 texels gets L lights (at t = 0.02 on the built-in sky: about 240 at m = 256;
-// at m = 512 the square fit reaches the cap of 16384 lights, see src/greedy.hpp), each grown in
-// about its side length of steps. Summing every step's strips and scanning the face for every
-// seed costs O(L (m^2 + side^2)) and one work-group reduction per step. Instead, per face:
+// at m = 512 the square fit reaches the cap of 16384 lights, see src/environment/greedy.hpp), each
+// grown in about its side length of steps. Summing every step's strips and scanning the face for
+// every seed costs O(L (m^2 + side^2)) and one work-group reduction per step. Instead, per face:
 //   - a luminance plane and per-row and per-column prefix sums of it make each side's sum two
 //     reads, so one work-item grows the light alone, without a barrier per step;
 //   - the brightest uncovered texel of each row makes the seed an arg-max over m rows;

@@ -1,6 +1,7 @@
 // The ambient residual's pre-integrated irradiance map (seed 004 abstract and end of §3: the
-// ambient region "is rendered using pre-integrated irradiance mapping"; src/ambient.cpp): for each
-// normal n of the table (lights.hpp AmbientMap, shared.h pb_ambient_map_normal),
+// ambient region "is rendered using pre-integrated irradiance mapping"; src/environment/
+// ambient.cpp): for each normal n of the table (lights.hpp AmbientMap,
+// shared.h pb_ambient_map_normal),
 //   E_res(n) = E_map(n) - sum_i E_light_i(n),   E_map(n) = integral of L(w) max(0, n.w) dw,
 // with E_light_i the light's exact unshadowed irradiance as shading computes it (shared.h:
 // pb_cap_irradiance, pb_polygon_irradiance), so lights + ambient give E_map on every table normal.

@@ -1,5 +1,5 @@
 // Spherical-harmonic projection (order <= 2, RGB) of an equirectangular radiance map, for the
-// ambient residual (src/ambient.cpp; Ramamoorthi & Hanrahan 2001).
+// ambient residual (src/environment/ambient.cpp; Ramamoorthi & Hanrahan 2001).
 //
 // The map is taken as what it is everywhere else in penumbra (cube resampling, Environment::power
 // and irradiance): constant radiance over each lat-long texel. Every basis function is a

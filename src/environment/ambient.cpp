@@ -2,8 +2,7 @@
 // do not carry, the map minus the lights (caps or polygons), applied unshadowed. Always as 9
 // spherical-harmonic coefficients of order <= 2 (its power, the JSON, AmbientModel::SH9), and by
 // default also as seed 004's pre-integrated irradiance map (kernels/irradiance.cl), which is what
-// shading then reads. Also the extraction-method dispatcher (extractLights) and the LightSet
-// methods that concern the ambient.
+// shading then reads. Also the LightSet methods that concern the ambient.
 //
 // The map's projection runs on the device (kernels/sh.cl, exact per lat-long texel); each cap's
 // projection is analytic (below), each polygon's a quadrature on the host, so the residual costs
@@ -12,10 +11,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/ambient.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
-#include "penumbra/lights.hpp"
 #include "common/shared.h"
 #include "lights/light_buffers.hpp"
 
@@ -116,14 +115,8 @@ SH9 projectMap(Context& ctx, const DeviceMap& m) {
   const std::size_t perGroup = wg * kTexelsPerItem;
   const std::size_t groups = std::clamp<std::size_t>((n + perGroup - 1) / perGroup, 1, kMaxGroups);
   cl::Buffer partB = ctx.buffer(groups * 3 * kCoeffs * sizeof(cl_float), "SH partial sums");
-  k.setArg(0, m.eq);
-  k.setArg(1, cl_int(W));
-  k.setArg(2, cl_int(H));
-  k.setArg(3, m.rows);
-  k.setArg(4, m.cols);
-  k.setArg(5, cl::Local(wg * sizeof(cl_float)));
-  k.setArg(6, partB);
-  ctx.launch("ambient/sh-project", k, cl::NDRange(groups * wg), cl::NDRange(wg));
+  ctx.launchWith("ambient/sh-project", k, cl::NDRange(groups * wg), cl::NDRange(wg), m.eq,
+                 cl_int(W), cl_int(H), m.rows, m.cols, cl::Local(wg * sizeof(cl_float)), partB);
   auto part = ctx.download<cl_float>(partB, groups * 3 * kCoeffs, "SH partial sums");
   SH9 sh{};
   for (std::size_t g = 0; g < groups; ++g)  // fixed order: bit-identical results
@@ -145,24 +138,15 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   cl::Buffer normalB = ctx.buffer(N * sizeof(cl_float4), "ambient map normals");
   {
     cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_normals");
-    k.setArg(0, cl_int(TW));
-    k.setArg(1, cl_int(TH));
-    k.setArg(2, normalB);
-    ctx.launch("ambient/map-normals", k, cl::NDRange(N));
+    ctx.launchWith("ambient/map-normals", k, cl::NDRange(N), cl::NullRange, cl_int(TW), cl_int(TH),
+                   normalB);
   }
   cl::Buffer hwB = ctx.buffer(std::size_t(H) * TH * sizeof(cl_float), "ambient map run widths");
   {
     cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_halfwidth");
-    k.setArg(0, cl_int(W));
-    k.setArg(1, cl_int(H));
-    k.setArg(2, m.rows);
-    k.setArg(3, cl_int(TW));
-    k.setArg(4, cl_int(TH));
-    k.setArg(5, normalB);
-    k.setArg(6, cl_float(2.0 * std::sin(kPi / W)));
-    k.setArg(7, cl_float(2.0 * kPi / W));
-    k.setArg(8, hwB);
-    ctx.launch("ambient/map-widths", k, cl::NDRange(std::size_t(H) * TH));
+    ctx.launchWith("ambient/map-widths", k, cl::NDRange(std::size_t(H) * TH), cl::NullRange,
+                   cl_int(W), cl_int(H), m.rows, cl_int(TW), cl_int(TH), normalB,
+                   cl_float(2.0 * std::sin(kPi / W)), cl_float(2.0 * kPi / W), hwB);
   }
   // Bands of kBandRows map rows, fewer (taller bands) when the table is so large that the partial
   // sums would pass kMaxPartials normals x bands; but never so tall that one band's row prefixes
@@ -191,28 +175,11 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   for (int b0 = 0; b0 < usedBands; b0 += chunkBands) {
     const int r0 = b0 * bandRows, nrows = std::min(H - r0, chunkRows);
     const int nb = std::min(chunkBands, usedBands - b0);
-    kp.setArg(0, m.eq);
-    kp.setArg(1, cl_int(W));
-    kp.setArg(2, cl_int(whole));
-    kp.setArg(3, m.rows);
-    kp.setArg(4, m.cols);
-    kp.setArg(5, cl_int(r0));
-    kp.setArg(6, cl_int(nrows));
-    kp.setArg(7, prefixB);
-    ctx.launch("ambient/map-prefix", kp, cl::NDRange(std::size_t(nrows)));
-    kb.setArg(0, prefixB);
-    kb.setArg(1, cl_int(W));
-    kb.setArg(2, cl_int(H));
-    kb.setArg(3, cl_float(frac));
-    kb.setArg(4, hwB);
-    kb.setArg(5, normalB);
-    kb.setArg(6, cl_int(TW));
-    kb.setArg(7, cl_int(TH));
-    kb.setArg(8, cl_int(bandRows));
-    kb.setArg(9, cl_int(b0));
-    kb.setArg(10, cl_int(nb));
-    kb.setArg(11, partB);
-    ctx.launch("ambient/map-bands", kb, cl::NDRange(std::size_t(nb) * computed));
+    ctx.launchWith("ambient/map-prefix", kp, cl::NDRange(std::size_t(nrows)), cl::NullRange, m.eq,
+                   cl_int(W), cl_int(whole), m.rows, m.cols, cl_int(r0), cl_int(nrows), prefixB);
+    ctx.launchWith("ambient/map-bands", kb, cl::NDRange(std::size_t(nb) * computed), cl::NullRange,
+                   prefixB, cl_int(W), cl_int(H), cl_float(frac), hwB, normalB, cl_int(TW),
+                   cl_int(TH), cl_int(bandRows), cl_int(b0), cl_int(nb), partB);
   }
   // Lights: (direction, cos alpha), (radiance, 0); polygons as shade.cl reads them.
   const int nl = int(lights.size());
@@ -231,16 +198,10 @@ AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
   out.height = TH;
   cl::Buffer tableB = ctx.buffer(N * 3 * sizeof(cl_float), "ambient irradiance map");
   cl::Kernel k = ctx.kernel("irradiance.cl", "irradiance_table");
-  k.setArg(0, partB);
-  k.setArg(1, cl_int(usedBands));
-  k.setArg(2, normalB);
-  k.setArg(3, lightB);
-  k.setArg(4, cl_int(nl));
-  k.setArg(5, polyB);
-  k.setArg(6, cl_int(TW));
-  k.setArg(7, cl_int(TH));
-  k.setArg(8, tableB);
-  ctx.launch("ambient/map-table", k, cl::NDRange(computed));  // pairs of antipodes, as the bands
+  // pairs of antipodes, as the bands
+  ctx.launchWith("ambient/map-table", k, cl::NDRange(computed), cl::NullRange, partB,
+                 cl_int(usedBands), normalB, lightB, cl_int(nl), polyB, cl_int(TW), cl_int(TH),
+                 tableB);
   out.rgb = ctx.download<cl_float>(tableB, N * 3, "ambient irradiance map");
   return out;
 }
@@ -367,40 +328,6 @@ std::array<double, 3> LightSet::ambientIrradiance(const std::array<float, 3>& n)
   for (int i = 0; i < kCoeffs; ++i)
     for (int c = 0; c < 3; ++c) e[c] += double(PB_SH_AHAT(i)) * double(Y[i]) * ambientSH[i][c];
   return e;
-}
-
-ExtractionMethod parseExtractionMethod(const std::string& name) {
-  for (ExtractionMethod m :
-       {ExtractionMethod::MedianCut, ExtractionMethod::Greedy, ExtractionMethod::CenterSurround})
-    if (name == toString(m)) return m;
-  badInput("--extract: unknown method '" + name +
-           "' (accepted: median-cut, greedy, center-surround)");
-}
-
-const char* toString(ExtractionMethod m) {
-  switch (m) {
-    case ExtractionMethod::MedianCut: return "median-cut";
-    case ExtractionMethod::Greedy: return "greedy";
-    case ExtractionMethod::CenterSurround: return "center-surround";
-  }
-  return "unknown";
-}
-
-LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt) {
-  if (opt.lightTexture < 0 || opt.lightTexture > 64)
-    badInput("ExtractOptions::lightTexture must be 0 (none) or in [1, 64], got " +
-             std::to_string(opt.lightTexture));
-  LightSet set;
-  switch (opt.method) {
-    case ExtractionMethod::MedianCut: set = extractMedianCut(ctx, env, opt.medianCut); break;
-    case ExtractionMethod::Greedy: set = extractGreedy(ctx, env, opt.greedy); break;
-    case ExtractionMethod::CenterSurround:
-      set = extractCenterSurround(ctx, env, opt.centerSurround);
-      break;
-  }
-  if (opt.lightTexture > 0) textureLightsFromMap(env, set, opt.lightTexture);
-  if (opt.ambient) addAmbientResidual(ctx, env, set, opt.ambientOptions);
-  return set;
 }
 
 }  // namespace penumbra

@@ -21,7 +21,7 @@
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
-#include "penumbra/lights.hpp"
+#include "penumbra/extraction.hpp"
 #include "common/shared.h"
 
 namespace penumbra {
@@ -226,17 +226,10 @@ class CenterSurround {
     P_ = ctx_.buffer(n * sizeof(cl_long), "cs row prefix sums");
     key_ = ctx_.buffer(n * sizeof(cl_uint), "cs keys");
     cl::Kernel k = ctx_.kernel("center_surround.cl", "cs_resample", defs);
-    k.setArg(0, src);
-    k.setArg(1, cl_int(img.width));
-    k.setArg(2, cl_int(img.height));
-    k.setArg(3, cl_float(env.rotationColumns()));  // Environment::rotationYDeg, honoured exactly
-    k.setArg(4, cl_int(W_));
-    k.setArg(5, cl_int(H_));
-    k.setArg(6, cl_float(scale_));
-    k.setArg(7, energy_);
-    k.setArg(8, q_);
-    k.setArg(9, key_);
-    ctx_.launch("center-surround/resample", k, cl::NDRange(W_, H_));
+    // rotationColumns(): Environment::rotationYDeg, honoured exactly
+    ctx_.launchWith("center-surround/resample", k, cl::NDRange(W_, H_), cl::NullRange, src,
+                    cl_int(img.width), cl_int(img.height), cl_float(env.rotationColumns()),
+                    cl_int(W_), cl_int(H_), cl_float(scale_), energy_, q_, key_);
   }
 
   // Row prefix sums of rows [r0, r1) (clamped to the map).
@@ -244,25 +237,15 @@ class CenterSurround {
     r0 = std::max(0, r0);
     r1 = std::min(H_, r1);
     if (r1 <= r0) return;
-    kPrefix_.setArg(0, q_);
-    kPrefix_.setArg(1, cl_int(W_));
-    kPrefix_.setArg(2, cl_int(r0));
-    kPrefix_.setArg(3, cl_int(r1 - r0));
-    kPrefix_.setArg(4, P_);
-    ctx_.launch("center-surround/prefix", kPrefix_, cl::NDRange(r1 - r0));
+    ctx_.launchWith("center-surround/prefix", kPrefix_, cl::NDRange(r1 - r0), cl::NullRange, q_,
+                    cl_int(W_), cl_int(r0), cl_int(r1 - r0), P_);
   }
 
   void extents(const std::string& defs) {
     E_ = ctx_.buffer(std::size_t(H_) * maxRows_ * bins_ * sizeof(cl_short), "cs half-width table");
     cl::Kernel k = ctx_.kernel("center_surround.cl", "cs_extents", defs);
-    k.setArg(0, rowTrig_);
-    k.setArg(1, colCos_);
-    k.setArg(2, thr_);
-    k.setArg(3, cl_int(W_));
-    k.setArg(4, cl_int(H_));
-    k.setArg(5, cl_int(rrows_));
-    k.setArg(6, E_);
-    ctx_.launch("center-surround/extents", k, cl::NDRange(maxRows_, H_));
+    ctx_.launchWith("center-surround/extents", k, cl::NDRange(maxRows_, H_), cl::NullRange,
+                    rowTrig_, colCos_, thr_, cl_int(W_), cl_int(H_), cl_int(rrows_), E_);
   }
 
   // The brightest candidateFraction of the texels (by luminance radiance): the K-th largest key by
@@ -280,14 +263,9 @@ class CenterSurround {
     for (int shift = 24; shift >= 0; shift -= 8) {
       cl_uint zero = 0;
       ctx_.fill(hist, &zero, sizeof zero, 256 * sizeof(cl_uint), "cs key histogram");
-      kh.setArg(0, key_);
-      kh.setArg(1, cl_int(n));
-      kh.setArg(2, cl_int(shift));
-      kh.setArg(3, mask);
-      kh.setArg(4, prefix);
-      kh.setArg(5, hist);
-      kh.setArg(6, cl::Local(256 * sizeof(cl_uint)));
-      ctx_.launch("center-surround/select", kh, cl::NDRange(groups * wg), cl::NDRange(wg));
+      ctx_.launchWith("center-surround/select", kh, cl::NDRange(groups * wg), cl::NDRange(wg), key_,
+                      cl_int(n), cl_int(shift), mask, prefix, hist,
+                      cl::Local(256 * sizeof(cl_uint)));
       std::vector<cl_uint> h = ctx_.download<cl_uint>(hist, 256, "cs key histogram");
       int digit = 255;
       for (; digit > 0; --digit) {
@@ -300,12 +278,8 @@ class CenterSurround {
     const cl_uint thresh = prefix;  // the K-th largest key; `rem` keys equal to it are taken
     cl::Buffer counts = ctx_.buffer(H_ * sizeof(cl_int2), "cs row counts");
     cl::Kernel kc = ctx_.kernel("center_surround.cl", "cs_row_counts", defs);
-    kc.setArg(0, key_);
-    kc.setArg(1, cl_int(W_));
-    kc.setArg(2, cl_int(H_));
-    kc.setArg(3, thresh);
-    kc.setArg(4, counts);
-    ctx_.launch("center-surround/candidates", kc, cl::NDRange(H_));
+    ctx_.launchWith("center-surround/candidates", kc, cl::NDRange(H_), cl::NullRange, key_,
+                    cl_int(W_), cl_int(H_), thresh, counts);
     std::vector<cl_int2> cnt = ctx_.download<cl_int2>(counts, H_, "cs row counts");
     rowStart_.assign(H_ + 1, 0);
     std::vector<cl_int> takeEq(H_);
@@ -324,14 +298,8 @@ class CenterSurround {
                                    "cs row starts");
     cl::Buffer take = ctx_.upload(takeEq, "cs ties taken");
     cl::Kernel kw = ctx_.kernel("center_surround.cl", "cs_row_write", defs);
-    kw.setArg(0, key_);
-    kw.setArg(1, cl_int(W_));
-    kw.setArg(2, cl_int(H_));
-    kw.setArg(3, thresh);
-    kw.setArg(4, start);
-    kw.setArg(5, take);
-    kw.setArg(6, cand_);
-    ctx_.launch("center-surround/candidates", kw, cl::NDRange(H_));
+    ctx_.launchWith("center-surround/candidates", kw, cl::NDRange(H_), cl::NullRange, key_,
+                    cl_int(W_), cl_int(H_), thresh, start, take, cand_);
   }
 
   // Evaluates the filter bank at candidates [begin, end), or, with a cull centre, at the
@@ -346,49 +314,20 @@ class CenterSurround {
     }
     if (end <= begin) return;
     cl::Kernel& k = kResponse_;
-    k.setArg(0, P_);
-    k.setArg(1, cl_int(W_));
-    k.setArg(2, cl_int(H_));
-    k.setArg(3, rowTrig_);
-    k.setArg(4, colDir_);
-    k.setArg(5, E_);
-    k.setArg(6, sizeBins_);
-    k.setArg(7, invExtent_);
-    k.setArg(8, cl_int(S_));
-    k.setArg(9, cl_float(opt_.surroundWeight));
-    k.setArg(10, cl_float(1.0 / scale_));
-    k.setArg(11, cl_int(rrows_));
-    k.setArg(12, cand_);
-    k.setArg(13, cl_int(begin));
-    k.setArg(14, cull);
-    k.setArg(15, resp_);
-    k.setArg(16, best_);
-    k.setArg(17, bestSize_);
-    k.setArg(18, cl::Local(bins_ * sizeof(cl_long)));
-    k.setArg(19, cl::Local(S_ * sizeof(cl_float)));
-    ctx_.launch(stage, k, cl::NDRange(std::size_t(end - begin) * wgResponse_),
-                cl::NDRange(wgResponse_));
+    ctx_.launchWith(stage, k, cl::NDRange(std::size_t(end - begin) * wgResponse_),
+                    cl::NDRange(wgResponse_), P_, cl_int(W_), cl_int(H_), rowTrig_, colDir_, E_,
+                    sizeBins_, invExtent_, cl_int(S_), cl_float(opt_.surroundWeight),
+                    cl_float(1.0 / scale_), cl_int(rrows_), cand_, cl_int(begin), cull, resp_,
+                    best_, bestSize_, cl::Local(bins_ * sizeof(cl_long)),
+                    cl::Local(S_ * sizeof(cl_float)));
   }
 
   void take() {
     cl::Kernel& k = kTake_;
-    k.setArg(0, q_);
-    k.setArg(1, energy_);
-    k.setArg(2, cl_int(W_));
-    k.setArg(3, cl_int(H_));
-    k.setArg(4, rowTrig_);
-    k.setArg(5, colDir_);
-    k.setArg(6, E_);
-    k.setArg(7, sizeBins_);
-    k.setArg(8, cl_int(rrows_));
-    k.setArg(9, cand_);
-    k.setArg(10, cl_int(nCand_));
-    k.setArg(11, best_);
-    k.setArg(12, bestSize_);
-    k.setArg(13, out_);
-    k.setArg(14, cl::Local(wgTake_ * 8 * sizeof(cl_float)));
-    k.setArg(15, cl::Local(wgTake_ * sizeof(cl_int)));
-    ctx_.launch("center-surround/take", k, cl::NDRange(wgTake_), cl::NDRange(wgTake_));
+    ctx_.launchWith("center-surround/take", k, cl::NDRange(wgTake_), cl::NDRange(wgTake_), q_,
+                    energy_, cl_int(W_), cl_int(H_), rowTrig_, colDir_, E_, sizeBins_,
+                    cl_int(rrows_), cand_, cl_int(nCand_), best_, bestSize_, out_,
+                    cl::Local(wgTake_ * 8 * sizeof(cl_float)), cl::Local(wgTake_ * sizeof(cl_int)));
   }
 
   void texelDir(int c, double d[3]) const {

@@ -1,11 +1,11 @@
-// Internal: a look inside the center-surround extraction (src/extract_center_surround.cpp) for the
+// Internal: a look inside the center-surround extraction (center_surround.cpp) for the
 // tests, which compare the device's filter responses with a brute-force loop.
 #pragma once
 #include <vector>
 
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
-#include "penumbra/lights.hpp"
+#include "penumbra/extraction.hpp"
 
 namespace penumbra::detail {
 

@@ -47,55 +47,31 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
     cl::Buffer rows = ctx.scratch("splat row table", nr * sizeof(cl_float4));
     cl::Buffer cols = ctx.scratch("splat column table", nc * sizeof(cl_float2));
     cl::Kernel kr = ctx.kernel("envmap.cl", "env_splat_rows");
-    kr.setArg(0, cl_int(eq.height));
-    kr.setArg(1, cl_int(ss));
-    kr.setArg(2, cl_float(cube.scale));
-    kr.setArg(3, cl_int(eq.width));
-    kr.setArg(4, rows);
-    ctx.launch("env/resample/rows", kr, cl::NDRange(nr));
+    ctx.launchWith("env/resample/rows", kr, cl::NDRange(nr), cl::NullRange, cl_int(eq.height),
+                   cl_int(ss), cl_float(cube.scale), cl_int(eq.width), rows);
     cl::Kernel kc = ctx.kernel("envmap.cl", "env_splat_columns");
-    kc.setArg(0, cl_int(eq.width));
-    kc.setArg(1, cl_int(ss));
-    kc.setArg(2, cl_float(env.rotationColumns()));
-    kc.setArg(3, cols);
-    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
+    ctx.launchWith("env/resample/columns", kc, cl::NDRange(nc), cl::NullRange, cl_int(eq.width),
+                   cl_int(ss), cl_float(env.rotationColumns()), cols);
     cl_long zero = 0;
     ctx.fill(cube.energy, &zero, sizeof zero, bytes, "cube-map energy");
     const int strip = splatStrip;
     cl::Kernel k = ctx.kernel("envmap.cl", "env_splat");
-    k.setArg(0, eqBuf);
-    k.setArg(1, rows);
-    k.setArg(2, cols);
-    k.setArg(3, cl_int(eq.width));
-    k.setArg(4, cl_int(eq.height));
-    k.setArg(5, cl_int(ss));
-    k.setArg(6, cl_int(strip));
-    k.setArg(7, cl_int(m));
-    k.setArg(8, cube.energy);
-    ctx.launch("env/resample", k, cl::NDRange((eq.width + strip - 1) / strip, eq.height));
+    ctx.launchWith("env/resample", k, cl::NDRange((eq.width + strip - 1) / strip, eq.height),
+                   cl::NullRange, eqBuf, rows, cols, cl_int(eq.width), cl_int(eq.height),
+                   cl_int(ss), cl_int(strip), cl_int(m), cube.energy);
   } else {
     // The side faces' map columns (kernels/envmap.cl env_gather_columns). Every cube texel is
     // written: no clearing.
     const std::size_t nc = 4ull * m * ss;
     cl::Buffer cols = ctx.scratch("gather column table", nc * sizeof(cl_int));
     cl::Kernel kc = ctx.kernel("envmap.cl", "env_gather_columns");
-    kc.setArg(0, cl_int(eq.width));
-    kc.setArg(1, cl_float(env.rotationColumns()));
-    kc.setArg(2, cl_int(ss));
-    kc.setArg(3, cl_int(m));
-    kc.setArg(4, cols);
-    ctx.launch("env/resample/columns", kc, cl::NDRange(nc));
+    ctx.launchWith("env/resample/columns", kc, cl::NDRange(nc), cl::NullRange, cl_int(eq.width),
+                   cl_float(env.rotationColumns()), cl_int(ss), cl_int(m), cols);
     cl::Kernel k = ctx.kernel("envmap.cl", "env_gather");
-    k.setArg(0, eqBuf);
-    k.setArg(1, cols);
-    k.setArg(2, cl_int(eq.width));
-    k.setArg(3, cl_int(eq.height));
-    k.setArg(4, cl_float(env.rotationColumns()));
-    k.setArg(5, cl_int(ss));
-    k.setArg(6, cl_int(m));
-    k.setArg(7, cl_float(cube.scale));
-    k.setArg(8, cube.energy);
-    ctx.launch("env/resample", k, cl::NDRange(m, m, 4));  // 2 side-face pairs, 2 polar faces
+    // 2 side-face pairs, 2 polar faces
+    ctx.launchWith("env/resample", k, cl::NDRange(m, m, 4), cl::NullRange, eqBuf, cols,
+                   cl_int(eq.width), cl_int(eq.height), cl_float(env.rotationColumns()), cl_int(ss),
+                   cl_int(m), cl_float(cube.scale), cube.energy);
   }
   return cube;
 }

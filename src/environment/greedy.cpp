@@ -11,7 +11,7 @@
 #include "environment/cubemap.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
-#include "penumbra/lights.hpp"
+#include "penumbra/extraction.hpp"
 #include "common/shared.h"
 
 namespace penumbra {
@@ -53,26 +53,10 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
   const std::size_t localMem = ctx.device().getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
   auto localBytes = [&](std::size_t w) { return 2 * w * sizeof(cl_long4) + m * sizeof(cl_int) + 64; };
   while (wg > 1 && localBytes(wg) > localMem) wg /= 2;
-  int a = 0;
-  k.setArg(a++, energy);
-  k.setArg(a++, covered);
-  k.setArg(a++, cl_int(m));
-  k.setArg(a++, cl_float(threshold));
-  k.setArg(a++, cl_int(square ? 1 : 0));
-  k.setArg(a++, cl_int(capacity));
-  k.setArg(a++, lum);
-  k.setArg(a++, lumT);
-  k.setArg(a++, rowSum);
-  k.setArg(a++, colSum);
-  k.setArg(a++, rowOpen);
-  k.setArg(a++, rowBest);
-  k.setArg(a++, rect);
-  k.setArg(a++, power);
-  k.setArg(a++, moment);
-  k.setArg(a++, count);
-  k.setArg(a++, cl::Local(2 * wg * sizeof(cl_long4)));
-  k.setArg(a++, cl::Local(m * sizeof(cl_int)));
-  ctx.launch("extract/greedy", k, cl::NDRange(6 * wg), cl::NDRange(wg));
+  ctx.launchWith("extract/greedy", k, cl::NDRange(6 * wg), cl::NDRange(wg), energy, covered,
+                 cl_int(m), cl_float(threshold), cl_int(square ? 1 : 0), cl_int(capacity), lum,
+                 lumT, rowSum, colSum, rowOpen, rowBest, rect, power, moment, count,
+                 cl::Local(2 * wg * sizeof(cl_long4)), cl::Local(m * sizeof(cl_int)));
 
   auto n = ctx.download<cl_int>(count, 6, "greedy light counts");
   auto r = ctx.download<cl_int4>(rect, slots, "greedy rectangles");

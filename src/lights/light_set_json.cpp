@@ -1,8 +1,8 @@
-// Light-set files (lights.hpp loadLightSet / lightSetFromJson): the JSON LightSet::toJson writes,
-// and lights a user writes by hand, caps, convex polygons, rectangles and ellipses, optionally
-// textured. A small JSON reader of
-// our own (the library has no JSON dependency), strict about what it accepts: every problem is
-// an Error(BadInput) naming the file, the light's index and the field.
+// Light-set files (lights.hpp): LightSet::toJson writes them, loadLightSet / lightSetFromJson read
+// them back, and users write them by hand: caps, convex polygons, rectangles and ellipses,
+// optionally textured. A small JSON reader of our own (the library has no JSON dependency),
+// strict about what it accepts: every problem is an Error(BadInput) naming the file, the light's
+// index and the field.
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -17,6 +17,9 @@ namespace penumbra {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Radians per degree as a float, the divisor toJson has always written angles with, so that the
+// files stay byte for byte what they were.
+constexpr float kDeg = float(kPi / 180.0);
 
 struct Json {
   enum Kind { Null, Bool, Number, String, Array, Object } kind = Null;
@@ -361,6 +364,69 @@ LightSet loadLightSet(const std::string& path) {
   std::ostringstream ss;
   ss << in.rdbuf();
   return lightSetFromJson(ss.str(), path);
+}
+
+std::string LightSet::toJson() const {
+  std::ostringstream o;
+  o.precision(9);
+  o << "{\n  \"method\": \"" << method << "\",\n  \"face_size\": " << faceSize
+    << ",\n  \"count\": " << lights.size() << ",\n  \"lights\": [";
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    auto& l = lights[i];
+    const bool framed = l.shape == LightShape::Polygon && l.outline != AreaLight::Outline::Vertices;
+    const char* shape = !framed ? toString(l.shape) : l.outline == AreaLight::Outline::Rect ? "rect" : "ellipse";
+    o << (i ? ",\n" : "\n") << "    {\"shape\": \"" << shape << "\", ";
+    if (framed || !l.texture.empty()) {
+      // the frame: rects and ellipses load from it; a textured cap keeps its texture's orientation
+      const auto up = l.axisV();
+      o << "\"up\": [" << up[0] << ", " << up[1] << ", " << up[2] << "], ";
+      if (framed)
+        o << "\"half_angles_deg\": [" << std::atan(double(l.tanHalf[0])) / kDeg << ", "
+          << std::atan(double(l.tanHalf[1])) / kDeg << "], ";
+    }
+    if (!l.texture.empty()) {
+      o << "\"texture\": {\"width\": " << l.texture.width << ", \"height\": " << l.texture.height
+        << ", \"radiance\": [";
+      for (std::size_t k = 0; k < l.texture.radiance.size(); ++k) o << (k ? ", " : "") << l.texture.radiance[k];
+      o << "]}, ";
+    }
+    if (l.shape == LightShape::Polygon) {
+      o << "\"vertices\": [";
+      for (std::size_t k = 0; k < l.vertices.size(); ++k)
+        o << (k ? ", " : "") << "[" << l.vertices[k][0] << ", " << l.vertices[k][1] << ", "
+          << l.vertices[k][2] << "]";
+      o << "], ";
+    }
+    o << "\"direction\": [" << l.direction[0] << ", " << l.direction[1]
+      << ", " << l.direction[2] << "], \"half_angle_deg\": " << l.halfAngle() / kDeg
+      << ", \"cos_alpha\": " << l.cosAlpha << ", \"solid_angle_sr\": " << l.solidAngle()
+      << ", \"radiance\": [" << l.radiance[0] << ", " << l.radiance[1] << ", " << l.radiance[2]
+      << "], \"power\": [" << l.power[0] << ", " << l.power[1] << ", " << l.power[2]
+      << "], \"regions\": [";
+    for (std::size_t r = 0; r < l.regions.size(); ++r) {
+      auto& g = l.regions[r];
+      o << (r ? ", " : "") << "[" << g[0] << ", " << g[1] << ", " << g[2] << ", " << g[3] << ", "
+        << g[4] << "]";
+    }
+    o << "]}";
+  }
+  // The ambient residual: 9 RGB SH coefficients of radiance (order in lights.hpp), and its power.
+  auto ap = ambientPower();
+  o << "\n  ],\n  \"ambient\": " << (hasAmbient ? "true" : "false") << ",\n  \"ambient_sh\": [";
+  for (int i = 0; i < 9; ++i)
+    o << (i ? ", " : "") << "[" << ambientSH[i][0] << ", " << ambientSH[i][1] << ", "
+      << ambientSH[i][2] << "]";
+  o << "],\n  \"ambient_power\": [" << ap[0] << ", " << ap[1] << ", " << ap[2] << "]";
+  // The pre-integrated irradiance map (lights.hpp AmbientMap), when the set has one.
+  if (!ambientMap.empty()) {
+    o << ",\n  \"ambient_map\": {\"width\": " << ambientMap.width
+      << ", \"height\": " << ambientMap.height << ", \"irradiance\": [";
+    for (std::size_t i = 0; i < ambientMap.rgb.size(); ++i)
+      o << (i ? (i % 3 ? ", " : ",\n    ") : "") << ambientMap.rgb[i];
+    o << "]}";
+  }
+  o << "\n}\n";
+  return o.str();
 }
 
 }  // namespace penumbra

@@ -4,7 +4,9 @@
 #pragma once
 #include <embree3/rtcore.h>
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "penumbra/scene.hpp"
@@ -38,5 +40,28 @@ class EmbreeScene {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
 };
+
+// Whether a triangle blocks the ray from `origin` along `dir` between tnear and infinity:
+// Embree's occlusion query, which sets tfar to -inf on a hit. Safe from several threads at once.
+inline bool rayOccluded(RTCScene scene, const std::array<float, 3>& origin,
+                        const std::array<float, 3>& dir, float tnear) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRay r;
+  r.org_x = origin[0];
+  r.org_y = origin[1];
+  r.org_z = origin[2];
+  r.dir_x = dir[0];
+  r.dir_y = dir[1];
+  r.dir_z = dir[2];
+  r.tnear = tnear;
+  r.tfar = std::numeric_limits<float>::infinity();
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  rtcOccluded1(scene, &ctx, &r);
+  return r.tfar < 0.0f;
+}
 
 }  // namespace penumbra::detail

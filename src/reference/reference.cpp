@@ -24,6 +24,7 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "common/shared.h"
+#include "core/vec3.hpp"
 #include "reference/embree_scene.hpp"
 
 namespace penumbra {
@@ -32,33 +33,23 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxImageSide = 16384;
 
-// ---------------------------------------------------------------------------------------------
-// Small vector helpers (float, like the scene data).
-
-struct V3 {
-  float x = 0, y = 0, z = 0;
-};
-inline V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline V3 operator*(V3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
-inline float dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline V3 cross(V3 a, V3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-inline V3 normalized(V3 a) {
-  float l = std::sqrt(dot(a, a));
-  return l > 0 ? a * (1.0f / l) : a;
-}
-inline V3 toV3(const Vec3& v) { return {v[0], v[1], v[2]}; }
+// Vector helpers (float, like the scene data): core/vec3.hpp.
+using detail::V3;
+using detail::cross;
+using detail::dot;
+using detail::operator+;
+using detail::operator-;
+using detail::operator*;
+using detail::normalizeNonZero;
 
 // Orthonormal basis around unit n without branches on the sign trouble spot (Duff et al. 2017,
 // "Building an Orthonormal Basis, Revisited").
 inline void basisAround(V3 n, V3& t, V3& b) {
-  float sign = std::copysign(1.0f, n.z);
-  float a = -1.0f / (sign + n.z);
-  float c = n.x * n.y * a;
-  t = {1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x};
-  b = {c, sign + n.y * n.y * a, -n.y};
+  float sign = std::copysign(1.0f, n[2]);
+  float a = -1.0f / (sign + n[2]);
+  float c = n[0] * n[1] * a;
+  t = {1.0f + sign * n[0] * n[0] * a, sign * c, -sign * n[0]};
+  b = {c, sign + n[1] * n[1] * a, -n[1]};
 }
 
 inline double luminance(double r, double g, double b) {
@@ -213,10 +204,10 @@ using detail::flatten;
 
 // A surface point as the shading sees it.
 struct Hit {
-  V3 p;          // position (from barycentrics, so it lies on the triangle)
-  V3 ng;         // unit geometric normal on the camera's side
-  V3 n;          // unit shading normal on the same side
-  V3 origin;     // shadow-ray origin: p offset along ng
+  V3 p{};        // position (from barycentrics, so it lies on the triangle)
+  V3 ng{};       // unit geometric normal on the camera's side
+  V3 n{};        // unit shading normal on the same side
+  V3 origin{};   // shadow-ray origin: p offset along ng
   const Mesh* mesh = nullptr;
 };
 
@@ -225,12 +216,12 @@ bool tracePrimary(const EmbreeScene& es, const FlatScene& f, V3 eye, V3 dir, Hit
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh;
-  rh.ray.org_x = eye.x;
-  rh.ray.org_y = eye.y;
-  rh.ray.org_z = eye.z;
-  rh.ray.dir_x = dir.x;
-  rh.ray.dir_y = dir.y;
-  rh.ray.dir_z = dir.z;
+  rh.ray.org_x = eye[0];
+  rh.ray.org_y = eye[1];
+  rh.ray.org_z = eye[2];
+  rh.ray.dir_x = dir[0];
+  rh.ray.dir_y = dir[1];
+  rh.ray.dir_z = dir[2];
   rh.ray.tnear = 0.0f;
   rh.ray.tfar = std::numeric_limits<float>::infinity();
   rh.ray.time = 0.0f;
@@ -256,7 +247,7 @@ bool tracePrimary(const EmbreeScene& es, const FlatScene& f, V3 eye, V3 dir, Hit
   h.mesh = f.meshes[f.triMesh[prim]];
 
   // Two-sided: the geometric normal is turned towards the viewer.
-  V3 ng = normalized(cross(p1 - p0, p2 - p0));
+  V3 ng = normalizeNonZero(cross(p1 - p0, p2 - p0));
   if (dot(ng, ng) == 0.0f) ng = dir * -1.0f;  // degenerate triangle: face the camera
   if (dot(ng, dir) > 0.0f) ng = ng * -1.0f;
   h.ng = ng;
@@ -268,8 +259,8 @@ bool tracePrimary(const EmbreeScene& es, const FlatScene& f, V3 eye, V3 dir, Hit
   const Mesh& m = *h.mesh;
   if (!m.normals.empty() && m.normals.size() == m.positions.size()) {
     const std::uint32_t base = f.meshFirstVertex[f.triMesh[prim]];
-    V3 s = toV3(m.normals[tri[0] - base]) * w + toV3(m.normals[tri[1] - base]) * u +
-           toV3(m.normals[tri[2] - base]) * v;
+    V3 s = m.normals[tri[0] - base] * w + m.normals[tri[1] - base] * u +
+           m.normals[tri[2] - base] * v;
     float l2 = dot(s, s);
     if (l2 > 0.0f && std::isfinite(l2)) {
       s = s * (1.0f / std::sqrt(l2));
@@ -282,24 +273,8 @@ bool tracePrimary(const EmbreeScene& es, const FlatScene& f, V3 eye, V3 dir, Hit
 }
 
 // True if nothing blocks direction d (unit) from the shadow-ray origin to infinity.
-inline bool unoccluded(const EmbreeScene& es, V3 origin, V3 d) {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRay r;
-  r.org_x = origin.x;
-  r.org_y = origin.y;
-  r.org_z = origin.z;
-  r.dir_x = d.x;
-  r.dir_y = d.y;
-  r.dir_z = d.z;
-  r.tnear = 0.0f;
-  r.tfar = std::numeric_limits<float>::infinity();
-  r.time = 0.0f;
-  r.mask = 0xFFFFFFFFu;
-  r.id = 0;
-  r.flags = 0;
-  rtcOccluded1(es.get(), &ctx, &r);
-  return r.tfar >= 0.0f;  // Embree sets tfar to -inf on a hit
+inline bool unoccluded(const EmbreeScene& es, const V3& origin, const V3& d) {
+  return !detail::rayOccluded(es.get(), origin, d, 0.0f);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -345,7 +320,7 @@ class EnvSampler {
   // The texel a direction falls in, exactly as Environment::lookup picks it (nearest, clamped).
   void texelOf(V3 d, int& c, int& r) const {
     float s, t;
-    pb_dir_equirect(d.x, d.y, d.z, float(w_), float(h_), &s, &t);
+    pb_dir_equirect(d[0], d[1], d[2], float(w_), float(h_), &s, &t);
     c = pb_env_column(s, shift_, w_);  // the map's rotation about +y
     r = std::clamp(int(std::floor(t)), 0, h_ - 1);
   }
@@ -374,7 +349,7 @@ class EnvSampler {
     double t = std::acos(std::clamp(ct, -1.0, 1.0)) / kPi * h_;
     t = std::clamp(t, double(r), std::nextafter(double(r + 1), double(r)));
     V3 d;
-    pb_equirect_dir(s, float(t), float(w_), float(h_), &d.x, &d.y, &d.z);
+    pb_equirect_dir(s, float(t), float(w_), float(h_), &d[0], &d[1], &d[2]);
     return d;
   }
 
@@ -406,7 +381,7 @@ inline V3 sampleCosine(V3 n, Pcg32& rng) {
   const float z = std::sqrt(std::max(0.0f, 1.0f - u1));
   V3 t, b;
   basisAround(n, t, b);
-  return normalized(t * (rad * std::cos(phi)) + b * (rad * std::sin(phi)) + n * z);
+  return normalizeNonZero(t * (rad * std::cos(phi)) + b * (rad * std::sin(phi)) + n * z);
 }
 
 // Uniform direction in the cap of half-angle alpha around unit axis a: cos(theta) uniform in
@@ -418,7 +393,7 @@ inline V3 sampleCap(V3 a, float cosAlpha, Pcg32& rng) {
   const float phi = float(2.0 * kPi) * u2;
   V3 t, b;
   basisAround(a, t, b);
-  return normalized(t * (st * std::cos(phi)) + b * (st * std::sin(phi)) + a * ct);
+  return normalizeNonZero(t * (st * std::cos(phi)) + b * (st * std::sin(phi)) + a * ct);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -448,7 +423,7 @@ Image renderPixels(const Camera& camera, const Environment* background, const Re
   const int W = opt.width, H = opt.height;
   Image out(W, H, 4, 0.0f);
   const CameraBasis basis = cameraBasis(camera, W, H);
-  const V3 eye = toV3(basis.eye);
+  const V3 eye = basis.eye;
 
   unsigned nThreads = opt.threads > 0 ? unsigned(opt.threads) : std::thread::hardware_concurrency();
   nThreads = std::max(1u, std::min(nThreads, unsigned(H)));
@@ -461,7 +436,7 @@ Image renderPixels(const Camera& camera, const Environment* background, const Re
 
   auto renderRow = [&](int y) {
     for (int x = 0; x < W; ++x) {
-      const V3 dir = toV3(cameraRayDirection(basis, W, H, float(x) + 0.5f, float(y) + 0.5f));
+      const V3 dir = cameraRayDirection(basis, W, H, float(x) + 0.5f, float(y) + 0.5f);
       float* px = &out.pixels[(std::size_t(y) * W + x) * 4];
       Hit hit;
       if (tracePrimary(es, flat, eye, dir, hit)) {
@@ -473,7 +448,7 @@ Image renderPixels(const Camera& camera, const Environment* background, const Re
         px[2] = rgb[2];
         px[3] = 1.0f;
       } else if (background) {
-        background->lookup(dir.x, dir.y, dir.z, px);
+        background->lookup(dir[0], dir[1], dir[2], px);
         px[3] = 0.0f;
       }
     }
@@ -625,7 +600,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     bool ellipse = false;         // ellipse lights: inside where frameCoords x^2 + y^2 <= 1
     bool inside(const V3& d) const {
       if (ellipse) {
-        const auto xy = src->frameCoords({d.x, d.y, d.z});
+        const auto xy = src->frameCoords(d);
         return xy[0] * xy[0] + xy[1] * xy[1] <= 1.0f;
       }
       for (const V3& en : edgeNormals)
@@ -641,7 +616,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     for (int k = 0; k < 3; ++k)
       finite = finite && std::isfinite(l.direction[k]) && std::isfinite(l.radiance[k]);
     if (!finite) badInput("light " + std::to_string(i) + " has a non-finite value");
-    V3 axis = normalized(toV3(l.direction));
+    V3 axis = normalizeNonZero(l.direction);
     if (dot(axis, axis) == 0.0f) badInput("light " + std::to_string(i) + " has a zero direction");
     CapLight c;
     c.axis = axis;
@@ -658,7 +633,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
       // it); the estimator's pdf is then 1 / the polygon's solid angle.
       const std::size_t nv = l.vertices.size();
       for (std::size_t v = 0; v < nv; ++v)
-        c.edgeNormals.push_back(cross(toV3(l.vertices[v]), toV3(l.vertices[(v + 1) % nv])));
+        c.edgeNormals.push_back(cross(l.vertices[v], l.vertices[(v + 1) % nv]));
       c.solidAngle = double(l.solidAngle());
     }
     c.src = &l;
@@ -675,7 +650,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
     // is in the way (up to the cosine's variation inside the cap).
     thread_local std::vector<double> cdf;
     cdf.assign(caps.size() + 1, 0.0);
-    const std::array<float, 3> n{h.n.x, h.n.y, h.n.z};
+    const std::array<float, 3>& n = h.n;
     for (std::size_t i = 0; i < caps.size(); ++i) {
       double lum = 0.0;
       if (caps[i].solidAngle > 0.0) {
@@ -708,7 +683,7 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         const double wgt = cosN * c.solidAngle / prob;
         const std::array<float, 3> rad =
             c.src->texture.empty() ? std::array<float, 3>{c.radiance[0], c.radiance[1], c.radiance[2]}
-                                   : c.src->radianceAt({d.x, d.y, d.z});
+                                   : c.src->radianceAt(d);
         for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, rad[k]) * wgt;
       }
     }

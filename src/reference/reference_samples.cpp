@@ -24,23 +24,7 @@ SampleTracer::~SampleTracer() = default;
 
 bool SampleTracer::occluded(const std::array<float, 3>& o, const std::array<float, 3>& d,
                             float tnear) const {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRay r;
-  r.org_x = o[0];
-  r.org_y = o[1];
-  r.org_z = o[2];
-  r.dir_x = d[0];
-  r.dir_y = d[1];
-  r.dir_z = d[2];
-  r.tnear = tnear;
-  r.tfar = std::numeric_limits<float>::infinity();
-  r.time = 0.0f;
-  r.mask = 0xFFFFFFFFu;
-  r.id = 0;
-  r.flags = 0;
-  rtcOccluded1(impl_->embree.get(), &ctx, &r);
-  return r.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+  return rayOccluded(impl_->embree.get(), o, d, tnear);
 }
 
 }  // namespace penumbra::detail

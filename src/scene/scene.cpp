@@ -16,29 +16,22 @@
 #include <sstream>
 
 #include "penumbra/error.hpp"
+#include "core/vec3.hpp"
 
 namespace penumbra {
 namespace {
 
 constexpr float kPi = 3.14159265358979323846f;
 
-Vec3 add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 mul(const Vec3& a, float s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-float dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-float length(const Vec3& a) { return std::sqrt(dot(a, a)); }
-bool finite(const Vec3& a) {
-  return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]);
-}
-// Unit vector, or `fallback` where the input has no usable direction (zero or non-finite).
-Vec3 normalizeOr(const Vec3& a, const Vec3& fallback) {
-  const float len = length(a);
-  if (!std::isfinite(len) || len <= 1e-20f) return fallback;
-  return mul(a, 1.0f / len);
-}
+using detail::cross;
+using detail::dot;
+using detail::isFinite;
+using detail::length;
+using detail::operator+;
+using detail::operator-;
+using detail::operator*;
+// Shorter vectors have no usable direction (detail::normalizeOr).
+constexpr float kMinLength = 1e-20f;
 
 std::string vecText(const Vec3& v) {
   std::ostringstream s;
@@ -54,7 +47,7 @@ std::string vecText(const Vec3& v) {
 // primitive through this keeps the winding counter-clockwise seen from outside without having to
 // get each parametrisation's orientation right by hand.
 void addTriangle(Mesh& m, int a, int b, int c, const Vec3& outward) {
-  const Vec3 n = cross(sub(m.positions[b], m.positions[a]), sub(m.positions[c], m.positions[a]));
+  const Vec3 n = cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
   if (dot(n, outward) < 0) std::swap(b, c);
   m.triangles.push_back({a, b, c});
 }
@@ -86,7 +79,7 @@ void addBox(Mesh& m, const Vec3& centre, const Vec3& half, float yaw) {
         p[axis] = sign * half[axis];
         p[u] = corner[k][0] * half[u];
         p[v] = corner[k][1] * half[v];
-        idx[k] = addVertex(m, add(centre, rotateY(p, yaw)), n);
+        idx[k] = addVertex(m, centre + rotateY(p, yaw), n);
       }
       addTriangle(m, idx[0], idx[1], idx[2], n);
       addTriangle(m, idx[0], idx[2], idx[3], n);
@@ -121,20 +114,20 @@ Mesh makeSphere(const Vec3& centre, float radius, int segments, int rings, const
   Mesh m;
   m.name = "sphere";
   m.albedo = albedo;
-  const int top = addVertex(m, add(centre, {0, radius, 0}), {0, 1, 0});
+  const int top = addVertex(m, centre + Vec3{0, radius, 0}, {0, 1, 0});
   for (int r = 1; r < rings; ++r) {
     const float theta = kPi * r / rings;  // polar angle from +y
     for (int s = 0; s < segments; ++s) {
       const float phi = 2 * kPi * s / segments;
       const Vec3 n{std::sin(theta) * std::cos(phi), std::cos(theta),
                    std::sin(theta) * std::sin(phi)};
-      addVertex(m, add(centre, mul(n, radius)), n);
+      addVertex(m, centre + n * radius, n);
     }
   }
-  const int bottom = addVertex(m, add(centre, {0, -radius, 0}), {0, -1, 0});
+  const int bottom = addVertex(m, centre + Vec3{0, -radius, 0}, {0, -1, 0});
   auto ring = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
   auto outward = [&](int a, int b, int c) {
-    return sub(mul(add(add(m.positions[a], m.positions[b]), m.positions[c]), 1.0f / 3), centre);
+    return (m.positions[a] + m.positions[b] + m.positions[c]) * (1.0f / 3) - centre;
   };
   for (int s = 0; s < segments; ++s) {
     const int a = ring(1, s), b = ring(1, s + 1);
@@ -163,11 +156,11 @@ Mesh makeTorus(const Vec3& centre, float major, float minor, float yaw, int majo
   const Vec3 e1 = rotateY({1, 0, 0}, yaw), e2{0, 1, 0}, axis = cross(e1, e2);
   for (int i = 0; i < majorSegs; ++i) {
     const float u = 2 * kPi * i / majorSegs;
-    const Vec3 radial = add(mul(e1, std::cos(u)), mul(e2, std::sin(u)));
+    const Vec3 radial = e1 * std::cos(u) + e2 * std::sin(u);
     for (int j = 0; j < minorSegs; ++j) {
       const float v = 2 * kPi * j / minorSegs;
-      const Vec3 n = add(mul(radial, std::cos(v)), mul(axis, std::sin(v)));
-      addVertex(m, add(centre, add(mul(radial, major), mul(n, minor))), n);
+      const Vec3 n = radial * std::cos(v) + axis * std::sin(v);
+      addVertex(m, centre + (radial * major + n * minor), n);
     }
   }
   auto at = [&](int i, int j) { return (i % majorSegs) * minorSegs + (j % minorSegs); };
@@ -175,7 +168,7 @@ Mesh makeTorus(const Vec3& centre, float major, float minor, float yaw, int majo
     for (int j = 0; j < minorSegs; ++j) {
       const int a = at(i, j), b = at(i + 1, j), c = at(i, j + 1), d = at(i + 1, j + 1);
       // The vertex normals of a quad all point away from the tube's core: their sum is outward.
-      const Vec3 out = add(add(m.normals[a], m.normals[b]), add(m.normals[c], m.normals[d]));
+      const Vec3 out = (m.normals[a] + m.normals[b]) + (m.normals[c] + m.normals[d]);
       addTriangle(m, a, b, d, out);
       addTriangle(m, a, d, c, out);
     }
@@ -196,11 +189,11 @@ Mesh makeLattice(const Vec3& base, float width, float height, int holes, float b
   const float h = rows * pitch + bar;
   for (int k = 0; k <= holes; ++k) {
     const Vec3 local{-width / 2 + bar / 2 + k * pitch, h / 2, 0};
-    addBox(m, add(base, rotateY(local, yaw)), {bar / 2, h / 2, bar / 2}, yaw);
+    addBox(m, base + rotateY(local, yaw), {bar / 2, h / 2, bar / 2}, yaw);
   }
   for (int k = 0; k <= rows; ++k) {
     const Vec3 local{0, bar / 2 + k * pitch, 0};
-    addBox(m, add(base, rotateY(local, yaw)), {width / 2, bar / 2, bar * 0.4f}, yaw);
+    addBox(m, base + rotateY(local, yaw), {width / 2, bar / 2, bar * 0.4f}, yaw);
   }
   return m;
 }
@@ -331,7 +324,7 @@ Vec3 materialAlbedo(const aiScene* scene, const aiMesh* mesh) {
   aiColor3D c;
   if (mat->Get(AI_MATKEY_COLOR_DIFFUSE, c) != aiReturn_SUCCESS) return fallback;
   Vec3 out{c.r, c.g, c.b};
-  if (!finite(out)) return fallback;
+  if (!isFinite(out)) return fallback;
   // 0.95 at most: a white albedo of 1 would reflect everything, which no real material does and
   // which makes interreflection-free shading look blown out.
   for (float& x : out) x = std::clamp(x, 0.0f, 0.95f);
@@ -372,13 +365,15 @@ Mesh convertMesh(const aiScene* scene, const aiMesh* mesh, unsigned index) {
   }
   std::vector<Vec3> faceSum(out.positions.size(), Vec3{0, 0, 0});
   for (const auto& t : out.triangles) {
-    const Vec3 n = cross(sub(out.positions[t[1]], out.positions[t[0]]),
-                         sub(out.positions[t[2]], out.positions[t[0]]));
-    for (int k = 0; k < 3; ++k) faceSum[t[k]] = add(faceSum[t[k]], n);
+    const Vec3 n = cross(out.positions[t[1]] - out.positions[t[0]],
+                         out.positions[t[2]] - out.positions[t[0]]);
+    for (int k = 0; k < 3; ++k) faceSum[t[k]] = faceSum[t[k]] + n;
   }
   for (std::size_t v = 0; v < out.normals.size(); ++v) {
-    const Vec3 faceNormal = normalizeOr(faceSum[v], {0, 1, 0});
-    out.normals[v] = finite(out.normals[v]) ? normalizeOr(out.normals[v], faceNormal) : faceNormal;
+    const Vec3 faceNormal = detail::normalizeOr(faceSum[v], {0, 1, 0}, kMinLength);
+    out.normals[v] = isFinite(out.normals[v])
+                         ? detail::normalizeOr(out.normals[v], faceNormal, kMinLength)
+                         : faceNormal;
   }
   return out;
 }
@@ -408,9 +403,9 @@ std::string cameraError(const std::string& text, const std::string& problem) {
 // Bounds and Scene.
 // ---------------------------------------------------------------------------------------------
 
-Vec3 Bounds::center() const { return mul(add(lo, hi), 0.5f); }
+Vec3 Bounds::center() const { return (lo + hi) * 0.5f; }
 
-float Bounds::radius() const { return 0.5f * length(sub(hi, lo)); }
+float Bounds::radius() const { return 0.5f * length(hi - lo); }
 
 Bounds Scene::bounds() const {
   std::vector<const Mesh*> all;
@@ -527,7 +522,7 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
     badInput(path + ": no triangles (every triangle in the file is degenerate)");
 
   const Bounds b = scene.bounds();
-  const Vec3 ext = sub(b.hi, b.lo);
+  const Vec3 ext = b.hi - b.lo;
   const float maxExt = std::max({ext[0], ext[1], ext[2]});
   if (!std::isfinite(maxExt)) badInput(path + ": the mesh bounds overflow single precision");
   if (maxExt <= 0)
@@ -579,7 +574,7 @@ Camera frameCamera(const Scene& scene, float aspect) {
   const float elevation = 30.0f * kPi / 180, azimuth = 35.0f * kPi / 180;
   const Vec3 dir{std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
                  std::cos(elevation) * std::cos(azimuth)};
-  cam.eye = add(cam.target, mul(dir, distance));
+  cam.eye = cam.target + dir * distance;
   return cam;
 }
 
@@ -590,19 +585,19 @@ CameraBasis cameraBasis(const Camera& c, int width, int height) {
   if (!std::isfinite(c.fovyDeg) || c.fovyDeg <= 0 || c.fovyDeg >= 180)
     badInput("camera: vertical field of view must be in (0, 180) degrees, got " +
              std::to_string(c.fovyDeg));
-  if (!finite(c.eye) || !finite(c.target) || !finite(c.up))
+  if (!isFinite(c.eye) || !isFinite(c.target) || !isFinite(c.up))
     badInput("camera: eye, target and up must be finite");
-  const Vec3 toTarget = sub(c.target, c.eye);
+  const Vec3 toTarget = c.target - c.eye;
   if (!(length(toTarget) > 0)) badInput("camera: eye and target coincide at " + vecText(c.eye));
   CameraBasis b;
   b.eye = c.eye;
-  b.forward = normalizeOr(toTarget, {0, 0, -1});
-  const Vec3 upDir = normalizeOr(c.up, {0, 0, 0});
+  b.forward = detail::normalizeOr(toTarget, {0, 0, -1}, kMinLength);
+  const Vec3 upDir = detail::normalizeOr(c.up, {0, 0, 0}, kMinLength);
   const Vec3 side = cross(b.forward, upDir);
   // Below ~0.06 degrees between up and forward the right vector is numerically meaningless.
   if (!(length(side) > 1e-3f))
     badInput("camera: up " + vecText(c.up) + " is zero or parallel to the view direction");
-  b.right = normalizeOr(side, {1, 0, 0});
+  b.right = detail::normalizeOr(side, {1, 0, 0}, kMinLength);
   b.up = cross(b.right, b.forward);
   b.tanHalfY = std::tan(c.fovyDeg * kPi / 360);
   b.tanHalfX = b.tanHalfY * static_cast<float>(width) / static_cast<float>(height);
@@ -612,8 +607,8 @@ CameraBasis cameraBasis(const Camera& c, int width, int height) {
 Vec3 cameraRayDirection(const CameraBasis& b, int width, int height, float px, float py) {
   const float sx = 2 * px / width - 1;
   const float sy = 1 - 2 * py / height;
-  const Vec3 d = add(b.forward, add(mul(b.right, sx * b.tanHalfX), mul(b.up, sy * b.tanHalfY)));
-  return normalizeOr(d, b.forward);
+  const Vec3 d = b.forward + (b.right * (sx * b.tanHalfX) + b.up * (sy * b.tanHalfY));
+  return detail::normalizeOr(d, b.forward, kMinLength);
 }
 
 Camera parseCamera(const std::string& text) {
@@ -658,9 +653,9 @@ Camera parseCamera(const std::string& text) {
   c.fovyDeg = v[6];
   if (!(c.fovyDeg > 0 && c.fovyDeg < 180))
     badInput(cameraError(text, "fovy " + parts[6] + " is not in (0, 180) degrees"));
-  const Vec3 d = sub(c.target, c.eye);
+  const Vec3 d = c.target - c.eye;
   if (!(length(d) > 0)) badInput(cameraError(text, "eye and target are the same point"));
-  if (length(cross(normalizeOr(d, {0, 0, 0}), c.up)) <= 1e-3f)
+  if (length(cross(detail::normalizeOr(d, {0, 0, 0}, kMinLength), c.up)) <= 1e-3f)
     badInput(cameraError(text, "the view direction is vertical, parallel to the up vector +y"));
   return c;
 }

@@ -10,6 +10,7 @@
 #include "penumbra/lights.hpp"
 #include "penumbra/scene.hpp"
 #include "common/shared.h"
+#include "lights/sampling.hpp"  // fibonacciDiskPoint: point k of that set, in double
 
 namespace penumbra::detail {
 
@@ -18,8 +19,6 @@ namespace penumbra::detail {
 // tan(alpha), so one look-up table serves all lights.
 // rotation: every sample turned by that angle about the centre (jittered frames, seed 001 §4.3).
 std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation = 0.0);
-// Point k of that set in double (src/lights.cpp; lightSamples draws an ellipse's samples from it).
-std::array<double, 2> fibonacciDiskPoint(int k, int n, double rotation);
 
 // The rotation of jittered frame j (BitmaskOptions::jitter): 0 for j <= 0, else
 // 2 pi frac(j / golden ratio), in [0, 2 pi).
