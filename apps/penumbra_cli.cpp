@@ -37,7 +37,7 @@ struct OptionSpec {
   bool takesValue;
   std::string help;
   // The library fields the option sets, as its errors name them ("RenderOptions.cssm.order";
-  // src/shadows/option_checks.hpp): an error naming one is reported with this option instead.
+  // src/shadows/shadow_options.hpp): an error naming one is reported with this option instead.
   std::vector<std::string> fields = {};
 };
 

@@ -47,51 +47,29 @@ typedef struct {
 
 #ifndef __OPENCL_VERSION__
 #include <stddef.h>
-/* Field i of a block of 4-byte scalars sits at byte 4 i: what the kernels' layout is. */
+/* Field `field` of a block of 4-byte scalars sits at byte 4 i, as the kernels read it; a row is
+ * four consecutive fields from index i. */
 #define PB_PARAM_AT(type, field, i) \
-  static_assert(offsetof(type, field) == 4 * (i), #type "." #field " is not at byte 4 * " #i)
+  static_assert(offsetof(type, field) == 4 * (i), #type "." #field " is not at byte 4 * (" #i ")")
+#define PB_PARAM_ROW(type, i, a, b, c, d) \
+  PB_PARAM_AT(type, a, i); PB_PARAM_AT(type, b, i + 1); PB_PARAM_AT(type, c, i + 2); \
+  PB_PARAM_AT(type, d, i + 3)
 static_assert(sizeof(mssm_params) == 48, "mssm_params: 12 four-byte fields");
-PB_PARAM_AT(mssm_params, moment_bias, 0);
-PB_PARAM_AT(mssm_params, depth_bias, 1);
-PB_PARAM_AT(mssm_params, slope_bias, 2);
-PB_PARAM_AT(mssm_params, light_size_scale, 3);
-PB_PARAM_AT(mssm_params, max_filter, 4);
-PB_PARAM_AT(mssm_params, min_filter, 5);
-PB_PARAM_AT(mssm_params, blocker_eps, 6);
-PB_PARAM_AT(mssm_params, upper_bound, 7);
-PB_PARAM_AT(mssm_params, delta1, 8);
-PB_PARAM_AT(mssm_params, delta2, 9);
-PB_PARAM_AT(mssm_params, pad0, 10);
-PB_PARAM_AT(mssm_params, pad1, 11);
+PB_PARAM_ROW(mssm_params, 0, moment_bias, depth_bias, slope_bias, light_size_scale);
+PB_PARAM_ROW(mssm_params, 4, max_filter, min_filter, blocker_eps, upper_bound);
+PB_PARAM_ROW(mssm_params, 8, delta1, delta2, pad0, pad1);
 static_assert(sizeof(cssm_params) == 64, "cssm_params: 16 four-byte fields");
-PB_PARAM_AT(cssm_params, scale, 0);
-PB_PARAM_AT(cssm_params, shift, 1);
-PB_PARAM_AT(cssm_params, tau0, 2);
-PB_PARAM_AT(cssm_params, kappa, 3);
-PB_PARAM_AT(cssm_params, scale_z, 4);
-PB_PARAM_AT(cssm_params, shift_z, 5);
-PB_PARAM_AT(cssm_params, tau0_z, 6);
-PB_PARAM_AT(cssm_params, rise, 7);
-PB_PARAM_AT(cssm_params, depth_bias, 8);
-PB_PARAM_AT(cssm_params, slope_bias, 9);
-PB_PARAM_AT(cssm_params, light_size_scale, 10);
-PB_PARAM_AT(cssm_params, max_filter, 11);
-PB_PARAM_AT(cssm_params, min_filter, 12);
-PB_PARAM_AT(cssm_params, sharpen_a, 13);
-PB_PARAM_AT(cssm_params, sharpen_b, 14);
-PB_PARAM_AT(cssm_params, damping, 15);
+PB_PARAM_ROW(cssm_params, 0, scale, shift, tau0, kappa);
+PB_PARAM_ROW(cssm_params, 4, scale_z, shift_z, tau0_z, rise);
+PB_PARAM_ROW(cssm_params, 8, depth_bias, slope_bias, light_size_scale, max_filter);
+PB_PARAM_ROW(cssm_params, 12, min_filter, sharpen_a, sharpen_b, damping);
 static_assert(sizeof(pcss_params) == 32, "pcss_params: 8 four-byte fields");
-PB_PARAM_AT(pcss_params, depth_bias, 0);
-PB_PARAM_AT(pcss_params, light_size_scale, 1);
-PB_PARAM_AT(pcss_params, max_filter, 2);
-PB_PARAM_AT(pcss_params, min_filter, 3);
-PB_PARAM_AT(pcss_params, blocker_taps, 4);
-PB_PARAM_AT(pcss_params, filter_taps, 5);
-PB_PARAM_AT(pcss_params, receiver_plane, 6);
-PB_PARAM_AT(pcss_params, pad, 7);
+PB_PARAM_ROW(pcss_params, 0, depth_bias, light_size_scale, max_filter, min_filter);
+PB_PARAM_ROW(pcss_params, 4, blocker_taps, filter_taps, receiver_plane, pad);
 static_assert(sizeof(area_range) == 8, "area_range: 2 four-byte fields");
 PB_PARAM_AT(area_range, first, 0);
 PB_PARAM_AT(area_range, count, 1);
+#undef PB_PARAM_ROW
 #undef PB_PARAM_AT
 #endif
 

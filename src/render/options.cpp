@@ -1,7 +1,7 @@
 // Technique and prefilter names, and the checks of RenderOptions (include/penumbra/options.hpp)
 // that hold for every frame: sizes, the shared shadow settings, bent normals, the build's
 // techniques. Errors name the field (RenderOptions.width); the technique's own struct is checked
-// by its pass (src/shadows/option_checks.hpp).
+// by its pass (src/shadows/shadow_options.hpp).
 #include <cmath>
 #include <string>
 #include <utility>
@@ -9,7 +9,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/options.hpp"
 #include "render/options_check.hpp"
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra {

@@ -26,7 +26,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"
 #include "core/vec3.hpp"

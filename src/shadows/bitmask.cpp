@@ -45,7 +45,7 @@
 #include "shadows/bitmask.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "penumbra/lights.hpp"
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "core/vec3.hpp"
 

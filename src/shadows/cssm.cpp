@@ -10,7 +10,7 @@
 #include <string>
 #include <utility>
 
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"
 
@@ -140,7 +140,6 @@ class CSSMPass : public ShadowPass {
     const CssmSeries& ser = seriesFor(M, co.damping);
     // the visibility's test, and the blocker search's (shifted by the whole rise)
     const CssmShift vis = shiftFor(ser, co.ringingOffset), blk = shiftFor(ser, 1.0);
-    const ShadowOptions& so = f.opt.shadow;
     cssm_params P{};
     P.scale = float(vis.scale);
     P.shift = float(vis.shift);
@@ -152,9 +151,7 @@ class CSSMPass : public ShadowPass {
     P.rise = float(ser.rise / ser.kappa);
     P.depth_bias = co.depthBias;
     P.slope_bias = co.slopeBias;
-    P.light_size_scale = so.lightSizeScale;
-    P.max_filter = so.maxFilterTexels;
-    P.min_filter = so.minFilterTexels;
+    setFilterLimits(P, f.opt.shadow);
     P.sharpen_a = co.sharpenA;
     P.sharpen_b = co.sharpenB;
     P.damping = co.damping;

@@ -1,8 +1,9 @@
-// Internal: what MSSM4 and MSSM6 (src/shadows/mssm4.cpp, src/shadows/mssm6.cpp) share: the
-// parameter block of kernels/moments.cl (shadows/shadow_params.h) and its visibility launch
-// (src/shadows/mssm.cpp).
+// Internal: what MSSM4 and MSSM6 (src/shadows/mssm4.cpp, src/shadows/mssm6.cpp) share
+// (src/shadows/mssm.cpp): the pass itself but for how the moments are stored, and the parameter
+// block of kernels/moments.cl (shadows/shadow_params.h).
 #pragma once
 #include <string>
+#include <utility>
 
 #include "shadows/shadow_pass.hpp"
 #include "shadows/shadow_params.h"
@@ -13,10 +14,23 @@ namespace penumbra::detail {
 // alone (mssm_reconstruct reads the moment bias, the blocker epsilon and the eq. 19 clamps).
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
 
-// Runs kernels/moments.cl's "<technique>_visibility" (technique "mssm4"
-// or "mssm6") on the prefiltered moment images `maps` (one every `stride` long4) for every pixel
-// and light, as stage "<technique>/visibility".
-void mssmVisibility(ShadowFrame& f, const std::string& technique, cl::Buffer& maps,
-                    std::size_t stride);
+// Moment soft shadow mapping (seed 003): the lights' moments from their depth maps, prefiltered
+// (RenderOptions::prefilter), then kernels/moments.cl's "<technique>_visibility" for every pixel
+// and light. Stages "<technique>/moments", "<technique>/sat" or "/mip", "<technique>/visibility".
+class MomentPass : public ShadowPass {
+ public:
+  explicit MomentPass(std::string technique) : technique_(std::move(technique)) {}
+  void computeVisibility(ShadowFrame& f) override;
+
+ protected:
+  // Filterable long4 images the moments of `lights` lights take.
+  virtual int images(int lights) const = 0;
+  // Writes them into `maps`, image i at element i * stride, as stage `stage`.
+  virtual void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
+                       const std::string& stage) const = 0;
+
+ private:
+  std::string technique_;  // "mssm4" or "mssm6"
+};
 
 }  // namespace penumbra::detail

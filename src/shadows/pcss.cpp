@@ -2,7 +2,7 @@
 // standard depth map explicitly: kernels/pcss.cl's pcss_visibility. No prefilter: the price is a
 // shading cost that grows with the filter's area in texels (every texel of the box by default,
 // PCSSOptions::filterTaps = 0; seed 003 §6.2), where the filtered techniques pay a constant.
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"
 
@@ -23,9 +23,7 @@ class PCSSPass : public ShadowPass {
     const ShadowOptions& so = f.opt.shadow;
     pcss_params P{};
     P.depth_bias = so.depthBias;
-    P.light_size_scale = so.lightSizeScale;
-    P.max_filter = so.maxFilterTexels;
-    P.min_filter = so.minFilterTexels;
+    setFilterLimits(P, so);
     P.blocker_taps = po.blockerTaps;
     P.filter_taps = po.filterTaps;
     P.receiver_plane = po.receiverPlaneBias ? 1 : 0;

@@ -1,6 +1,6 @@
-// The error form of the option checks (option_checks.hpp), and the check of the settings every
+// The error form of the option checks (shadow_options.hpp), and the check of the settings every
 // shadow-map technique shares (ShadowOptions).
-#include "shadows/option_checks.hpp"
+#include "shadows/shadow_options.hpp"
 
 #include <cmath>
 #include <sstream>
