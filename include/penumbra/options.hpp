@@ -1,8 +1,9 @@
 // What a frame is rendered with: the shadow technique, its options, the image and map sizes.
-// Every field states its unit, range and default. Renderer::render() validates the frame's and
-// the shared shadow settings (ShadowOptions) once, and each technique its own struct, beside the
-// technique (src/shadows/<technique>.cpp); errors name the field ("RenderOptions.cssm.order must
-// be in [1, 32], got 40"), which the CLI and the Python module turn into their flag or keyword.
+// Every field states its unit, range and default. Renderer::render() checks the frame's fields
+// and the shared shadow settings (ShadowOptions) before any device work; the technique in use
+// checks its own struct when it runs (src/shadows/<technique>.cpp). Errors name the field
+// ("RenderOptions.cssm.order must be in [1, 32], got 40"); the CLI and the Python module turn it
+// into their option or attribute name.
 #pragma once
 #include <cstddef>
 #include <string>
