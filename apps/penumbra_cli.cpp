@@ -6,6 +6,7 @@
 #endif
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -35,7 +36,18 @@ struct OptionSpec {
   std::string name;     // without dashes
   bool takesValue;
   std::string help;
+  // The library fields the option sets, as its errors name them ("RenderOptions.cssm.order";
+  // src/shadows/shadow_options.hpp): an error naming one is reported with this option instead.
+  std::vector<std::string> fields = {};
 };
+
+// A default as the help prints it: 6 significant digits (3e-05, 0.002, 27).
+std::string num(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+std::string sizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 Args parse(int argc, char** argv, int first, const std::vector<OptionSpec>& specs,
            const std::string& command) {
@@ -168,15 +180,19 @@ void writeTextAtomic(const std::string& path, const std::string& text) {
   }
 }
 
-const std::vector<OptionSpec> kSceneOptions = {
-    {"scene", true, "mesh file (OBJ, PLY, glTF/GLB, ...) or 'builtin' (default)"},
-    {"env", true, "environment map (EXR, HDR, PFM; equirectangular) or 'builtin' (default)"},
-    {"size", true, "image size WxH (default 640x360)"},
-    {"camera", true, "ex,ey,ez,tx,ty,tz[,fovy]: eye, target, vertical fov (default: framed)"},
-    {"no-ground", false, "do not add a ground plane under a loaded mesh"},
-    {"device", true, "OpenCL device: index or name substring (default $PENUMBRA_DEVICE or 0)"},
-    {"help", false, "show this help"},
-};
+// The options of a command that renders the scene; (width, height): its options' default size.
+std::vector<OptionSpec> sceneOptions(int width, int height) {
+  return {
+      {"scene", true, "mesh file (OBJ, PLY, glTF/GLB, ...) or 'builtin' (default)"},
+      {"env", true, "environment map (EXR, HDR, PFM; equirectangular) or 'builtin' (default)"},
+      {"size", true, "image size WxH (default " + sizeText(width, height) + ")",
+       {"RenderOptions.width", "RenderOptions.height"}},
+      {"camera", true, "ex,ey,ez,tx,ty,tz[,fovy]: eye, target, vertical fov (default: framed)"},
+      {"no-ground", false, "do not add a ground plane under a loaded mesh"},
+      {"device", true, "OpenCL device: index or name substring (default $PENUMBRA_DEVICE or 0)"},
+      {"help", false, "show this help"},
+  };
+}
 
 std::vector<OptionSpec> with(std::vector<OptionSpec> base, const std::vector<OptionSpec>& more) {
   base.insert(base.end() - 1, more.begin(), more.end());
@@ -187,7 +203,6 @@ struct SceneSetup {
   Scene scene;
   Environment env;
   Camera camera;
-  int width = 640, height = 360;
 };
 
 // Loads a map and says on stderr what sanitizing replaced.
@@ -200,10 +215,10 @@ Environment loadEnvironmentNoting(const std::string& pathOrBuiltin) {
   return env;
 }
 
-// loadEnv = false leaves s.env empty (render loads its own list of maps).
-SceneSetup loadSetup(const Args& a, bool loadEnv = true) {
+// The camera frames the scene for a width x height image. loadEnv = false leaves s.env empty
+// (render loads its own list of maps).
+SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv = true) {
   SceneSetup s;
-  parseSize(get(a, "size", "640x360"), s.width, s.height);
   Camera cam;
   bool haveCamera = has(a, "camera");
   if (haveCamera) cam = parseCamera(get(a, "camera", ""));
@@ -211,7 +226,7 @@ SceneSetup loadSetup(const Args& a, bool loadEnv = true) {
   lo.addGround = !has(a, "no-ground");
   s.scene = sceneFrom(get(a, "scene", "builtin"), lo);
   if (loadEnv) s.env = loadEnvironmentNoting(get(a, "env", "builtin"));
-  s.camera = haveCamera ? cam : frameCamera(s.scene, float(s.width) / float(s.height));
+  s.camera = haveCamera ? cam : frameCamera(s.scene, float(width) / float(height));
   return s;
 }
 
@@ -355,41 +370,82 @@ std::string framePath(const std::string& out, int i, int frames) {
   return (p.parent_path() / (p.stem().string() + "_" + num + p.extension().string())).string();
 }
 
-int cmdRender(int argc, char** argv) {
-  auto specs = with(with(kSceneOptions, kExtractSpecs), {
+// The technique names for --shadows, the default marked.
+std::string techniqueChoices() {
+  using T = ShadowTechnique;
+  std::string list;
+  for (T t : {T::Hard, T::PCSS, T::CSSM, T::MSSM4, T::MSSM6, T::Brute, T::Bitmask, T::BitmaskHard,
+              T::AreaApprox, T::None})
+    list += std::string(list.empty() ? "" : " | ") + toString(t) +
+            (t == RenderOptions{}.shadows ? " (default)" : "");
+  return list;
+}
+
+// The options of `render`. Every default shown is read from RenderOptions; an option that sets a
+// RenderOptions field names it, so that the library's errors about it name the option.
+std::vector<OptionSpec> renderSpecs() {
+  const RenderOptions R;
+  return with(with(sceneOptions(R.width, R.height), kExtractSpecs), {
       kLightSetSpec,
       {"env-rotate", true, "turn the map by DEG about +y, counter-clockwise from above (default 0)"},
       {"frames", true, "render an animation of N frames (1..100000; see below)"},
       {"frame-time", true, "animation: seconds between frames (default 1/24)"},
       {"rotate-step", true, "animation: map rotation added per frame, DEG (default: see below)"},
-      {"shadows", true, "hard | pcss | cssm | mssm4 (default) | mssm6 | brute | bitmask | bitmask-hard | area-approx | none"},
-      {"prefilter", true, "filtered techniques' prefilter: sat (default) | mip"},
-      {"front-back", false, "average front- and back-face depths in the shadow maps"},
-      {"bent-normals", false, "bend shading at light silhouettes to black on light-back-facing triangles (seed 001 §4.3; for bitmask, bitmask-hard)"},
-      {"bent-normals-scale", true, "bent normals: c of the blend, shading unchanged where every face around faces the light at cos >= 1/c (default 3)"},
-      {"shadow-map-size", true, "shadow-map resolution per light (default 256)"},
-      {"moment-bias", true, "MSSM moment bias (default 3e-5)"},
-      {"depth-bias", true, "MSSM depth bias, normalized depth (default 0.002)"},
-      {"slope-bias", true, "MSSM receiver-slope bias factor (default 0)"},
-      {"light-size-scale", true, "scale of every light's size in the filters (default 1)"},
-      {"max-filter", true, "largest filter width in texels (default 27)"},
-      {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19)"},
-      {"cssm-order", true, "CSSM Fourier order M (default 4)"},
-      {"sharpen-a", true, "CSSM sharpening strength A (default 30; 0 disables)"},
-      {"sharpen-b", true, "CSSM sharpening falloff B (default 80)"},
-      {"pcss-blocker-taps", true, "PCSS blocker-search samples (default 16; 0: every texel)"},
-      {"pcss-filter-taps", true, "PCSS filter samples (default 0: every texel, explicit)"},
-      {"brute-samples", true, "brute force: point samples per light (default 64)"},
-      {"light-samples", true, "bitmask: light samples per light, 128 | 256 (default) | 512 | 1024"},
+      {"shadows", true, techniqueChoices(), {"RenderOptions.shadows"}},
+      {"prefilter", true,
+       std::string("filtered techniques' prefilter: ") +
+           (R.prefilter == Prefilter::SAT ? "sat (default) | mip" : "sat | mip (default)"),
+       {"RenderOptions.prefilter"}},
+      {"front-back", false, "average front- and back-face depths in the shadow maps",
+       {"RenderOptions.frontBackFaces"}},
+      {"bent-normals", false, "bend shading at light silhouettes to black on light-back-facing triangles (seed 001 §4.3; for bitmask, bitmask-hard)",
+       {"RenderOptions.bentNormals"}},
+      {"bent-normals-scale", true, "bent normals: c of the blend, shading unchanged where every face around faces the light at cos >= 1/c (default " + num(R.bentNormalsScale) + ")",
+       {"RenderOptions.bentNormalsScale"}},
+      {"shadow-map-size", true, "shadow-map resolution per light (default " + num(R.shadowMapSize) + ")",
+       {"RenderOptions.shadowMapSize"}},
+      {"moment-bias", true, "MSSM moment bias (default " + num(R.mssm.momentBias) + ")",
+       {"RenderOptions.mssm.momentBias"}},
+      {"depth-bias", true, "depth bias of hard, pcss, mssm4, mssm6, brute, area-approx; normalized depth (default " + num(R.shadow.depthBias) + ")",
+       {"RenderOptions.shadow.depthBias"}},
+      {"slope-bias", true, "MSSM receiver-slope bias factor (default " + num(R.mssm.slopeBias) + ")",
+       {"RenderOptions.mssm.slopeBias"}},
+      {"light-size-scale", true, "scale of every light's size in the filters (default " + num(R.shadow.lightSizeScale) + ")",
+       {"RenderOptions.shadow.lightSizeScale"}},
+      {"max-filter", true, "largest filter width in texels (default " + num(R.shadow.maxFilterTexels) + ")",
+       {"RenderOptions.shadow.maxFilterTexels"}},
+      {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19)",
+       {"RenderOptions.mssm.upperBoundBlocker"}},
+      {"cssm-order", true, "CSSM Fourier order M (default " + num(R.cssm.order) + ")",
+       {"RenderOptions.cssm.order"}},
+      {"sharpen-a", true, "CSSM sharpening strength A (default " + num(R.cssm.sharpenA) + "; 0 disables)",
+       {"RenderOptions.cssm.sharpenA"}},
+      {"sharpen-b", true, "CSSM sharpening falloff B (default " + num(R.cssm.sharpenB) + ")",
+       {"RenderOptions.cssm.sharpenB"}},
+      {"pcss-blocker-taps", true, "PCSS blocker-search samples (default " + num(R.pcss.blockerTaps) + "; 0: every texel)",
+       {"RenderOptions.pcss.blockerTaps"}},
+      {"pcss-filter-taps", true, "PCSS filter samples (0: every texel, explicit; default " + num(R.pcss.filterTaps) + ")",
+       {"RenderOptions.pcss.filterTaps"}},
+      {"brute-samples", true, "brute force: point samples per light (default " + num(R.brute.samples) + ")",
+       {"RenderOptions.brute.samples"}},
+      {"light-samples", true, "bitmask: light samples per light, 128 | 256 | 512 | 1024 (default " + num(R.bitmask.lightSamples) + ")",
+       {"RenderOptions.bitmask.lightSamples"}},
       {"accumulate", true, "bitmask: average N frames with rotated light samples (default 1)"},
-      {"area-samples", true, "area-approx: samples per polygon edge besides its vertices (default 1)"},
-      {"area-cap-vertices", true, "area-approx: vertices of the polygon standing in for a cap (default 8)"},
-      {"area-taps", true, "area-approx: texel reads placing a shadow edge on a segment (default 4; 0: midpoint)"},
+      {"area-samples", true, "area-approx: samples per polygon edge besides its vertices (default " + num(R.areaApprox.edgeSamples) + ")",
+       {"RenderOptions.areaApprox.edgeSamples"}},
+      {"area-cap-vertices", true, "area-approx: vertices of the polygon standing in for a cap (default " + num(R.areaApprox.capVertices) + ")",
+       {"RenderOptions.areaApprox.capVertices"}},
+      {"area-taps", true, "area-approx: texel reads placing a shadow edge on a segment (default " + num(R.areaApprox.taps) + "; 0: midpoint)",
+       {"RenderOptions.areaApprox.taps"}},
       {"exposure", true, "PNG exposure multiplier (default: automatic, log-average to 0.25)"},
       {"out", true, "output image .png (tone-mapped) or .exr (linear; default penumbra.png)"},
       {"report", true, "write a JSON report (device, lights, timings, ...)"},
       {"gl", true, "egl | osmesa | auto: GL rasterizes the G-buffer and shadow maps and shades, OpenCL computes visibility"},
   });
+}
+
+int cmdRender(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = renderSpecs();
   Args a = parse(argc, argv, 2, specs, "render");
   if (has(a, "help")) {
     printHelp("penumbra render [options]",
@@ -414,10 +470,11 @@ int cmdRender(int argc, char** argv) {
   checkOutput(out, {".png", ".exr"}, "out");
   if (has(a, "report")) checkOutput(get(a, "report", ""), {".json"}, "report");
   RenderOptions ro;
-  parseSize(get(a, "size", "640x360"), ro.width, ro.height);
-  ro.shadows = parseShadowTechnique(get(a, "shadows", "mssm4"));
-  ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", "256"), 1, 4096));
-  ro.prefilter = parsePrefilter(get(a, "prefilter", "sat"));
+  if (has(a, "size")) parseSize(get(a, "size", ""), ro.width, ro.height);
+  if (has(a, "shadows")) ro.shadows = parseShadowTechnique(get(a, "shadows", ""));
+  if (has(a, "shadow-map-size"))
+    ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", ""), 1, 4096));
+  if (has(a, "prefilter")) ro.prefilter = parsePrefilter(get(a, "prefilter", ""));
   ro.mssm.upperBoundBlocker = has(a, "upper-bound");
   if (has(a, "cssm-order")) ro.cssm.order = int(parseInt("cssm-order", get(a, "cssm-order", ""), 1, 32));
   if (has(a, "sharpen-a")) ro.cssm.sharpenA = parseFloat("sharpen-a", get(a, "sharpen-a", ""));
@@ -449,11 +506,11 @@ int cmdRender(int argc, char** argv) {
     ro.bentNormalsScale = parseFloat("bent-normals-scale", get(a, "bent-normals-scale", ""));
   }
   if (has(a, "moment-bias")) ro.mssm.momentBias = parseFloat("moment-bias", get(a, "moment-bias", ""));
-  if (has(a, "depth-bias")) ro.mssm.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
+  if (has(a, "depth-bias")) ro.shadow.depthBias = parseFloat("depth-bias", get(a, "depth-bias", ""));
   if (has(a, "slope-bias")) ro.mssm.slopeBias = parseFloat("slope-bias", get(a, "slope-bias", ""));
   if (has(a, "light-size-scale"))
-    ro.mssm.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
-  if (has(a, "max-filter")) ro.mssm.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
+    ro.shadow.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
+  if (has(a, "max-filter")) ro.shadow.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
   float exposure = parseExposure(a);
   ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
@@ -475,7 +532,7 @@ int cmdRender(int argc, char** argv) {
     for (const char* o : {"frame-time", "rotate-step"})
       if (has(a, o)) badInput(std::string("--") + o + " needs --frames");
 
-  SceneSetup s = loadSetup(a, false);
+  SceneSetup s = loadSetup(a, ro.width, ro.height, false);
   const bool movingScene = get(a, "scene", "builtin") == "builtin";
   std::vector<Environment> envs;
   for (auto& m : maps) envs.push_back(loadEnvironmentNoting(m));
@@ -562,10 +619,11 @@ int cmdRender(int argc, char** argv) {
 int cmdReference(int argc, char** argv) {
   // --lights (or any extraction option) selects light-set mode: the scene is lit by the
   // extracted lights and their ambient residual instead of the map.
-  auto specs = with(with(kSceneOptions, kExtractSpecs), {
+  const ReferenceOptions R;
+  auto specs = with(with(sceneOptions(R.width, R.height), kExtractSpecs), {
       kLightSetSpec,
-      {"spp", true, "shadow-ray samples per pixel (default 256)"},
-      {"seed", true, "random seed (default 1)"},
+      {"spp", true, "shadow-ray samples per pixel (default " + num(R.spp) + ")"},
+      {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
       {"threads", true, "CPU threads (default: all)"},
       {"exposure", true, "PNG exposure multiplier (default: automatic)"},
       {"out", true, "output image .exr (default reference.exr) or .png"},
@@ -581,17 +639,17 @@ int cmdReference(int argc, char** argv) {
   std::string out = get(a, "out", "reference.exr");
   checkOutput(out, {".png", ".exr"}, "out");
   ReferenceOptions ro;
-  parseSize(get(a, "size", "640x360"), ro.width, ro.height);
-  ro.spp = int(parseInt("spp", get(a, "spp", "256"), 1, 1 << 20));
-  ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", "1"), 0, 1L << 62));
-  ro.threads = int(parseInt("threads", get(a, "threads", "0"), 0, 1024));
+  if (has(a, "size")) parseSize(get(a, "size", ""), ro.width, ro.height);
+  if (has(a, "spp")) ro.spp = int(parseInt("spp", get(a, "spp", ""), 1, 1 << 20));
+  if (has(a, "seed")) ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
+  if (has(a, "threads")) ro.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
   float exposure = parseExposure(a);
   bool lightMode = has(a, "lights") || has(a, "extract") || has(a, "light-shape");
   ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
   const bool useLightSet = userLightSet(a, userLights);
   lightMode = lightMode || useLightSet;
-  SceneSetup s = loadSetup(a);
+  SceneSetup s = loadSetup(a, ro.width, ro.height);
   bool tty = isatty(2);
   ro.progress = [tty](double f) {
     if (tty) std::fprintf(stderr, "\rreference: %3d%%", int(f * 100));
@@ -670,6 +728,27 @@ int cmdLights(int argc, char** argv) {
   return 0;
 }
 
+// A library error names the RenderOptions field at fault ("RenderOptions.cssm.order must be in
+// [1, 32], got 40"); the user typed an option. Each field a render option sets is replaced by that
+// option ("--cssm-order must be ..."); fields no option sets stay as they are.
+std::string withOptionNames(std::string message) {
+  auto letter = [&](std::size_t i) {
+    return i < message.size() && (std::isalnum(static_cast<unsigned char>(message[i])) || message[i] == '_');
+  };
+  for (const OptionSpec& o : renderSpecs())
+    for (const std::string& field : o.fields)
+      for (std::size_t at = message.find(field); at != std::string::npos;
+           at = message.find(field, at + 1)) {
+        const std::size_t end = at + field.size();
+        // not a part of a longer name (RenderOptions.shadows in RenderOptions.shadowsX, .shadows.y)
+        if ((at > 0 && (letter(at - 1) || message[at - 1] == '.')) || letter(end) ||
+            (end < message.size() && message[end] == '.' && letter(end + 1)))
+          continue;
+        message.replace(at, field.size(), "--" + o.name);
+      }
+  return message;
+}
+
 // Error output is one line whatever the message holds (a path with a line break, a build log).
 std::string oneLine(std::string s) {
   for (auto& c : s)
@@ -684,7 +763,8 @@ void usage() {
                "usage: penumbra COMMAND [options]    (penumbra COMMAND --help for details)\n\n"
                "commands:\n"
                "  devices     list OpenCL devices\n"
-               "  render      render a frame or an animation (extracted lights, MSSM4 soft shadows)\n"
+               "  render      render a frame or an animation (extracted lights, "
+            << toString(RenderOptions{}.shadows) << " soft shadows)\n"
                "  reference   ray-traced ground truth with Embree\n"
                "  compare     error metrics of an image against a reference\n"
                "  lights      extract area lights from an environment map\n";
@@ -715,7 +795,8 @@ int main(int argc, char** argv) {
     std::cerr << "penumbra: unknown command '" << oneLine(cmd) << "' (see penumbra --help)\n";
     return 2;
   } catch (const Error& e) {
-    std::cerr << "penumbra: " << toString(e.kind()) << ": " << oneLine(e.what()) << "\n";
+    std::cerr << "penumbra: " << toString(e.kind()) << ": " << oneLine(withOptionNames(e.what()))
+              << "\n";
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "penumbra: internal error: " << oneLine(e.what()) << "\n";

@@ -275,7 +275,7 @@ int main(int argc, char** argv) {
         ro.height = H;
         ro.shadowMapSize = 256;
         ro.shadows = parseShadowTechnique(t);
-        ro.mssm.maxFilterTexels = 256;
+        ro.shadow.maxFilterTexels = 256;
         renderer.render(sc, cm, ls, env, ro);
         std::vector<double> vis, sh;
         for (int run = 0; run < 7; ++run) {

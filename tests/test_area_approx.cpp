@@ -521,12 +521,12 @@ TEST(AreaApprox, BadOptionsNameTheParameter) {
     }
   };
   RenderOptions ro = areaOptions(-1, 4, 32);
-  expectBad(ro, "--area-samples");
+  expectBad(ro, "RenderOptions.areaApprox.edgeSamples");
   ro = areaOptions(1, 65, 32);
-  expectBad(ro, "--area-taps");
+  expectBad(ro, "RenderOptions.areaApprox.taps");
   ro = areaOptions(1, 4, 32);
   ro.areaApprox.capVertices = 2;
-  expectBad(ro, "--area-cap-vertices");
+  expectBad(ro, "RenderOptions.areaApprox.capVertices");
   // an octagon with 8 samples per edge would need 72 maps per light (the kernel keeps 64 bits)
   std::vector<std::array<float, 3>> v;
   for (int i = 0; i < 8; ++i) {
@@ -534,7 +534,7 @@ TEST(AreaApprox, BadOptionsNameTheParameter) {
     v.push_back({float(x / l), float(1 / l), float(z / l)});
   }
   light = makePolygonLight(v, {1, 1, 1});
-  expectBad(areaOptions(8, 4, 32), "--area-samples");
+  expectBad(areaOptions(8, 4, 32), "RenderOptions.areaApprox.edgeSamples");
 }
 
 // Extracted light sets are caps (median cut's default): area-approx runs on them, each cap an

@@ -401,7 +401,7 @@ TEST(BentNormals, ScaleMustBePositiveAndFinite) {
       ADD_FAILURE() << "scale " << bad << " accepted";
     } catch (const Error& e) {
       EXPECT_EQ(e.kind(), ErrorKind::BadInput);
-      EXPECT_NE(std::string(e.what()).find("--bent-normals-scale"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("RenderOptions.bentNormalsScale"), std::string::npos) << e.what();
     }
   }
 }

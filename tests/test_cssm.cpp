@@ -158,7 +158,7 @@ PlanarResult planar(const PlanarCase& c) {
   ro.height = 96;
   ro.shadowMapSize = c.mapSize;
   ro.environmentBackground = false;
-  ro.mssm.maxFilterTexels = 64;
+  ro.shadow.maxFilterTexels = 64;
   ro.shadows = ShadowTechnique::CSSM;
   ro.cssm = c.cssm;
   Environment env = builtinEnvironment(16);

@@ -45,7 +45,7 @@ PlanarResult planarCase(double alphaDeg, double h, int mapSize) {
   ro.height = 96;
   ro.shadowMapSize = mapSize;
   ro.environmentBackground = false;
-  ro.mssm.maxFilterTexels = 64;
+  ro.shadow.maxFilterTexels = 64;
   Environment env = builtinEnvironment(16);
   Renderer r(ctx());
   Frame f = r.render(scene, cam, set, env, ro);

@@ -77,7 +77,7 @@ std::vector<Recon> reconstruct(const std::vector<Atoms>& cases, const std::vecto
   cl::Buffer bm = c.upload(m, "test moments"), bz = c.upload(z, "test zf");
   cl::Buffer out = c.buffer(cases.size() * sizeof(Recon), "test reconstruction");
   cl::Kernel k = c.kernel("moments.cl", "mssm_reconstruct", options);
-  detail::MssmParams P = detail::mssmParams(mo);
+  mssm_params P = detail::mssmParams(mo);
   k.setArg(0, bm);
   k.setArg(1, bz);
   k.setArg(2, cl_int(cases.size()));
@@ -444,7 +444,7 @@ std::vector<PlanarPixel> planarRun(const PlanarSetup& s) {
   ro.height = 96;
   ro.shadowMapSize = s.mapSize;
   ro.environmentBackground = false;
-  ro.mssm.maxFilterTexels = 64;
+  ro.shadow.maxFilterTexels = 64;
   ro.shadows = s.technique;
   if (s.tweak) s.tweak(ro);
   Environment env = builtinEnvironment(16);
@@ -691,9 +691,9 @@ TEST(MSSM6, DegenerateInputsStayFinite) {
     scene.meshes.push_back(planarQuad("coplanar", -0.5f, 0.5f, -0.5f, 0.5f, 0.0f));
     scene.meshes.push_back(planarQuad("hair", -1.0f, 0.0f, -1.0f, 0.0f, 1e-6f));
     scene.meshes.push_back(planarQuad("blocker", -0.3f, 0.3f, -0.3f, 0.3f, 0.5f));
-    ro.mssm.depthBias = 0;  // zf exactly the receiver's depth
+    ro.shadow.depthBias = 0;  // zf exactly the receiver's depth
     expectFiniteVisibility(scene, cam, oneLight({0, 1, 0}, std::cos(0.2f)), ro, "coplanar");
-    ro.mssm.depthBias = MSSMOptions{}.depthBias;
+    ro.shadow.depthBias = ShadowOptions{}.depthBias;
     // zero-size light, a light wider than 90 degrees, a light along the ground
     expectFiniteVisibility(scene, cam, oneLight({0.3f, 1, 0.2f}, 1.0f), ro, "zero-size light");
     expectFiniteVisibility(scene, cam, oneLight({0, 1, 0}, -0.3f), ro, "light wider than 90 deg");

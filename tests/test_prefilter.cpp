@@ -424,7 +424,7 @@ PlanarResult planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, do
   ro.height = 96;
   ro.shadowMapSize = mapSize;
   ro.environmentBackground = false;
-  ro.mssm.maxFilterTexels = 64;
+  ro.shadow.maxFilterTexels = 64;
   ro.prefilter = pf;
   Environment env = builtinEnvironment(16);
   Renderer r(ctx());

@@ -83,7 +83,7 @@ Planar planarFrame(RenderOptions ro, double alphaDeg, double h, int mapSize) {
   ro.height = 96;
   ro.shadowMapSize = mapSize;
   ro.environmentBackground = false;
-  ro.mssm.maxFilterTexels = 64;
+  ro.shadow.maxFilterTexels = 64;
   Environment env = builtinEnvironment(16);
   Renderer r(ctx());
   Frame f = r.render(scene, cam, set, env, ro);
@@ -571,7 +571,7 @@ TEST(OclgrindPCSS, TinyFrameEveryTexelAndTaps) {
   RenderOptions ro = withTechnique(ShadowTechnique::PCSS);
   ro.pcss.blockerTaps = 0;
   ro.pcss.filterTaps = 9;
-  ro.mssm.maxFilterTexels = 64;  // boxes reaching past the map's border
+  ro.shadow.maxFilterTexels = 64;  // boxes reaching past the map's border
   tinyFrame(ro);
   ro.pcss.blockerTaps = 9;
   ro.pcss.filterTaps = 0;

@@ -5,15 +5,20 @@
 // array's base, and functions that return a fresh Image (read_image, the references) move it into
 // a capsule that the array owns. Coming in, an array is copied once into an Image (the C++ API
 // takes Image by const reference and owns its pixels). penumbra::Error surfaces as penumbra.Error
-// or one of its subclasses, by kind, with the C++ message unchanged. The low-level pieces that
+// or one of its subclasses, by kind, with the C++ message unchanged but for the RenderOptions
+// fields it names, which it names as Python attributes (keywords). Option docstrings read their
+// defaults from the C++ structs. The low-level pieces that
 // need raw OpenCL objects (scan.hpp's summedAreaTable, Context::kernel/launch) are not bound.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "penumbra/penumbra.hpp"
@@ -111,6 +116,52 @@ void initFromFields(Cls& cls) {
           "Default values, with any field given by keyword overridden.");
 }
 
+// A default as the docstrings print it: "<text> Default <value>." with 6 significant digits.
+template <class T>
+std::string withDefault(const std::string& text, T value) {
+  std::ostringstream o;
+  o << text << " Default ";
+  if constexpr (std::is_same_v<T, bool>)
+    o << (value ? "True" : "False");
+  else
+    o << value;
+  o << ".";
+  return o.str();
+}
+std::string bytesDefault(const std::string& text, std::size_t bytes) {
+  return text + " Default " + std::to_string(bytes >> 20) + " MiB.";
+}
+
+// The library names a RenderOptions field as in C++ ("RenderOptions.areaApprox.edgeSamples");
+// Python users set it as an attribute or keyword: snake case ("RenderOptions.area_approx.
+// edge_samples"), and `shadows` is `technique`.
+std::string pythonFieldNames(const std::string& message) {
+  const std::string head = "RenderOptions.";
+  std::string out;
+  std::size_t i = 0;
+  for (std::size_t at = message.find(head); at != std::string::npos; at = message.find(head, i)) {
+    out += message.substr(i, at - i) + head;
+    std::size_t end = at + head.size();
+    std::string name;
+    for (; end < message.size(); ++end) {
+      const char c = message[end];
+      if (c == '.' && end + 1 < message.size() && std::isalpha(static_cast<unsigned char>(message[end + 1]))) {
+        name += '.';
+      } else if (std::isupper(static_cast<unsigned char>(c))) {
+        name += '_';
+        name += char(std::tolower(static_cast<unsigned char>(c)));
+      } else if (std::isalnum(static_cast<unsigned char>(c))) {
+        name += c;
+      } else {
+        break;
+      }
+    }
+    out += name == "shadows" ? "technique" : name;
+    i = end;
+  }
+  return out + message.substr(i);
+}
+
 // The exception classes, set when the module is initialised.
 struct Exceptions {
   py::object base, badInput, noPlatform, kernelBuild, outOfMemory, device, internal;
@@ -180,7 +231,7 @@ PYBIND11_MODULE(penumbra, m) {
         case ErrorKind::Device: cls = exceptions.device; break;
         case ErrorKind::Internal: cls = exceptions.internal; break;
       }
-      PyErr_SetString(cls.ptr(), e.what());
+      PyErr_SetString(cls.ptr(), pythonFieldNames(e.what()).c_str());
     } catch (const cl::Error& e) {
       // The library converts OpenCL errors itself; this is a safety net.
       PyErr_SetString(exceptions.device.ptr(),
@@ -730,105 +781,147 @@ PYBIND11_MODULE(penumbra, m) {
   m.def("technique_name", [](ShadowTechnique t) { return std::string(toString(t)); }, "technique"_a,
         "The command-line name of a ShadowTechnique.");
 
-  py::class_<MSSMOptions> mo(m, "MSSMOptions",
-                             "Moment soft shadow map options (also bias, light size and filter "
-                             "limits for every technique).");
+  const RenderOptions R;  // the defaults the docstrings print
+  py::class_<ShadowOptions> so(m, "ShadowOptions",
+                               "Settings every shadow-map technique shares: depth bias (not CSSM "
+                               "nor the bitmask techniques), light size and filter limits (pcss, "
+                               "cssm, mssm4, mssm6).");
+  initFromFields<ShadowOptions>(so);
+  so.def_readwrite("depth_bias", &ShadowOptions::depthBias,
+                   withDefault("Receiver depth bias, normalized depth.", R.shadow.depthBias).c_str())
+      .def_readwrite("light_size_scale", &ShadowOptions::lightSizeScale,
+                     withDefault("Multiplies every light's angular size, >= 0.",
+                                 R.shadow.lightSizeScale).c_str())
+      .def_readwrite("max_filter_texels", &ShadowOptions::maxFilterTexels,
+                     withDefault("Largest filter width, texels.", R.shadow.maxFilterTexels).c_str())
+      .def_readwrite("min_filter_texels", &ShadowOptions::minFilterTexels,
+                     withDefault("Smallest filter width, texels, > 0.",
+                                 R.shadow.minFilterTexels).c_str());
+
+  py::class_<MSSMOptions> mo(m, "MSSMOptions", "Moment soft shadow map options (MSSM4, MSSM6).");
   initFromFields<MSSMOptions>(mo);
-  mo.def_readwrite("moment_bias", &MSSMOptions::momentBias, "Moment bias. Default 3e-5.")
-      .def_readwrite("depth_bias", &MSSMOptions::depthBias,
-                     "Receiver depth bias, normalized depth. Default 0.002.")
-      .def_readwrite("slope_bias", &MSSMOptions::slopeBias, "Slope-scaled bias. Default 0.")
-      .def_readwrite("light_size_scale", &MSSMOptions::lightSizeScale,
-                     "Multiplies every light's angular size. Default 1.")
-      .def_readwrite("max_filter_texels", &MSSMOptions::maxFilterTexels,
-                     "Largest filter width, texels. Default 27.")
-      .def_readwrite("min_filter_texels", &MSSMOptions::minFilterTexels,
-                     "Smallest filter width, texels. Default 1.")
-      .def_readwrite("blocker_epsilon", &MSSMOptions::blockerEpsilon, "Seed 003 eq. 7. Default 1e-3.")
+  mo.def_readwrite("moment_bias", &MSSMOptions::momentBias,
+                   withDefault("Moment bias, in [0, 1).", R.mssm.momentBias).c_str())
+      .def_readwrite("slope_bias", &MSSMOptions::slopeBias,
+                     withDefault("Slope-scaled bias.", R.mssm.slopeBias).c_str())
+      .def_readwrite("blocker_epsilon", &MSSMOptions::blockerEpsilon,
+                     withDefault("Seed 003 eq. 7.", R.mssm.blockerEpsilon).c_str())
       .def_readwrite("upper_bound_blocker", &MSSMOptions::upperBoundBlocker,
-                     "Upper-bound blocker depth (seed 003 eq. 19). Default False.")
-      .def_readwrite("delta1", &MSSMOptions::delta1, "Lower clamp of eq. 19. Default 1e-3.")
-      .def_readwrite("delta2", &MSSMOptions::delta2, "Upper clamp of eq. 19. Default 0.5.");
+                     withDefault("Upper-bound blocker depth (seed 003 eq. 19).",
+                                 R.mssm.upperBoundBlocker).c_str())
+      .def_readwrite("delta1", &MSSMOptions::delta1,
+                     withDefault("Lower clamp of eq. 19.", R.mssm.delta1).c_str())
+      .def_readwrite("delta2", &MSSMOptions::delta2,
+                     withDefault("Upper clamp of eq. 19.", R.mssm.delta2).c_str());
 
   py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (seed 000).");
   initFromFields<CSSMOptions>(co);
-  co.def_readwrite("order", &CSSMOptions::order, "Fourier order M, 1..32. Default 4.")
-      .def_readwrite("sharpen_a", &CSSMOptions::sharpenA, "Sharpening A (eq. 9). Default 30.")
-      .def_readwrite("sharpen_b", &CSSMOptions::sharpenB, "Sharpening B. Default 80.")
-      .def_readwrite("ringing_offset", &CSSMOptions::ringingOffset, "In [0, 1]. Default 0.")
-      .def_readwrite("damping", &CSSMOptions::damping, "Term attenuation, [0, 8]. Default 0.")
-      .def_readwrite("depth_bias", &CSSMOptions::depthBias, "Receiver depth bias. Default 0.")
-      .def_readwrite("slope_bias", &CSSMOptions::slopeBias, "Blocker search slope bias. Default 0.")
+  co.def_readwrite("order", &CSSMOptions::order,
+                   withDefault("Fourier order M, 1..32.", R.cssm.order).c_str())
+      .def_readwrite("sharpen_a", &CSSMOptions::sharpenA,
+                     withDefault("Sharpening A (eq. 9).", R.cssm.sharpenA).c_str())
+      .def_readwrite("sharpen_b", &CSSMOptions::sharpenB,
+                     withDefault("Sharpening B.", R.cssm.sharpenB).c_str())
+      .def_readwrite("ringing_offset", &CSSMOptions::ringingOffset,
+                     withDefault("In [0, 1].", R.cssm.ringingOffset).c_str())
+      .def_readwrite("damping", &CSSMOptions::damping,
+                     withDefault("Term attenuation, [0, 8].", R.cssm.damping).c_str())
+      .def_readwrite("depth_bias", &CSSMOptions::depthBias,
+                     withDefault("Receiver depth bias (CSSM's own).", R.cssm.depthBias).c_str())
+      .def_readwrite("slope_bias", &CSSMOptions::slopeBias,
+                     withDefault("Blocker search slope bias.", R.cssm.slopeBias).c_str())
       .def_readwrite("max_basis_bytes", &CSSMOptions::maxBasisBytes,
-                     "Device bytes for basis images per batch. Default 256 MiB.");
+                     bytesDefault("Device bytes for basis images per batch.",
+                                  R.cssm.maxBasisBytes).c_str());
 
   py::class_<PCSSOptions> po(m, "PCSSOptions", "Percentage-closer soft shadow options.");
   initFromFields<PCSSOptions>(po);
   po.def_readwrite("blocker_taps", &PCSSOptions::blockerTaps,
-                   "Blocker search samples (0: every texel). Default 16.")
+                   withDefault("Blocker search samples, 0..4096 (0: every texel).",
+                               R.pcss.blockerTaps).c_str())
       .def_readwrite("filter_taps", &PCSSOptions::filterTaps,
-                     "Filter samples (0: every texel, coverage weighted). Default 0.")
+                     withDefault("Filter samples, 0..4096 (0: every texel, coverage weighted).",
+                                 R.pcss.filterTaps).c_str())
       .def_readwrite("receiver_plane_bias", &PCSSOptions::receiverPlaneBias,
-                     "Compare with the receiver's tangent plane. Default True.");
+                     withDefault("Compare with the receiver's tangent plane.",
+                                 R.pcss.receiverPlaneBias).c_str());
 
   py::class_<BruteOptions> bo(m, "BruteOptions", "Brute-force point-sample shadow map options.");
   initFromFields<BruteOptions>(bo);
-  bo.def_readwrite("samples", &BruteOptions::samples, "Point lights per light, 1..4096. Default 64.")
+  bo.def_readwrite("samples", &BruteOptions::samples,
+                   withDefault("Point lights per light, 1..4096.", R.brute.samples).c_str())
       .def_readwrite("batch_bytes", &BruteOptions::batchBytes,
-                     "Device bytes of sample maps at once. Default 256 MiB.");
+                     bytesDefault("Device bytes of sample maps at once.", R.brute.batchBytes).c_str());
 
   py::class_<BitmaskOptions> bm(m, "BitmaskOptions", "Sample-based visibility options (seed 001).");
   initFromFields<BitmaskOptions>(bm);
   bm.def_readwrite("light_samples", &BitmaskOptions::lightSamples,
-                   "Light samples: 128, 256, 512 or 1024. Default 256.")
-      .def_readwrite("list_size", &BitmaskOptions::listSize, "List grid side (0: automatic).")
+                   withDefault("Light samples: 128, 256, 512 or 1024.", R.bitmask.lightSamples).c_str())
+      .def_readwrite("list_size", &BitmaskOptions::listSize,
+                     withDefault("List grid side (0: automatic).", R.bitmask.listSize).c_str())
       .def_readwrite("mask_bytes", &BitmaskOptions::maskBytes,
-                     "Device bytes of bitmasks at once. Default 256 MiB.");
+                     bytesDefault("Device bytes of bitmasks at once.", R.bitmask.maskBytes).c_str());
 
   py::class_<AreaApproxOptions> aa(m, "AreaApproxOptions", "Area approximation options (seed 002).");
   initFromFields<AreaApproxOptions>(aa);
   aa.def_readwrite("edge_samples", &AreaApproxOptions::edgeSamples,
-                   "Samples per edge besides its vertices, 0..15. Default 1.")
+                   withDefault("Samples per edge besides its vertices, 0..15.",
+                               R.areaApprox.edgeSamples).c_str())
       .def_readwrite("cap_vertices", &AreaApproxOptions::capVertices,
-                     "Vertices of the polygon standing in for a cap, 3..16. Default 8.")
+                     withDefault("Vertices of the polygon standing in for a cap, 3..16.",
+                                 R.areaApprox.capVertices).c_str())
       .def_readwrite("taps", &AreaApproxOptions::taps,
-                     "Texel reads placing a shadow edge on a segment, 0..64 (0: midpoint). Default 4.")
+                     withDefault("Texel reads placing a shadow edge on a segment, 0..64 (0: "
+                                 "midpoint).", R.areaApprox.taps).c_str())
       .def_readwrite("batch_bytes", &AreaApproxOptions::batchBytes,
-                     "Device bytes of sample maps at once. Default 256 MiB.");
+                     bytesDefault("Device bytes of sample maps at once.",
+                                  R.areaApprox.batchBytes).c_str());
 
   py::class_<RenderOptions> ro(m, "RenderOptions",
                                "Options of Renderer.render. Keywords set fields, e.g. "
-                               "RenderOptions(width=64, height=32, technique='pcss').");
+                               "RenderOptions(width=64, height=32, technique='pcss'). Errors name "
+                               "a field as RenderOptions.<attribute path>.");
   initFromFields<RenderOptions>(ro);
-  ro.def_readwrite("width", &RenderOptions::width, "Image width. Default 640.")
-      .def_readwrite("height", &RenderOptions::height, "Image height. Default 360.")
+  ro.def_readwrite("width", &RenderOptions::width,
+                   withDefault("Image width, 1..16384.", R.width).c_str())
+      .def_readwrite("height", &RenderOptions::height,
+                     withDefault("Image height, 1..16384.", R.height).c_str())
       .def_readwrite("shadow_map_size", &RenderOptions::shadowMapSize,
-                     "Square shadow map per light, texels. Default 256.")
+                     withDefault("Square shadow map per light, texels, 1..4096.",
+                                 R.shadowMapSize).c_str())
       .def_property(
           "technique", [](const RenderOptions& o) { return o.shadows; },
           [](RenderOptions& o, const py::object& v) { o.shadows = toTechnique(v); },
-          "ShadowTechnique or its name ('mssm4', 'pcss', ...). Default MSSM4.")
+          ("ShadowTechnique or its name ('mssm4', 'pcss', ...). Default '" +
+           std::string(toString(R.shadows)) + "'.").c_str())
       .def_property(
           "prefilter", [](const RenderOptions& o) { return o.prefilter; },
           [](RenderOptions& o, const py::object& v) { o.prefilter = toPrefilter(v); },
-          "Prefilter or 'sat' | 'mip'. Default SAT.")
+          ("Prefilter or 'sat' | 'mip'. Default '" + std::string(toString(R.prefilter)) + "'.")
+              .c_str())
       .def_readwrite("front_back_faces", &RenderOptions::frontBackFaces,
-                     "Average front and back depths (seed 003 §4.2.3). Default False.")
-      .def_readwrite("mssm", &RenderOptions::mssm, "MSSMOptions (biases, light size, filters).")
+                     withDefault("Average front and back depths (seed 003 §4.2.3).",
+                                 R.frontBackFaces).c_str())
+      .def_readwrite("shadow", &RenderOptions::shadow,
+                     "ShadowOptions (depth bias, light size, filter limits).")
+      .def_readwrite("mssm", &RenderOptions::mssm, "MSSMOptions.")
       .def_readwrite("cssm", &RenderOptions::cssm, "CSSMOptions.")
       .def_readwrite("pcss", &RenderOptions::pcss, "PCSSOptions.")
       .def_readwrite("brute", &RenderOptions::brute, "BruteOptions.")
       .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
       .def_readwrite("area_approx", &RenderOptions::areaApprox, "AreaApproxOptions.")
       .def_readwrite("environment_background", &RenderOptions::environmentBackground,
-                     "Show the map behind the geometry. Default True.")
+                     withDefault("Show the map behind the geometry.",
+                                 R.environmentBackground).c_str())
       .def_readwrite("bent_normals", &RenderOptions::bentNormals,
-                     "Bent normals at light silhouettes (seed 001 §4.3): shading fades "
-                     "continuously to black on light-back-facing triangles. Meant for the "
-                     "bitmask techniques; not with the GL path. Default False.")
+                     withDefault("Bent normals at light silhouettes (seed 001 §4.3): shading fades "
+                                 "continuously to black on light-back-facing triangles. Meant for "
+                                 "the bitmask techniques; not with the GL path.",
+                                 R.bentNormals).c_str())
       .def_readwrite("bent_normals_scale", &RenderOptions::bentNormalsScale,
-                     "c of the bent-normal blend min(1, max(c I_bend, 0)): shading unchanged "
-                     "where I_bend >= 1/c. Finite, > 0. Default 3 (seed 001 §4.3).");
+                     withDefault("c of the bent-normal blend min(1, max(c I_bend, 0)): shading "
+                                 "unchanged where I_bend >= 1/c (seed 001 §4.3). Finite, > 0.",
+                                 R.bentNormalsScale).c_str());
 
   py::class_<Frame>(m, "Frame", "A rendered frame.")
       .def_property_readonly(

@@ -1,5 +1,9 @@
 // What a frame is rendered with: the shadow technique, its options, the image and map sizes.
-// Every field states its unit, range and default; Renderer::render() validates them.
+// Every field states its unit, range and default. Renderer::render() checks the frame's fields
+// and the shared shadow settings (ShadowOptions) before any device work; the technique in use
+// checks its own struct when it runs (src/shadows/<technique>.cpp). Errors name the field
+// ("RenderOptions.cssm.order must be in [1, 32], got 40"); the CLI and the Python module turn it
+// into their option or attribute name.
 #pragma once
 #include <cstddef>
 #include <string>
@@ -27,23 +31,35 @@ enum class Prefilter { SAT, Mip };
 Prefilter parsePrefilter(const std::string& name);  // "sat" | "mip"
 const char* toString(Prefilter p);
 
-// Moment soft shadow mapping with 4 moments (seed 003 §3.2.1). Distances are in shadow-map texels
-// or normalized light-space depth (0 at the map's near plane, 1 at its far plane).
+// Settings every shadow-map technique shares: the receiver's depth bias and the light-size
+// filter limits. Distances are in shadow-map texels or normalized light-space depth (0 at the
+// map's near plane, 1 at its far plane). Validated once per frame, whatever the technique.
+struct ShadowOptions {
+  float depthBias = 0.002f;     // normalized depth subtracted from the receiver's depth: hard, pcss,
+                                // mssm4, mssm6, brute, area-approx. Not CSSM (cssm.depthBias) nor
+                                // the bitmask techniques (no bias). Default 0.002
+  float lightSizeScale = 1.0f;  // multiplies every light's angular size for the filter widths: pcss,
+                                // cssm, mssm4, mssm6. Finite, >= 0; default 1
+  float maxFilterTexels = 27.0f;// largest filter width, texels: pcss, cssm, mssm4, mssm6. >=
+                                // minFilterTexels; default 27 (seed 003 §6.2 used 27 at 256^2)
+  float minFilterTexels = 1.0f; // smallest filter width, texels. > 0; default 1
+};
+
+// Moment soft shadow mapping with 4 moments (seed 003 §3.2.1) and 6 (§4.2.1): what MSSM4 and
+// MSSM6 alone read. Depths are normalized (0 at the map's near plane, 1 at its far plane).
 struct MSSMOptions {
   float momentBias = 3e-5f;     // blend of the filtered moments towards those of the uniform
                                 // distribution (kernels/moments.cl). Larger: more light leaking.
                                 // MSSM6 uses the same value: its float solve (Chebyshev basis)
-                                // is within 0.01 of a long-double one at 3e-5, 0.02 at 1e-5
-  float depthBias = 0.002f;     // subtracted from the receiver depth (normalized depth units)
+                                // is within 0.01 of a long-double one at 3e-5, 0.02 at 1e-5.
+                                // In [0, 1); default 3e-5
   float slopeBias = 0.0f;       // extra depth bias: this times the filter radius times the
                                 // receiver's depth slope. Off by default: it hides real blockers
                                 // near tilted receivers; measured relative RMSE vs Embree over the
                                 // built-in scene, Wuson/courtyard and spider/interior: mean 6.2% at
-                                // 0, 6.4% at 0.5, 8.6% at 1.5 (README, "Measuring")
-  float lightSizeScale = 1.0f;  // multiplies every light's angular size for the filter widths
-  float maxFilterTexels = 27.0f;// largest filter width in texels (seed 003 §6.2 used 27 at 256^2)
-  float minFilterTexels = 1.0f; // smallest filter width in texels
-  float blockerEpsilon = 1e-3f; // epsilon of seed 003 eq. 7 (pulls z_avg towards the receiver)
+                                // 0, 6.4% at 0.5, 8.6% at 1.5 (README, "Measuring"). Default 0
+  float blockerEpsilon = 1e-3f; // epsilon of seed 003 eq. 7 (pulls z_avg towards the receiver).
+                                // Default 1e-3
   // Upper-bound blocker depth (seed 003 §4.2.2, eq. 19), MSSM4 and MSSM6: the reconstruction's
   // atom at the receiver's depth counts as a blocker, its weight clamped to [delta1, delta2];
   // shadows harden rather than soften under complex depth. Off by default (eq. 7). Measured
@@ -52,10 +68,10 @@ struct MSSMOptions {
   // planar penumbra (max error vs analytic 0.03 -> 0.21 MSSM4, 0.09 MSSM6: tests/test_mssm6.cpp).
   bool upperBoundBlocker = false;
   float delta1 = 1e-3f;         // lower clamp; >= blockerEpsilon keeps z_avg >= eq. 7's, and the
-                                // denominator of eq. 19 away from 0
+                                // denominator of eq. 19 away from 0. Default 1e-3
   float delta2 = 0.5f;          // upper clamp. 0.5, not 0.1: frame errors above fall with it up to
                                 // ~0.5 and are flat beyond (0.1: 4.5/7.6/5.5% MSSM4, 4.6/8.2/5.6%
-                                // MSSM6)
+                                // MSSM6). Default 0.5
 };
 
 // Convolution soft shadow maps (seed 000 §3). 4M + 1 values per texel (CSM 2M, CSM-Z 2M, z) in
@@ -64,109 +80,125 @@ struct MSSMOptions {
 // environment reference, defaults otherwise: M = 4 4.8%, M = 8 4.7%, M = 16 4.8% (MSSM4 4.9%).
 struct CSSMOptions {
   int order = 4;                // Fourier order M: terms k = 1..M, c_k = pi (2k - 1) (appendix).
-                                // In [1, 32]
-  float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0: off
+                                // In [1, 32]; default 4
+  float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0: off.
+                                // Finite, >= 0; default 30
   float sharpenB = 80.0f;       // per unit of normalized depth. It should match the depth over
                                 // which the series leaks, ~1/(2M). Default frame, A = 30: B = 10
                                 // 12.7% (M=4); B = 80 4.8/4.7/4.8% (M = 4/8/16; M = 16 is best at
-                                // B = 160, 4.75%); sharpening off 5.0/4.8/4.8%
+                                // B = 160, 4.75%); sharpening off 5.0/4.8/4.8%. Finite, >= 0;
+                                // default 80
   // Ringing suppression (§3.3): the scale that puts the series' ripple outside [0,1] is derived
-  // from M (src/shadows_cssm.cpp); this is the visibility test's shift along depth, as a fraction
+  // from M (src/shadows/cssm.cpp); this is the visibility test's shift along depth, as a fraction
   // of the series' rise t0 (0.064 at M = 4, 0.016 at M = 16, in units of kappa-scaled depth).
   // 0 (default): the receiver's own depth maps to 0 at the centre of the rise, so a tilted
   // receiver's own texels cancel by the series' odd symmetry and contact shadows start within t0;
   // surfaces behind the receiver then weigh about -1.1 in the filter. 1: the symmetric map of
   // seed 000 Fig. 3c (surfaces behind weigh ~0, but tilted receivers shadow themselves and the
-  // contact zone is 2 t0). Default frame: 4.8% at 0, 5.4% at 0.5, 6.8% at 1 (M = 4). In [0, 1].
+  // contact zone is 2 t0). Default frame: 4.8% at 0, 5.4% at 0.5, 6.8% at 1 (M = 4). In [0, 1];
+  // default 0.
   float ringingOffset = 0.0f;
   // Attenuation alpha of the series' terms, sigma_k = exp(-alpha (k/M)^2) (Annen et al. 2007),
   // applied alike to CSM and CSM-Z: less ripple, slower rise. 0: the plain series of seed 000
-  // eq. 10. Default frame: 4.8/5.2/6.2% at 0/0.5/1 (M = 4), 4.8/4.7/4.7% (M = 16). In [0, 8].
+  // eq. 10. Default frame: 4.8/5.2/6.2% at 0/0.5/1 (M = 4), 4.8/4.7/4.7% (M = 16). In [0, 8];
+  // default 0.
   float damping = 0.0f;
-  // Subtracted from the receiver's depth (normalized depth units). CSSM needs none for planar
-  // receivers (above); a bias moves the receiver onto the steepest part of the series, which
-  // brightens every penumbra by 2 M scale kappa bias (0.03 at M = 4, 0.14 at M = 16 for a bias
-  // of 0.002). Default 0.
+  // Subtracted from the receiver's depth (normalized depth units), in place of the shared
+  // ShadowOptions::depthBias. CSSM needs none for planar receivers (above); a bias moves the
+  // receiver onto the steepest part of the series, which brightens every penumbra by 2 M scale
+  // kappa bias (0.03 at M = 4, 0.14 at M = 16 for a bias of 0.002). Finite; default 0.
   float depthBias = 0.0f;
   // Blocker search only: this times the search radius times the receiver's depth slope is added
-  // to the search's depth offset (as MSSMOptions::slopeBias). Default 0: 0.5 and 1 measured
-  // worse on the default frame.
+  // to the search's depth offset (as MSSMOptions::slopeBias). Finite; default 0: 0.5 and 1
+  // measured worse on the default frame.
   float slopeBias = 0.0f;
   // Device memory for the prefiltered basis images; lights are processed in batches that fit, at
-  // least one light per batch. Bytes; default 256 MiB.
+  // least one light per batch. Bytes, any; default 256 MiB.
   std::size_t maxBasisBytes = std::size_t(256) << 20;
 };
 
 // Percentage-closer soft shadows (Fernando 2005; seed 003 eqs. 4-6 by explicit sampling).
 struct PCSSOptions {
-  // The search and filter boxes are MSSM's (mssm.lightSizeScale, min/maxFilterTexels, depthBias).
+  // The search and filter boxes are the shared ones (ShadowOptions: lightSizeScale,
+  // min/maxFilterTexels, depthBias).
   int blockerTaps = 16;         // samples of the blocker search (eq. 4): a g x g grid over the
-                                // box, g = round(sqrt(n)) (16: 4x4); 0: every texel of the box
+                                // box, g = round(sqrt(n)) (16: 4x4); 0: every texel of the box.
+                                // In [0, 4096]; default 16
   int filterTaps = 0;           // samples of the percentage-closer filter (eq. 6). 0 (default):
                                 // every texel of the box, weighted by its coverage: the explicit
                                 // convolution of seed 003 §6.2, cost proportional to the box's
                                 // area in texels. n > 0: a g x g grid, g = round(sqrt(n)), of 2x2
-                                // bilinear PCF taps: fixed cost, the box merely spreads the taps
+                                // bilinear PCF taps: fixed cost, the box merely spreads the taps.
+                                // In [0, 4096]
   bool receiverPlaneBias = true;// compare each texel with the receiver's tangent plane at that
                                 // texel (from the geometric normal) instead of the receiver's
                                 // depth: tilted surfaces do not shadow themselves inside wide
-                                // filters. Hard and brute force always do so (one texel away)
+                                // filters. Hard and brute force always do so (one texel away).
+                                // Default true
 };
 
 // Brute force: K point lights spread over each area light's cap, one hard shadow map each.
 struct BruteOptions {
   int samples = 64;             // K per light, in [1, 4096]: directions uniform in solid angle over
                                 // the cap (spherical Fibonacci), visibility weighted by max(0,
-                                // n.w_k) (irradiance). Ignores mssm.lightSizeScale (no filter)
+                                // n.w_k) (irradiance). Ignores shadow.lightSizeScale (no filter).
+                                // Default 64
   std::size_t batchBytes = std::size_t(256) << 20;  // device bytes of sample depth maps held at
                                 // once (default 256 MiB, at least one map): maps are rasterized
                                 // and tested in batches of this size
 };
 
 // Sample-based visibility (seed 001): view samples in light-space lists, each caster triangle
-// tested against the list texels it can shadow, one bit per light sample (src/shadows_bitmask.cpp).
+// tested against the list texels it can shadow, one bit per light sample (src/shadows/bitmask.cpp).
 struct BitmaskOptions {
-  int lightSamples = 256;       // light samples per light: 128, 256, 512 or 1024 (bitmask; the
-                                // hard variant uses the light's centre only)
-  int listSize = 0;             // light-space list grid side in texels; 0: shadowMapSize for
-                                // bitmask-hard, min(shadowMapSize, 64) for bitmask
+  int lightSamples = 256;       // light samples per light: 128, 256, 512 or 1024 (any multiple of
+                                // 32 in [32, 1024] works; bitmask only, the hard variant uses the
+                                // light's centre). Default 256
+  int listSize = 0;             // light-space list grid side in texels, at most 4096; 0 (default)
+                                // or less: shadowMapSize for bitmask-hard, min(shadowMapSize, 64)
+                                // for bitmask
   std::size_t maskBytes = std::size_t(256) << 20;  // device bytes of bitmasks held at once
                                 // (default 256 MiB, at least one light): lights go in batches
   int jitter = 0;               // temporal jitter (seed 001 §4.3): frame j > 0 turns the light
                                 // samples by 2 pi frac(j / golden ratio) about the light's axis;
                                 // averaging frames 0..N-1 (`render --accumulate N`) converges
-                                // to the light's integral. 0: unrotated
+                                // to the light's integral. >= 0; default 0: unrotated
 };
 
-// Area approximation (seed 002, src/shadows_area.cpp): the light's boundary sampled at its
+// Area approximation (seed 002, src/shadows/area.cpp): the light's boundary sampled at its
 // vertices and along its edges, one depth map per sample, visibility = estimated visible area /
 // light area. Caps become a regular polygon of the same (gnomonic) area.
 struct AreaApproxOptions {
   int edgeSamples = 1;          // samples per edge besides its vertices, in [0, 15]; a light has
-                                // vertices x (edgeSamples + 1) <= 64 samples (depth maps)
-  int capVertices = 8;          // vertices of the polygon standing in for a cap light, in [3, 16]
+                                // vertices x (edgeSamples + 1) <= 64 samples (depth maps).
+                                // Default 1
+  int capVertices = 8;          // vertices of the polygon standing in for a cap light, in [3, 16];
+                                // default 8
   int taps = 4;                 // texel reads that place the shadow boundary on a segment whose
                                 // ends disagree (Heidrich's linear-light visibility); 0: midpoint.
-                                // In [0, 64]
+                                // In [0, 64]; default 4
   std::size_t batchBytes = std::size_t(256) << 20;  // device bytes of sample depth maps at once
                                 // (whole lights per batch, at least one light)
 };
 
 struct RenderOptions {
-  int width = 640, height = 360;
-  int shadowMapSize = 256;      // square shadow map per light, texels
-  ShadowTechnique shadows = ShadowTechnique::MSSM4;
-  Prefilter prefilter = Prefilter::SAT;
+  int width = 640, height = 360;  // image size, pixels, each in [1, 16384]; default 640 x 360
+  int shadowMapSize = 256;      // square shadow map per light, texels, in [1, 4096]; default 256
+  ShadowTechnique shadows = ShadowTechnique::MSSM4;  // default MSSM4
+  Prefilter prefilter = Prefilter::SAT;              // CSSM, MSSM4, MSSM6; default SAT
   // Depth maps average the front- and back-facing surfaces' depths (seed 003 §4.2.3) instead of
   // keeping the nearest surface; for closed casters, it removes the need for a depth bias.
+  // Default off.
   bool frontBackFaces = false;
-  MSSMOptions mssm;             // also used by MSSM6; bias, light size and filter limits by all
+  ShadowOptions shadow;         // shared by the shadow-map techniques (bias, light size, filters)
+  MSSMOptions mssm;             // MSSM4 and MSSM6
   CSSMOptions cssm;
   PCSSOptions pcss;
   BruteOptions brute;
   BitmaskOptions bitmask;
   AreaApproxOptions areaApprox;
-  bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0)
+  bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0);
+                                      // default on
   // Bent normals at light silhouettes (seed 001 §4.3; kernels/bent.cl, kernels/shade.cl). Exact
   // shadows (bitmask, bitmask-hard) black out every light-back-facing triangle while the
   // interpolated normal still sees the light, a hard edge along the light's silhouette on smooth

@@ -1,6 +1,6 @@
 // Area approximation for polygonal lights (seed 002, Ying, Tang, Dong: "Soft Shadow Maps for Area
 // Light by Area Approximation", §2). The light's boundary is sampled at its vertices and along its
-// edges; each sample direction has its own orthographic depth map (src/shadows_area.cpp). Per
+// edges; each sample direction has its own orthographic depth map (src/shadows/area.cpp). Per
 // receiver:
 //   1. point visibility V_p(P_k) of every boundary sample: one depth test in its map (§2);
 //   2. on every boundary segment whose two ends disagree, the linear-light visibility V_s (the
@@ -27,6 +27,7 @@
 // nothing grows with the pixel's penumbra width.
 #include "shared.h"
 #include "filter.clh"
+#include "shadow_params.h"
 
 // Most boundary samples per light: the point visibilities of one receiver fit one ulong.
 #define AREA_MAX_SAMPLES 64
@@ -200,11 +201,6 @@ static float area_ratio(global const float2* q, int n, ulong lit, const float* s
   }
   return clamp(A.e / T.e, 0.0f, 1.0f);
 }
-
-typedef struct {
-  int first;  // index of the light's first boundary sample (samples, q, and the maps from `base`)
-  int count;  // boundary samples, 3..AREA_MAX_SAMPLES
-} area_range;
 
 // Visibility of lights l0 .. l0 + get_global_size(1) - 1 at every pixel. samples: one frame per
 // boundary sample (pb_light, dir = the sample direction), q its gnomonic position; maps holds the

@@ -23,7 +23,7 @@
 // only (seed 001 §3.3): a ray from outside that hits a closed mesh enters it through a triangle
 // facing away from the ray's direction, so the triangles that face every light sample can go.
 // A ray that starts on a closed mesh and heads below its own triangle's plane is inside at once:
-// bitmask_self blocks those samples (src/shadows_bitmask.cpp says why not the back-face rule
+// bitmask_self blocks those samples (src/shadows/bitmask.cpp says why not the back-face rule
 // alone, and for open meshes).
 //
 // Look-up table. For an edge plane with light-frame normal (nx, ny, nz), sample k is behind it iff
@@ -61,7 +61,7 @@ static float3 light_coords(const pb_light* L, float3 p) {
 #ifndef HARD
 // atan2 to a few 1e-7 rad (Abramowitz & Stegun 4.4.49 on [-1, 1], |error| <= 2e-8, plus float
 // rounding), several times cheaper than the library's on the CPU. The cell only has to hold the
-// plane within the tables' 1e-4 margin (src/shadows_bitmask.cpp): the samples it cannot decide
+// plane within the tables' 1e-4 margin (src/shadows/bitmask.cpp): the samples it cannot decide
 // are tested exactly, so the masks are the exact test's either way.
 static float fast_atan2(float y, float x) {
   float ax = fabs(x), ay = fabs(y);

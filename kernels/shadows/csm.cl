@@ -14,10 +14,11 @@
 //   j = 2M + 2(k-1), 2M + 2(k-1)+1  z cos(c_k z~), z sin(c_k z~)  (CSM-Z)
 //   j = 4M                          z                             (the appendix's plain z image)
 // z is the normalized depth in [0,1] (empty texels: 1), z~ = kappa z the depth the series sees
-// (kappa < 1 keeps every depth difference on the series' plateau, see src/shadows_cssm.cpp).
+// (kappa < 1 keeps every depth difference on the series' plateau, see src/shadows/cssm.cpp).
 // The CSM groups come first so that the final lookup reads only ceil(M/2) of the M + 1 groups.
 #include "shared.h"
 #include "filter.clh"
+#include "shadow_params.h"
 
 #ifndef CSSM_ORDER
 #define CSSM_ORDER 4
@@ -79,18 +80,6 @@ kernel void cssm_basis(global const uint* depth, global const pb_light* lights, 
     out[g * stride] = convert_long4(f + copysign((float4)(0.5f), f));
   }
 }
-
-typedef struct {
-  // Ringing suppression (§3.3) of the visibility test: shadow = clamp(scale * f_bar + shift), the
-  // series' argument tau = kappa (d - bias - z) - tau0 (tau0 = the shift along depth).
-  float scale, shift, tau0, kappa;
-  // The same for the blocker search (z_avg, eq. 8): the symmetric map of Fig. 3c, shifted by the
-  // series' whole rise, so that the receiver's own texels and everything behind it weigh ~0.
-  float scale_z, shift_z, tau0_z;
-  float rise;  // t0 / kappa: the series' rise in normalized depth
-  float depth_bias, slope_bias, light_size_scale, max_filter;
-  float min_filter, sharpen_a, sharpen_b, damping;
-} cssm_params;
 
 // Box-filtered basis images over [x0,x1] x [y0,y1]: m[j] = w * (channel j), the first `groups`
 // groups (all of them for z_avg, the CSM ones for the visibility).

@@ -8,6 +8,7 @@
 // visibility (eq. 6) bounded from the box-filtered moments.
 #include "shared.h"
 #include "filter.clh"
+#include "shadow_params.h"
 
 // Depth map (ray distances from the light's near plane, uint bit patterns) -> normalized depth.
 // Empty texels see nothing: depth 1 (the far plane), which never shadows.
@@ -278,13 +279,6 @@ static float hamburger6(float4 tA, float2 tB, float zf, float moment_bias, float
 }
 
 // ---- Per pixel: blocker search, z_avg, penumbra width, filtered visibility ----
-
-typedef struct {
-  float moment_bias, depth_bias, slope_bias, light_size_scale;
-  float max_filter, min_filter, blocker_eps;
-  int upper_bound;  // seed 003 eq. 19 instead of eq. 7
-  float delta1, delta2, pad0, pad1;
-} mssm_params;
 
 // Average blocker depth from the reconstructed atoms in front of the receiver (weight `blockers`,
 // weighted depth sum `blocker_sum`) and the weight `receiver_weight` of the atom at zf.

@@ -7,9 +7,10 @@
 // Every depth test compares a texel against the receiver's own plane at that texel's centre
 // (receiver-plane depth, Isidoro 2006): the G-buffer's geometric normal gives the plane's depth
 // gradient in the map, so a tilted surface never shadows itself whatever the filter width, and
-// only opt.mssm.depthBias (normalized depth) is added for the rasterizer's float error.
+// only opt.shadow.depthBias (normalized depth) is added for the rasterizer's float error.
 #include "shared.h"
 #include "filter.clh"
+#include "shadow_params.h"
 
 // A receiver as one depth map sees it.
 typedef struct {
@@ -77,14 +78,6 @@ kernel void hard_visibility(global const float4* gpos, global const float4* gnrm
 // ------------------------------------------------------------------------------------------------
 // PCSS (Fernando 2005), seed 003 §3.2: blocker search (eq. 4), penumbra width (eq. 5 for a light
 // at infinity), percentage-closer filter (eq. 6), each convolution computed by sampling the map.
-
-typedef struct {
-  float depth_bias, light_size_scale, max_filter, min_filter;
-  int blocker_taps;    // 0: every texel of the search box; n > 0: round(sqrt(n))^2 grid points
-  int filter_taps;     // 0: every texel of the filter box; n > 0: round(sqrt(n))^2 bilinear taps
-  int receiver_plane;  // 1: compare against the receiver's plane, 0: against its depth alone
-  int pad;
-} pcss_params;
 
 // Sums over the box [x0,x1] x [y0,y1] (texel units, inside [0,size]) of the piecewise-constant
 // map, each texel weighted by the area of it the box covers (the box filter w of eqs. 4 and 6

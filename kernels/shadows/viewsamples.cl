@@ -1,5 +1,5 @@
 // View samples and their light-space lists (seed 001 §3.1), for the bitmask technique
-// (src/shadows_bitmask.cpp, kernels/bitmask.cl).
+// (src/shadows/bitmask.cpp, kernels/bitmask.cl).
 //
 // A view sample is a camera-visible G-buffer pixel that the light can reach: geometry, with the
 // light's cap not wholly below its shading normal's horizon (seed 001 Figure 2 keeps only

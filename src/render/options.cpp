@@ -1,4 +1,7 @@
-// Technique and prefilter names, and the validation of RenderOptions (include/penumbra/options.hpp).
+// Technique and prefilter names, and the checks of RenderOptions (include/penumbra/options.hpp)
+// that hold for every frame: sizes, the shared shadow settings, bent normals, the build's
+// techniques. Errors name the field (RenderOptions.width); the technique's own struct is checked
+// by its pass (src/shadows/shadow_options.hpp).
 #include <cmath>
 #include <string>
 #include <utility>
@@ -6,6 +9,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/options.hpp"
 #include "render/options_check.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra {
@@ -27,7 +31,7 @@ ShadowTechnique parseShadowTechnique(const std::string& name) {
     if (name == n && detail::techniqueAvailable(t)) return t;
     if (detail::techniqueAvailable(t)) list += (list.empty() ? "" : ", ") + std::string(n);
   }
-  badInput("--shadows: unknown technique '" + name + "' (available: " + list + ")");
+  badInput("RenderOptions.shadows: unknown technique '" + name + "' (available: " + list + ")");
 }
 
 const char* toString(ShadowTechnique t) {
@@ -39,7 +43,7 @@ const char* toString(ShadowTechnique t) {
 Prefilter parsePrefilter(const std::string& name) {
   if (name == "sat") return Prefilter::SAT;
   if (name == "mip" && detail::prefilterAvailable(Prefilter::Mip)) return Prefilter::Mip;
-  badInput("--prefilter: unknown prefilter '" + name + "' (available: sat" +
+  badInput("RenderOptions.prefilter: unknown prefilter '" + name + "' (available: sat" +
            std::string(detail::prefilterAvailable(Prefilter::Mip) ? ", mip" : "") + ")");
 }
 
@@ -48,27 +52,21 @@ const char* toString(Prefilter p) { return p == Prefilter::SAT ? "sat" : "mip"; 
 namespace detail {
 
 void validateFrameInputs(const Scene& scene, const Environment& env, const RenderOptions& opt) {
-  if (opt.width < 1 || opt.height < 1 || opt.width > 16384 || opt.height > 16384)
-    badInput("--size must be between 1x1 and 16384x16384, got " + std::to_string(opt.width) +
-             "x" + std::to_string(opt.height));
-  if (opt.shadowMapSize < 1 || opt.shadowMapSize > 4096)
-    badInput("--shadow-map-size must be in [1, 4096], got " + std::to_string(opt.shadowMapSize));
-  const MSSMOptions& mo = opt.mssm;
-  if (!(mo.momentBias >= 0 && mo.momentBias < 1)) badInput("moment bias must be in [0, 1)");
-  if (!(mo.lightSizeScale >= 0) || !std::isfinite(mo.lightSizeScale))
-    badInput("light-size scale must be >= 0");
-  if (!(mo.minFilterTexels > 0) || !(mo.maxFilterTexels >= mo.minFilterTexels))
-    badInput("filter sizes must satisfy 0 < min <= max");
+  checkRange("RenderOptions.width", opt.width, 1, 16384);
+  checkRange("RenderOptions.height", opt.height, 1, 16384);
+  checkRange("RenderOptions.shadowMapSize", opt.shadowMapSize, 1, 4096);
+  validate(opt.shadow);  // the technique's own options: its pass, when it runs
   if (scene.triangleCount() == 0) badInput("scene has no triangles");
   if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
-    badInput("--bent-normals-scale must be finite and > 0, got " +
-             std::to_string(opt.bentNormalsScale));
+    badOption("RenderOptions.bentNormalsScale", "be finite and > 0", opt.bentNormalsScale);
   if (env.equirect.empty()) badInput("environment map is empty");
 
   if (!detail::techniqueAvailable(opt.shadows))
-    badInput(std::string("--shadows ") + toString(opt.shadows) + " is not available");
+    badInput(std::string("RenderOptions.shadows ") + toString(opt.shadows) +
+             " is not available in this build");
   if (!detail::prefilterAvailable(opt.prefilter))
-    badInput(std::string("--prefilter ") + toString(opt.prefilter) + " is not available");
+    badInput(std::string("RenderOptions.prefilter ") + toString(opt.prefilter) +
+             " is not available in this build");
 }
 
 }  // namespace detail

@@ -6,8 +6,10 @@
 
 namespace penumbra::detail {
 
-// Throws Error(BadInput) naming the field and its value for any option out of range, an empty
-// scene or environment, or a technique or prefilter this build does not have.
+// Throws Error(BadInput) naming the field ("RenderOptions.width must be in [1, 16384], got 0")
+// for a frame size, map size, shared shadow setting (ShadowOptions) or bent-normal scale out of
+// range, an empty scene or environment, or a technique or prefilter this build does not have.
+// The technique's own options are checked by its pass (src/shadows/shadow_options.hpp).
 void validateFrameInputs(const Scene& scene, const Environment& env, const RenderOptions& opt);
 
 }  // namespace penumbra::detail

@@ -1,4 +1,5 @@
-// The JSON report of a rendered frame (renderReportJson, include/penumbra/renderer.hpp).
+// The JSON report of a rendered frame (renderReportJson, include/penumbra/renderer.hpp). Option
+// blocks follow RenderOptions: "shadow" the shared settings, "mssm", "cssm", ... each technique's.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -21,12 +22,12 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << opt.height << ",\n  \"shadow_map_size\": " << opt.shadowMapSize
     << ",\n  \"shadow_map_bytes\": " << f.shadowMapBytes
     << ",\n  \"shadow_map_bytes_per_texel\": "
-    << (f.shadowMapBytes / std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size())) << ",\n  \"mssm\": {\"moment_bias\": "
-    << opt.mssm.momentBias << ", \"depth_bias\": " << opt.mssm.depthBias
+    << (f.shadowMapBytes / std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size())) << ",\n  \"shadow\": {\"depth_bias\": "
+    << opt.shadow.depthBias << ", \"light_size_scale\": " << opt.shadow.lightSizeScale
+    << ", \"max_filter_texels\": " << opt.shadow.maxFilterTexels
+    << ", \"min_filter_texels\": " << opt.shadow.minFilterTexels
+    << "},\n  \"mssm\": {\"moment_bias\": " << opt.mssm.momentBias
     << ", \"slope_bias\": " << opt.mssm.slopeBias
-    << ", \"light_size_scale\": " << opt.mssm.lightSizeScale
-    << ", \"max_filter_texels\": " << opt.mssm.maxFilterTexels
-    << ", \"min_filter_texels\": " << opt.mssm.minFilterTexels
     << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon
     << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
     << "},\n  \"prefilter\": \"" << toString(opt.prefilter)

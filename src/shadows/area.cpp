@@ -26,21 +26,23 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
+#include "shadows/shadow_options.hpp"
+#include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"
 #include "core/vec3.hpp"
 
 namespace penumbra::detail {
 namespace {
 
-
 constexpr int kMaxSamples = 64;  // kernels/area.cl's AREA_MAX_SAMPLES: visibilities in one ulong
 
-struct AreaRange {
-  cl_int first, count;  // kernels/area.cl's area_range
-};
-
-
 }  // namespace
+
+void validate(const AreaApproxOptions& o) {
+  checkRange("RenderOptions.areaApprox.edgeSamples", o.edgeSamples, 0, 15);
+  checkRange("RenderOptions.areaApprox.capVertices", o.capVertices, 3, 16);
+  checkRange("RenderOptions.areaApprox.taps", o.taps, 0, 64);
+}
 
 std::vector<std::array<float, 2>> areaLightOutline(const AreaLight* light, const pb_light& frame,
                                                    int capVertices);
@@ -102,18 +104,12 @@ class AreaApproxPass : public ShadowPass {
  public:
   void computeVisibility(ShadowFrame& f) override {
     const AreaApproxOptions& ao = f.opt.areaApprox;
-    if (ao.edgeSamples < 0 || ao.edgeSamples > 15)
-      badInput("--area-samples (samples per edge besides the vertices) must be in [0, 15], got " +
-               std::to_string(ao.edgeSamples));
-    if (ao.capVertices < 3 || ao.capVertices > 16)
-      badInput("--area-cap-vertices must be in [3, 16], got " + std::to_string(ao.capVertices));
-    if (ao.taps < 0 || ao.taps > 64)
-      badInput("--area-taps must be in [0, 64], got " + std::to_string(ao.taps));
+    validate(ao);
     const int nl = int(f.lights.size()), S = f.mapSize;
 
     std::vector<pb_light> frames;
     std::vector<cl_float2> q;
-    std::vector<AreaRange> ranges;
+    std::vector<area_range> ranges;
     for (int l = 0; l < nl; ++l) {
       const AreaLight* al =
           f.areaLights && std::size_t(l) < f.areaLights->size() ? &(*f.areaLights)[l] : nullptr;
@@ -123,7 +119,7 @@ class AreaApproxPass : public ShadowPass {
         badInput("area-approx: light " + std::to_string(l) + " has " + std::to_string(outline.size()) +
                  " vertices x " + std::to_string(ao.edgeSamples + 1) + " samples per edge = " +
                  std::to_string(samples.size()) + " boundary samples, more than " +
-                 std::to_string(kMaxSamples) + "; lower --area-samples");
+                 std::to_string(kMaxSamples) + "; lower RenderOptions.areaApprox.edgeSamples");
       ranges.push_back({cl_int(frames.size()), cl_int(samples.size())});
       V3 c = xyz(f.lights[l].dir), ex = xyz(f.lights[l].ex), ey = xyz(f.lights[l].ey);
       for (const auto& s : samples) {
@@ -152,23 +148,10 @@ class AreaApproxPass : public ShadowPass {
       cl::Buffer& maps =
           f.pool.buffer("area-approx sample maps", std::max(most, std::size_t(count)) * S * S * sizeof(cl_uint));
       f.rasterizeDepth(views, maps, "area-approx");
-      int a = 0;
-      k.setArg(a++, f.gpos);
-      k.setArg(a++, f.gnrm);
-      k.setArg(a++, f.ggeo);
-      k.setArg(a++, f.lightBuffer);
-      k.setArg(a++, frameBuf);
-      k.setArg(a++, qBuf);
-      k.setArg(a++, rangeBuf);
-      k.setArg(a++, maps);
-      k.setArg(a++, cl_int(S));
-      k.setArg(a++, cl_int(base));
-      k.setArg(a++, cl_int(l0));
-      k.setArg(a++, cl_int(f.pixels));
-      k.setArg(a++, cl_float(f.opt.mssm.depthBias));
-      k.setArg(a++, cl_int(ao.taps));
-      k.setArg(a++, f.vis);
-      f.ctx.launch("area-approx/visibility", k, cl::NDRange(f.pixels, l1 - l0));
+      f.ctx.launchWith("area-approx/visibility", k, cl::NDRange(f.pixels, l1 - l0), cl::NullRange,
+                       f.gpos, f.gnrm, f.ggeo, f.lightBuffer, frameBuf, qBuf, rangeBuf, maps,
+                       cl_int(S), cl_int(base), cl_int(l0), cl_int(f.pixels),
+                       cl_float(f.opt.shadow.depthBias), cl_int(ao.taps), f.vis);
       l0 = l1;
     }
     heldBytesPerTexel_ = nl ? double(most) * mapBytes / (double(S) * S * nl) : 0;

@@ -45,6 +45,7 @@
 #include "shadows/bitmask.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
@@ -97,16 +98,14 @@ class BitmaskPass : public ShadowPass {
 
   void computeVisibility(ShadowFrame& f) override {
     const BitmaskOptions& bo = f.opt.bitmask;
+    validate(bo, hard_);
     const int N = hard_ ? 1 : bo.lightSamples;
-    if (!hard_ && (N < 32 || N > 1024 || N % 32 != 0))
-      badInput("--light-samples must be a multiple of 32 in [32, 1024] (128, 256, 512, 1024), got " +
-               std::to_string(N));
     // Soft influence regions span many texels: a coarser grid walks fewer empty ones (default
     // frame at 160x90, 128 samples: 256^2 31 s, 64^2 22 s, 32^2 19 s of triangle stage on the
     // loaded 2-core machine; the image is bit-identical, as it must be).
-    if (bo.jitter < 0) badInput("bitmask jitter frame must be >= 0, got " + std::to_string(bo.jitter));
     const int S = bo.listSize > 0 ? bo.listSize : hard_ ? f.mapSize : std::min(f.mapSize, 64);
-    if (S < 1 || S > 4096) badInput("bitmask list size must be in [1, 4096], got " + std::to_string(S));
+    checkRange(bo.listSize > 0 ? "RenderOptions.bitmask.listSize" : "RenderOptions.shadowMapSize", S,
+               1, 4096);
     if (f.triangleCount < 1 || !f.gids() || !f.positions() || !f.triangles())
       throw Error(ErrorKind::Internal, "bitmask: the renderer gave no triangles or ids");
     const int nl = int(f.lights.size()), npx = f.pixels, W = hard_ ? 1 : N / 32;
@@ -137,22 +136,13 @@ class BitmaskPass : public ShadowPass {
           break;
         }
       }
-      k.setArg(0, f.gpos);
-      k.setArg(1, f.gnrm);
-      k.setArg(2, f.lightBuffer);
-      k.setArg(3, cl_int(npx));
-      k.setArg(4, bounds);
-      ctx.launch("bitmask/lists/bounds", k, cl::NDRange(roundUp(npx, wg), nl), cl::NDRange(wg, 1));
+      ctx.launchWith("bitmask/lists/bounds", k, cl::NDRange(roundUp(npx, wg), nl),
+                     cl::NDRange(wg, 1), f.gpos, f.gnrm, f.lightBuffer, cl_int(npx), bounds);
     }
     {
       cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_fit");
-      k.setArg(0, bounds);
-      k.setArg(1, f.lightBuffer);
-      k.setArg(2, cl_int(nl));
-      k.setArg(3, cl_int(S));
-      k.setArg(4, cl_int(hard_ ? 1 : 0));
-      k.setArg(5, grids);
-      ctx.launch("bitmask/lists/fit", k, cl::NDRange(nl));
+      ctx.launchWith("bitmask/lists/fit", k, cl::NDRange(nl), cl::NullRange, bounds, f.lightBuffer,
+                     cl_int(nl), cl_int(S), cl_int(hard_ ? 1 : 0), grids);
     }
     const cl_int zero = 0;
     ctx.fill(counts, &zero, sizeof zero, texels * sizeof(cl_int), "bitmask list lengths");
@@ -160,35 +150,19 @@ class BitmaskPass : public ShadowPass {
     ctx.fill(zfar, &lowest, sizeof lowest, texels * sizeof(cl_int), "bitmask list far depths");
     {
       cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_count");
-      k.setArg(0, f.gpos);
-      k.setArg(1, f.gnrm);
-      k.setArg(2, f.lightBuffer);
-      k.setArg(3, grids);
-      k.setArg(4, cl_int(npx));
-      k.setArg(5, counts);
-      k.setArg(6, slot);
-      k.setArg(7, zfar);
-      ctx.launch("bitmask/lists/count", k, cl::NDRange(npx, nl));
+      ctx.launchWith("bitmask/lists/count", k, cl::NDRange(npx, nl), cl::NullRange, f.gpos, f.gnrm,
+                     f.lightBuffer, grids, cl_int(npx), counts, slot, zfar);
     }
     {
       cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_widen");
-      k.setArg(0, counts);
-      k.setArg(1, cl_long(texels));
-      k.setArg(2, ends);
-      ctx.launch("bitmask/lists/widen", k, cl::NDRange(texels));
+      ctx.launchWith("bitmask/lists/widen", k, cl::NDRange(texels), cl::NullRange, counts,
+                     cl_long(texels), ends);
     }
     summedAreaTable(ctx, ends, ScanType::Long, S * S, 1, nl, "bitmask/lists/scan");
     {
       cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_scatter");
-      k.setArg(0, f.gpos);
-      k.setArg(1, f.lightBuffer);
-      k.setArg(2, grids);
-      k.setArg(3, cl_int(npx));
-      k.setArg(4, counts);
-      k.setArg(5, ends);
-      k.setArg(6, slot);
-      k.setArg(7, lists);
-      ctx.launch("bitmask/lists/scatter", k, cl::NDRange(npx, nl));
+      ctx.launchWith("bitmask/lists/scatter", k, cl::NDRange(npx, nl), cl::NullRange, f.gpos,
+                     f.lightBuffer, grids, cl_int(npx), counts, ends, slot, lists);
     }
 
     // --- light samples and their tables (tables of the unrotated set; a jittered frame rotates
@@ -268,7 +242,7 @@ class BitmaskPass : public ShadowPass {
         badInput("light " + std::to_string(l) + ": none of its " + std::to_string(N) +
                  " bitmask light samples falls inside " +
                  (polygon ? "the polygon" : "a lit texel of its texture") +
-                 " (a light too thin for them); use more --light-samples");
+                 " (a light too thin for them); raise RenderOptions.bitmask.lightSamples");
     }
     std::vector<cl_float4> frameData(frames.size() * 2);
     for (std::size_t l = 0; l < frames.size(); ++l)
@@ -289,52 +263,17 @@ class BitmaskPass : public ShadowPass {
       const int count = std::min(batch, nl - l0);
       const cl_uint z = 0;
       ctx.fill(masks, &z, 4, maskWords * 4, "bitmask masks");
-      sk.setArg(0, f.positions);
-      sk.setArg(1, f.triangles);
-      sk.setArg(2, orient);
-      sk.setArg(3, f.gids);
-      sk.setArg(4, f.lightBuffer);
-      sk.setArg(5, grids);
-      sk.setArg(6, cl_int(l0));
-      sk.setArg(7, slot);
-      sk.setArg(8, diskBuf_);
-      sk.setArg(9, cl_int(npx));
-      sk.setArg(10, masks);
-      sk.setArg(11, frameBuf);
-      ctx.launch("bitmask/self", sk, cl::NDRange(npx, count));
-      tk.setArg(0, f.positions);
-      tk.setArg(1, f.triangles);
-      tk.setArg(2, cl_int(f.triangleCount));
-      tk.setArg(3, f.lightBuffer);
-      tk.setArg(4, grids);
-      tk.setArg(5, cl_int(l0));
-      tk.setArg(6, counts);
-      tk.setArg(7, ends);
-      tk.setArg(8, lists);
-      tk.setArg(9, f.gpos);
-      tk.setArg(10, f.gids);
-      tk.setArg(11, cl_int(npx));
-      tk.setArg(12, lut_);
-      tk.setArg(13, diskBuf_);
-      tk.setArg(14, cl_int(kStripes));
-      tk.setArg(15, zfar);
-      tk.setArg(16, masks);
-      tk.setArg(17, orient);
-      tk.setArg(18, cl_float(rot));
-      tk.setArg(19, frameBuf);
-      ctx.launch("bitmask/triangles", tk, cl::NDRange(f.triangleCount, kStripes, count));
-      rk.setArg(0, f.gnrm);
-      rk.setArg(1, f.lightBuffer);
-      rk.setArg(2, grids);
-      rk.setArg(3, cl_int(l0));
-      rk.setArg(4, slot);
-      rk.setArg(5, diskBuf_);
-      rk.setArg(6, cl_int(npx));
-      rk.setArg(7, masks);
-      rk.setArg(8, f.vis);
-      rk.setArg(9, weightBuf);
-      rk.setArg(10, frameBuf);
-      ctx.launch("bitmask/resolve", rk, cl::NDRange(npx, count));
+      ctx.launchWith("bitmask/self", sk, cl::NDRange(npx, count), cl::NullRange, f.positions,
+                     f.triangles, orient, f.gids, f.lightBuffer, grids, cl_int(l0), slot, diskBuf_,
+                     cl_int(npx), masks, frameBuf);
+      ctx.launchWith("bitmask/triangles", tk, cl::NDRange(f.triangleCount, kStripes, count),
+                     cl::NullRange, f.positions, f.triangles, cl_int(f.triangleCount),
+                     f.lightBuffer, grids, cl_int(l0), counts, ends, lists, f.gpos, f.gids,
+                     cl_int(npx), lut_, diskBuf_, cl_int(kStripes), zfar, masks, orient,
+                     cl_float(rot), frameBuf);
+      ctx.launchWith("bitmask/resolve", rk, cl::NDRange(npx, count), cl::NullRange, f.gnrm,
+                     f.lightBuffer, grids, cl_int(l0), slot, diskBuf_, cl_int(npx), masks, f.vis,
+                     weightBuf, frameBuf);
       if (cap) {
         auto m = ctx.download<cl_uint>(masks, maskWords, "bitmask masks");
         for (int b = 0; b < count; ++b)
@@ -545,6 +484,13 @@ double bitmaskJitterAngle(int jitter) {
   // 2 pi frac(j / golden ratio): any run of consecutive frames spreads its rotations evenly
   const double g = 0.61803398874989484820, t = std::fmod(jitter * g, 1.0);
   return 2 * 3.14159265358979323846 * t;
+}
+
+void validate(const BitmaskOptions& o, bool hard) {
+  if (!hard && (o.lightSamples < 32 || o.lightSamples > 1024 || o.lightSamples % 32 != 0))
+    badOption("RenderOptions.bitmask.lightSamples",
+              "be a multiple of 32 in [32, 1024] (128, 256, 512, 1024)", o.lightSamples);
+  if (o.jitter < 0) badOption("RenderOptions.bitmask.jitter", "be >= 0", o.jitter);
 }
 
 void setBitmaskCapture(BitmaskCapture* capture) { gCapture = capture; }

@@ -1,4 +1,4 @@
-// Internal: what the bitmask technique (src/shadows_bitmask.cpp) shares with its tests and
+// Internal: what the bitmask technique (src/shadows/bitmask.cpp) shares with its tests and
 // benchmarks: its light samples, a capture of one frame's lists and masks, and exact Embree
 // shadow rays for explicit directions (src/reference_samples.cpp) to check them against.
 #pragma once

@@ -10,8 +10,8 @@
 #include <cmath>
 #include <string>
 
-#include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
+#include "shadows/shadow_options.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "core/vec3.hpp"
 
@@ -73,10 +73,9 @@ pb_light sampleFrame(const pb_light& area, const V3& dir, int size, float jx, fl
   return L;
 }
 
+void validate(const BruteOptions& o) { checkRange("RenderOptions.brute.samples", o.samples, 1, 4096); }
+
 namespace {
-
-
-constexpr int kMaxSamples = 4096;
 
 // Radical inverse of i in base b (Halton): a low-discrepancy sequence in [0, 1).
 float radicalInverse(int i, int b) {
@@ -93,9 +92,7 @@ class BrutePass : public ShadowPass {
  public:
   void computeVisibility(ShadowFrame& f) override {
     const BruteOptions& bo = f.opt.brute;
-    if (bo.samples < 1 || bo.samples > kMaxSamples)
-      badInput("brute-force samples per light must be in [1, 4096], got " +
-               std::to_string(bo.samples));
+    validate(bo);
     const int K = bo.samples, nl = int(f.lights.size()), S = f.mapSize;
     const int total = K * nl;
     const std::size_t mapBytes = std::size_t(S) * S * sizeof(cl_uint) * (f.opt.frontBackFaces ? 2 : 1);
@@ -140,21 +137,10 @@ class BrutePass : public ShadowPass {
       std::vector<pb_view> bv(views.begin() + first, views.begin() + first + count);
       f.rasterizeDepth(bv, maps, "brute");
       const int l0 = first / K, l1 = (first + count - 1) / K;
-      k.setArg(0, f.gpos);
-      k.setArg(1, f.gnrm);
-      k.setArg(2, f.ggeo);
-      k.setArg(3, f.lightBuffer);
-      k.setArg(4, sampleBuf);
-      k.setArg(5, maps);
-      k.setArg(6, cl_int(S));
-      k.setArg(7, cl_int(K));
-      k.setArg(8, cl_int(first));
-      k.setArg(9, cl_int(count));
-      k.setArg(10, cl_int(l0));
-      k.setArg(11, cl_int(f.pixels));
-      k.setArg(12, cl_float(f.opt.mssm.depthBias));
-      k.setArg(13, f.vis);
-      f.ctx.launch("brute/visibility", k, cl::NDRange(f.pixels, l1 - l0 + 1));
+      f.ctx.launchWith("brute/visibility", k, cl::NDRange(f.pixels, l1 - l0 + 1), cl::NullRange,
+                       f.gpos, f.gnrm, f.ggeo, f.lightBuffer, sampleBuf, maps, cl_int(S),
+                       cl_int(K), cl_int(first), cl_int(count), cl_int(l0), cl_int(f.pixels),
+                       cl_float(f.opt.shadow.depthBias), f.vis);
     }
   }
   // Device bytes of depth maps held at once (one batch), per texel per light: K * 4 when all

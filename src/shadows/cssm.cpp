@@ -10,7 +10,8 @@
 #include <string>
 #include <utility>
 
-#include "penumbra/error.hpp"
+#include "shadows/shadow_options.hpp"
+#include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
@@ -111,32 +112,7 @@ CssmShift shiftFor(const CssmSeries& ser, double lambda) {
 
 constexpr int kMaxOrder = 32;
 
-// Must match kernels/csm.cl's cssm_params.
-struct CssmParams {
-  cl_float scale, shift, tau0, kappa;
-  cl_float scaleZ, shiftZ, tau0Z, rise;
-  cl_float depthBias, slopeBias, lightSizeScale, maxFilter;
-  cl_float minFilter, sharpenA, sharpenB, damping;
-};
-
 int groupsFor(int M) { return M + 1; }  // 4M + 1 values in long4 groups
-
-void check(const CSSMOptions& o) {
-  if (o.order < 1 || o.order > kMaxOrder)
-    badInput("CSSM order must be in [1, " + std::to_string(kMaxOrder) + "], got " +
-             std::to_string(o.order));
-  if (!(o.ringingOffset >= 0 && o.ringingOffset <= 1))
-    badInput("CSSM ringing offset must be in [0, 1], got " + std::to_string(o.ringingOffset));
-  if (!(o.damping >= 0 && o.damping <= 8))
-    badInput("CSSM damping must be in [0, 8], got " + std::to_string(o.damping));
-  if (!std::isfinite(o.depthBias) || !std::isfinite(o.slopeBias))
-    badInput("CSSM depth and slope bias must be finite, got " + std::to_string(o.depthBias) +
-             " and " + std::to_string(o.slopeBias));
-  if (!(o.sharpenA >= 0) || !std::isfinite(o.sharpenA))
-    badInput("CSSM sharpening A must be finite and >= 0, got " + std::to_string(o.sharpenA));
-  if (!(o.sharpenB >= 0) || !std::isfinite(o.sharpenB))
-    badInput("CSSM sharpening B must be finite and >= 0, got " + std::to_string(o.sharpenB));
-}
 
 // The series is sampled on 2^14 points per (M, alpha): a few ms at M = 32, so once per process.
 const CssmSeries& seriesFor(int M, double alpha) {
@@ -149,42 +125,12 @@ const CssmSeries& seriesFor(int M, double alpha) {
   return it->second;
 }
 
-// kernels/csm.cl's cssm_basis: basis images of lights first .. first + count - 1.
-void launchBasis(Context& ctx, cl::Kernel& k, ShadowFrame& f, std::size_t stride, int first,
-                 int count, float kappa, cl::Buffer& maps) {
-  k.setArg(0, f.depth);
-  k.setArg(1, f.lightBuffer);
-  k.setArg(2, cl_int(f.mapSize));
-  k.setArg(3, cl_ulong(stride));
-  k.setArg(4, cl_int(first));
-  k.setArg(5, cl_float(kappa));
-  k.setArg(6, maps);
-  ctx.launch("cssm/basis", k, cl::NDRange(f.mapSize, f.mapSize, count));
-}
-
-// kernels/csm.cl's cssm_visibility: vis of lights first .. first + count - 1 at every pixel.
-void launchVisibility(Context& ctx, cl::Kernel& k, ShadowFrame& f, std::size_t stride, int first,
-                      int count, const CssmParams& P, cl::Buffer& maps) {
-  k.setArg(0, f.gpos);
-  k.setArg(1, f.gnrm);
-  k.setArg(2, f.ggeo);
-  k.setArg(3, f.lightBuffer);
-  k.setArg(4, maps);
-  k.setArg(5, cl_int(f.mapSize));
-  k.setArg(6, cl_ulong(stride));
-  k.setArg(7, cl_int(f.pixels));
-  k.setArg(8, cl_int(first));
-  k.setArg(9, sizeof(P), &P);
-  k.setArg(10, f.vis);
-  ctx.launch("cssm/visibility", k, cl::NDRange(f.pixels, count));
-}
-
 class CSSMPass : public ShadowPass {
  public:
   void computeVisibility(ShadowFrame& f) override {
     Context& ctx = f.ctx;
     const CSSMOptions& co = f.opt.cssm;
-    check(co);
+    validate(co);
     const int M = co.order, G = groupsFor(M);
     const int S = f.mapSize, nl = int(f.lights.size());
     const std::size_t stride = prefilterStride(f.opt.prefilter, S);
@@ -194,22 +140,35 @@ class CSSMPass : public ShadowPass {
     const CssmSeries& ser = seriesFor(M, co.damping);
     // the visibility's test, and the blocker search's (shifted by the whole rise)
     const CssmShift vis = shiftFor(ser, co.ringingOffset), blk = shiftFor(ser, 1.0);
-    const MSSMOptions& mo = f.opt.mssm;
-    const CssmParams P{float(vis.scale),     float(vis.shift),     float(vis.tau0),
-                       float(ser.kappa),     float(blk.scale),     float(blk.shift),
-                       float(blk.tau0),      float(ser.rise / ser.kappa),
-                       co.depthBias,         co.slopeBias,         mo.lightSizeScale,
-                       mo.maxFilterTexels,   mo.minFilterTexels,   co.sharpenA,
-                       co.sharpenB,          co.damping};
+    cssm_params P{};
+    P.scale = float(vis.scale);
+    P.shift = float(vis.shift);
+    P.tau0 = float(vis.tau0);
+    P.kappa = float(ser.kappa);
+    P.scale_z = float(blk.scale);
+    P.shift_z = float(blk.shift);
+    P.tau0_z = float(blk.tau0);
+    P.rise = float(ser.rise / ser.kappa);
+    P.depth_bias = co.depthBias;
+    P.slope_bias = co.slopeBias;
+    setFilterLimits(P, f.opt.shadow);
+    P.sharpen_a = co.sharpenA;
+    P.sharpen_b = co.sharpenB;
+    P.damping = co.damping;
     const std::string options =
         "-DCSSM_ORDER=" + std::to_string(M) + " " + prefilterOption(f.opt.prefilter);
     cl::Kernel basis = ctx.kernel("csm.cl", "cssm_basis", options);
     cl::Kernel visibility = ctx.kernel("csm.cl", "cssm_visibility", options);
     for (int first = 0; first < nl; first += batch) {
       const int count = std::min(batch, nl - first);
-      launchBasis(ctx, basis, f, stride, first, count, float(ser.kappa), maps);
+      // basis images of lights first .. first + count - 1, then their visibility at every pixel
+      ctx.launchWith("cssm/basis", basis, cl::NDRange(S, S, count), cl::NullRange, f.depth,
+                     f.lightBuffer, cl_int(S), cl_ulong(stride), cl_int(first),
+                     cl_float(ser.kappa), maps);
       prefilter(ctx, maps, f.opt.prefilter, S, count * G, "cssm");
-      launchVisibility(ctx, visibility, f, stride, first, count, P, maps);
+      ctx.launchWith("cssm/visibility", visibility, cl::NDRange(f.pixels, count), cl::NullRange,
+                     f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, cl_int(S), cl_ulong(stride),
+                     cl_int(f.pixels), cl_int(first), P, f.vis);
     }
   }
   // 4M + 1 values per texel (CSM 2M, CSM-Z 2M, z) in M + 1 long4 groups, times the prefilter's
@@ -222,6 +181,22 @@ class CSSMPass : public ShadowPass {
 };
 
 }  // namespace
+
+void validate(const CSSMOptions& o) {
+  checkRange("RenderOptions.cssm.order", o.order, 1, kMaxOrder);
+  if (!(o.ringingOffset >= 0 && o.ringingOffset <= 1))
+    badOption("RenderOptions.cssm.ringingOffset", "be in [0, 1]", o.ringingOffset);
+  if (!(o.damping >= 0 && o.damping <= 8))
+    badOption("RenderOptions.cssm.damping", "be in [0, 8]", o.damping);
+  if (!std::isfinite(o.depthBias))
+    badOption("RenderOptions.cssm.depthBias", "be finite", o.depthBias);
+  if (!std::isfinite(o.slopeBias))
+    badOption("RenderOptions.cssm.slopeBias", "be finite", o.slopeBias);
+  if (!(o.sharpenA >= 0) || !std::isfinite(o.sharpenA))
+    badOption("RenderOptions.cssm.sharpenA", "be finite and >= 0", o.sharpenA);
+  if (!(o.sharpenB >= 0) || !std::isfinite(o.sharpenB))
+    badOption("RenderOptions.cssm.sharpenB", "be finite and >= 0", o.sharpenB);
+}
 
 std::unique_ptr<ShadowPass> makeCSSMPass() { return std::make_unique<CSSMPass>(); }
 

@@ -13,7 +13,7 @@ class HardPass : public ShadowPass {
     cl::Kernel k = f.ctx.kernel("pcss.cl", "hard_visibility");
     f.ctx.launchWith("hard/visibility", k, cl::NDRange(f.pixels, nl), cl::NullRange, f.gpos,
                      f.gnrm, f.ggeo, f.lightBuffer, f.depth, cl_int(f.mapSize), cl_int(f.pixels),
-                     cl_float(f.opt.mssm.depthBias), f.vis);
+                     cl_float(f.opt.shadow.depthBias), f.vis);
   }
   // the standard depth map itself: one uint per texel
   std::size_t bytesPerTexel(const RenderOptions&) const override { return sizeof(cl_uint); }

@@ -1,37 +1,36 @@
-// Internal: what MSSM4 and MSSM6 (src/shadows_mssm4.cpp, src/shadows_mssm6.cpp) share, the
-// parameter block of kernels/moments.cl.
+// Internal: what MSSM4 and MSSM6 (src/shadows/mssm4.cpp, src/shadows/mssm6.cpp) share
+// (src/shadows/mssm.cpp): the pass itself but for how the moments are stored, and the parameter
+// block of kernels/moments.cl (shadows/shadow_params.h).
 #pragma once
+#include <string>
+#include <utility>
+
 #include "shadows/shadow_pass.hpp"
+#include "shadows/shadow_params.h"
 
 namespace penumbra::detail {
 
-// Must match kernels/moments.cl's mssm_params.
-struct MssmParams {
-  cl_float momentBias, depthBias, slopeBias, lightSizeScale;
-  cl_float maxFilter, minFilter, blockerEps;
-  cl_int upperBound;
-  cl_float delta1, delta2, pad0, pad1;
+// kernels/moments.cl's parameters. `shared` at its defaults is enough for the reconstruction
+// alone (mssm_reconstruct reads the moment bias, the blocker epsilon and the eq. 19 clamps).
+mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
+
+// Moment soft shadow mapping (seed 003): the lights' moments from their depth maps, prefiltered
+// (RenderOptions::prefilter), then kernels/moments.cl's "<technique>_visibility" for every pixel
+// and light. Stages "<technique>/moments", "<technique>/sat" or "/mip", "<technique>/visibility".
+class MomentPass : public ShadowPass {
+ public:
+  explicit MomentPass(std::string technique) : technique_(std::move(technique)) {}
+  void computeVisibility(ShadowFrame& f) override;
+
+ protected:
+  // Filterable long4 images the moments of `lights` lights take.
+  virtual int images(int lights) const = 0;
+  // Writes them into `maps`, image i at element i * stride, as stage `stage`.
+  virtual void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
+                       const std::string& stage) const = 0;
+
+ private:
+  std::string technique_;  // "mssm4" or "mssm6"
 };
-
-inline MssmParams mssmParams(const MSSMOptions& mo) {
-  return {mo.momentBias,      mo.depthBias,       mo.slopeBias,      mo.lightSizeScale,
-          mo.maxFilterTexels, mo.minFilterTexels, mo.blockerEpsilon, mo.upperBoundBlocker ? 1 : 0,
-          mo.delta1,          mo.delta2,          0.0f,              0.0f};
-}
-
-// The visibility kernels' arguments, in kernels/moments.cl's order.
-inline void setVisibilityArgs(cl::Kernel& k, ShadowFrame& f, cl::Buffer& maps, std::size_t stride) {
-  MssmParams P = mssmParams(f.opt.mssm);
-  k.setArg(0, f.gpos);
-  k.setArg(1, f.gnrm);
-  k.setArg(2, f.ggeo);
-  k.setArg(3, f.lightBuffer);
-  k.setArg(4, maps);
-  k.setArg(5, cl_int(f.mapSize));
-  k.setArg(6, cl_ulong(stride));
-  k.setArg(7, cl_int(f.pixels));
-  k.setArg(8, sizeof(P), &P);
-  k.setArg(9, f.vis);
-}
 
 }  // namespace penumbra::detail

@@ -1,33 +1,20 @@
 // MSSM6: moment soft shadow mapping with six moments (seed 003 §4.2.1), kernels/moments.cl.
-#include "penumbra/scan.hpp"
 #include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
 namespace {
 
-class MSSM6Pass : public ShadowPass {
+class MSSM6Pass : public MomentPass {
  public:
-  void computeVisibility(ShadowFrame& f) override {
-    Context& ctx = f.ctx;
+  MSSM6Pass() : MomentPass("mssm6") {}
+  // Two lights share three long4 images (kernels/moments.cl, depth_to_moments6).
+  int images(int lights) const override { return 3 * ((lights + 1) / 2); }
+  void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
+               const std::string& stage) const override {
     const int S = f.mapSize, nl = int(f.lights.size());
-    // Two lights share three long4 images (kernels/moments.cl, depth_to_moments6).
-    const int pairs = (nl + 1) / 2, images = 3 * pairs;
-    const std::size_t stride = prefilterStride(f.opt.prefilter, S);
-    cl::Buffer& maps = f.pool.buffer("mssm6 moments", stride * images * sizeof(cl_long4));
-    {
-      cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments6");
-      k.setArg(0, f.depth);
-      k.setArg(1, f.lightBuffer);
-      k.setArg(2, cl_int(S));
-      k.setArg(3, cl_int(nl));
-      k.setArg(4, cl_ulong(stride));
-      k.setArg(5, maps);
-      ctx.launch("mssm6/moments", k, cl::NDRange(S, S, pairs));
-    }
-    prefilter(ctx, maps, f.opt.prefilter, S, images, "mssm6");
-    cl::Kernel k = ctx.kernel("moments.cl", "mssm6_visibility", prefilterOption(f.opt.prefilter));
-    setVisibilityArgs(k, f, maps, stride);
-    ctx.launch("mssm6/visibility", k, cl::NDRange(f.pixels, nl));
+    cl::Kernel k = f.ctx.kernel("moments.cl", "depth_to_moments6");
+    f.ctx.launchWith(stage, k, cl::NDRange(S, S, (nl + 1) / 2), cl::NullRange, f.depth,
+                     f.lightBuffer, cl_int(S), cl_int(nl), cl_ulong(stride), maps);
   }
   std::size_t bytesPerTexel(const RenderOptions& opt) const override {
     // Six 64-bit values per texel and light, nothing padded: 3 long4 images per pair of lights

@@ -5,7 +5,7 @@
 
 namespace penumbra::detail {
 
-std::unique_ptr<ShadowPass> makeAreaApproxPass();  // src/shadows_area.cpp
+std::unique_ptr<ShadowPass> makeAreaApproxPass();  // src/shadows/area.cpp
 
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
   switch (t) {
@@ -58,13 +58,9 @@ std::size_t roundUpTo(std::size_t v, std::size_t m) { return (v + m - 1) / m * m
 // kernels/mip.cl's mip_build: levels src+1 .. src+depth of `count` images.
 void launchMipBuild(Context& ctx, cl::Kernel& k, cl::Buffer& maps, int size, std::size_t stride,
                     int src, int depth, int count, int tile, const std::string& stage) {
-  k.setArg(0, maps);
-  k.setArg(1, cl_int(size));
-  k.setArg(2, cl_ulong(stride));
-  k.setArg(3, cl_int(src));
-  k.setArg(4, cl_int(depth));
   std::size_t n1 = roundUpTo(std::size_t(mipLevelSize(size, src + 1)), std::size_t(tile));
-  ctx.launch(stage, k, cl::NDRange(n1, n1, std::size_t(count)), cl::NDRange(tile, tile, 1));
+  ctx.launchWith(stage, k, cl::NDRange(n1, n1, std::size_t(count)), cl::NDRange(tile, tile, 1),
+                 maps, cl_int(size), cl_ulong(stride), cl_int(src), cl_int(depth));
 }
 
 // Builds levels 1 .. L-1 from level 0, in launches of up to log2(tile) + 1 levels. The tile is the

@@ -96,3 +96,40 @@ def test_bad_values(tmp_path):
 def test_no_device():
     with pytest.raises(penumbra.NoPlatform, match="no-such-device"):
         penumbra.Context("no-such-device")
+
+
+def test_option_errors_name_the_python_attribute(scene, camera, lights, env, renderer):
+    # The library names the C++ field (RenderOptions.areaApprox.edgeSamples); Python reports the
+    # attribute path a user sets, snake case, `shadows` as `technique`.
+    cases = [
+        (small_options(width=0), "RenderOptions.width must be in [1, 16384], got 0"),
+        (small_options(technique="cssm", cssm=penumbra.CSSMOptions(order=40)),
+         "RenderOptions.cssm.order must be in [1, 32], got 40"),
+        (small_options(technique="area-approx",
+                       area_approx=penumbra.AreaApproxOptions(edge_samples=20)),
+         "RenderOptions.area_approx.edge_samples must be in [0, 15], got 20"),
+        (small_options(technique="pcss", pcss=penumbra.PCSSOptions(filter_taps=-1)),
+         "RenderOptions.pcss.filter_taps must be in [0, 4096], got -1"),
+        (small_options(technique="mssm6", mssm=penumbra.MSSMOptions(moment_bias=2)),
+         "RenderOptions.mssm.moment_bias must be in [0, 1), got 2"),
+        (small_options(shadow=penumbra.ShadowOptions(min_filter_texels=0)),
+         "RenderOptions.shadow.min_filter_texels must be > 0, got 0"),
+    ]
+    for options, message in cases:
+        with pytest.raises(penumbra.BadInput) as e:
+            renderer.render(scene, camera, lights, env, options)
+        assert str(e.value) == message
+    # Only the technique in use checks its own options: MSSM's are not CSSM's business.
+    renderer.render(scene, camera, lights, env,
+                    small_options(technique="hard", mssm=penumbra.MSSMOptions(moment_bias=2)))
+    with pytest.raises(penumbra.BadInput, match=r"^RenderOptions\.technique: unknown technique"):
+        penumbra.parse_shadow_technique("bogus")
+
+
+def test_docstrings_show_the_struct_defaults():
+    assert "Default 80." in penumbra.CSSMOptions.sharpen_b.__doc__
+    assert "Default 3e-05." in penumbra.MSSMOptions.moment_bias.__doc__
+    assert "Default 0.002." in penumbra.ShadowOptions.depth_bias.__doc__
+    assert "Default 256." in penumbra.RenderOptions.shadow_map_size.__doc__
+    assert "Default 'mssm4'." in penumbra.RenderOptions.technique.__doc__
+    assert "Default 256 MiB." in penumbra.BruteOptions.batch_bytes.__doc__

@@ -58,14 +58,15 @@ def test_options():
     assert penumbra.parse_shadow_technique("bitmask-hard") == penumbra.ShadowTechnique.BITMASK_HARD
     o.prefilter = "mip"
     assert o.prefilter == penumbra.Prefilter.MIP
-    o.mssm.depth_bias = 0.01  # nested options change in place
-    assert o.mssm.depth_bias == pytest.approx(0.01)
+    o.shadow.depth_bias = 0.01  # nested options change in place
+    assert o.shadow.depth_bias == pytest.approx(0.01)
     o.mssm = penumbra.MSSMOptions(upper_bound_blocker=True, moment_bias=1e-4)
     assert o.mssm.upper_bound_blocker and o.mssm.moment_bias == pytest.approx(1e-4)
     m = o.mssm
-    for f in ("slope_bias", "light_size_scale", "max_filter_texels", "min_filter_texels",
-              "blocker_epsilon", "delta1", "delta2"):
+    for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2"):
         assert getattr(m, f) >= 0
+    for f in ("light_size_scale", "max_filter_texels", "min_filter_texels"):
+        assert getattr(o.shadow, f) >= 0
     c = penumbra.CSSMOptions(order=8)
     assert c.order == 8 and c.sharpen_a == 30 and c.sharpen_b == 80
     assert (c.ringing_offset, c.damping, c.depth_bias, c.slope_bias) == (0, 0, 0, 0)
@@ -126,6 +127,6 @@ def test_bent_normals(scene, camera, lights, env, renderer, ctx):
     assert (img[..., :3] < off.image[..., :3]).any()
     report = json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))
     assert report["bent_normals"] is True and report["bent_normals_scale"] == 3
-    with pytest.raises(penumbra.BadInput, match="bent-normals-scale"):
+    with pytest.raises(penumbra.BadInput, match="RenderOptions.bent_normals_scale"):
         renderer.render(scene, camera, lights, env,
                         small_options(bent_normals=True, bent_normals_scale=0.0))

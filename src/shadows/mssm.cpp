@@ -1,0 +1,41 @@
+// What MSSM4 and MSSM6 share (src/shadows/mssm.hpp): their options' check, the parameter block
+// of kernels/moments.cl, and the pass but for the moments' layout.
+#include "shadows/mssm.hpp"
+
+#include "shadows/shadow_options.hpp"
+
+namespace penumbra::detail {
+
+void validate(const MSSMOptions& o) {
+  if (!(o.momentBias >= 0 && o.momentBias < 1))
+    badOption("RenderOptions.mssm.momentBias", "be in [0, 1)", o.momentBias);
+}
+
+mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
+  mssm_params P{};
+  P.moment_bias = mo.momentBias;
+  P.depth_bias = shared.depthBias;
+  P.slope_bias = mo.slopeBias;
+  setFilterLimits(P, shared);
+  P.blocker_eps = mo.blockerEpsilon;
+  P.upper_bound = mo.upperBoundBlocker ? 1 : 0;
+  P.delta1 = mo.delta1;
+  P.delta2 = mo.delta2;
+  return P;
+}
+
+void MomentPass::computeVisibility(ShadowFrame& f) {
+  validate(f.opt.mssm);
+  Context& ctx = f.ctx;
+  const int S = f.mapSize, nl = int(f.lights.size()), n = images(nl);
+  const std::size_t stride = prefilterStride(f.opt.prefilter, S);
+  cl::Buffer& maps = f.pool.buffer(technique_ + " moments", stride * n * sizeof(cl_long4));
+  moments(f, maps, stride, technique_ + "/moments");
+  prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
+  cl::Kernel k = ctx.kernel("moments.cl", technique_ + "_visibility", prefilterOption(f.opt.prefilter));
+  ctx.launchWith(technique_ + "/visibility", k, cl::NDRange(f.pixels, nl), cl::NullRange, f.gpos,
+                 f.gnrm, f.ggeo, f.lightBuffer, maps, cl_int(S), cl_ulong(stride),
+                 cl_int(f.pixels), mssmParams(f.opt.mssm, f.opt.shadow), f.vis);
+}
+
+}  // namespace penumbra::detail
