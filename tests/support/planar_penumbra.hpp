@@ -39,8 +39,8 @@ struct PlanarPenumbra {
   Vec3 target{-1.2f, 0.0f, 0.0f};
   float fovyDeg = 50;
   double minEyeHeight = 0;
-  // The frame: image and map size; render() also turns the environment background off and lets
-  // the filters reach 64 texels (the wide penumbrae are wider than the default limit).
+  // The frame: image and map size; renderPlanar() also turns the environment background off and
+  // lets the filters reach 64 texels (the wide penumbrae are wider than the default limit).
   int imageWidth = 128, imageHeight = 96, mapSize = 256;
   // Which receiver pixels count: their ground point (x, z) within `border` of the origin on both
   // axes, and, when set, keep(x, z) (e.g. away from the blockers' far edges, which the analytic
