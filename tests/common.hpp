@@ -59,8 +59,6 @@ inline std::string data(const std::string& rel) { return std::string(PENUMBRA_TE
 
 inline const char* kMaps[] = {"envmaps/courtyard.exr", "envmaps/interior.exr", "envmaps/studio.exr"};
 
-// A horizontal quad [x0,x1] x [z0,z1] at height y, facing +y: receivers and blockers of the planar
-// parallel configuration the filtered techniques are tested on.
 // A camera 3 m above the origin looking straight down at the floor (a hair off the vertical so
 // the up vector stays defined), vertical field of view fovyDeg.
 inline Camera topDownCamera(float fovyDeg) {
@@ -71,6 +69,8 @@ inline Camera topDownCamera(float fovyDeg) {
   return cam;
 }
 
+// A horizontal quad [x0,x1] x [z0,z1] at height y, facing +y: receivers and blockers of the planar
+// parallel configuration the filtered techniques are tested on (support/planar_penumbra.hpp).
 inline Mesh planarQuad(const std::string& name, float x0, float x1, float z0, float z1, float y) {
   Mesh m;
   m.name = name;
@@ -78,24 +78,6 @@ inline Mesh planarQuad(const std::string& name, float x0, float x1, float z0, fl
   m.normals = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
   m.triangles = {{0, 2, 1}, {0, 3, 2}};
   return m;
-}
-
-// Exact visibility of that configuration: the irradiance-weighted unblocked fraction of a cap of
-// half-angle alpha around +y, seen from a receiver at x on the plane y = 0, when the half-plane
-// {x' < 0, y = h} blocks (quadrature over the cap).
-inline double halfPlaneVisibility(double x, double h, double alpha) {
-  const int nt = 200, np = 400;
-  double lit = 0, total = 0;
-  for (int i = 0; i < nt; ++i) {
-    double t0 = alpha * i / nt, t1 = alpha * (i + 1) / nt, th = 0.5 * (t0 + t1);
-    double dw = (std::cos(t0) - std::cos(t1)) * std::cos(th);
-    for (int j = 0; j < np; ++j) {
-      double ph = 2 * M_PI * (j + 0.5) / np;
-      total += dw;
-      if (x + h * std::tan(th) * std::cos(ph) >= 0) lit += dw;  // ray passes the blocker's edge
-    }
-  }
-  return lit / total;
 }
 
 inline float luminance(const double rgb[3]) {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/planar_penumbra.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -288,45 +289,23 @@ AreaLight squareLight(double r, double turn) {
   return makePolygonLight(v, {1, 1, 1});
 }
 
-struct Receiver {
-  double x, z, vis;
-};
-
-// Ground [-3,3]^2 at y = 0, blocker quad [bx0,bx1] x [bz0,bz1] at height h, one light; the camera
-// below the blocker looks across its shadow. Ground pixels whose rays to the light stay clear of
-// the blocker's far edges.
-std::vector<Receiver> planarFrame(const AreaLight& light, RenderOptions ro, double h, float bx1,
-                                  float bz1, std::vector<float>* visOut = nullptr) {
-  Scene scene;
-  scene.meshes.push_back(hquad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(hquad("blocker", -3, bx1, -3, bz1, float(h)));
-  LightSet set;
-  set.lights.push_back(light);
-  Camera cam;
-  cam.eye = {1.3f, float(0.45 * h), 1.3f};
-  cam.target = {bx1 - 0.4f, 0, std::min(bz1, 0.5f) - 0.4f};
-  cam.up = {0, 1, 0};
-  cam.fovyDeg = 60;
-  ro.width = 128;
-  ro.height = 96;
-  ro.environmentBackground = false;
-  Renderer r(ctx());
-  Frame f = r.render(scene, cam, set, builtinEnvironment(16), ro);
-  auto vis = r.lastVisibility();
-  if (visOut) *visOut = vis;
-  CameraBasis b = cameraBasis(cam, ro.width, ro.height);
-  std::vector<Receiver> out;
-  for (int y = 0; y < ro.height; ++y)
-    for (int x = 0; x < ro.width; ++x) {
-      if (f.image.at(x, y, 3) < 0.5f) continue;
-      Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
-      if (d[1] >= 0) continue;
-      double t = -b.eye[1] / d[1];
-      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
-      if (std::fabs(px) > 2.5 || std::fabs(pz) > 2.5) continue;
-      out.push_back({px, pz, vis[std::size_t(y) * ro.width + x]});
-    }
-  return out;
+// tests/support's planar configuration with the blocker quad [-3,bx1] x [-3,bz1] at height h (bz1 =
+// 3: a half-plane), quads without normals, one light; the camera below the blocker looks across
+// its shadow. Ground pixels within 2.5 of the origin.
+std::vector<ReceiverPixel> planarFrame(const AreaLight& light, RenderOptions ro, double h,
+                                       float bx1, float bz1, std::vector<float>* visOut = nullptr) {
+  PlanarPenumbra s;
+  s.blockers = {{double(bx1), h, -3.0, bz1}};
+  s.vertexNormals = false;
+  s.light = light;
+  s.eye = {1.3f, -1.0f, 1.3f};
+  s.target = {bx1 - 0.4f, 0, std::min(bz1, 0.5f) - 0.4f};
+  s.fovyDeg = 60;
+  s.mapSize = ro.shadowMapSize;
+  s.border = 2.5;
+  PlanarFrame f = renderPlanar(s, ro);
+  if (visOut) *visOut = f.visibility;
+  return f.receivers;
 }
 
 // Gnomonic outline of a polygon light about +y: (d.x, d.z) / d.y (a light around +y).
@@ -383,7 +362,7 @@ PlanarStats planarCase(const char* what, const AreaLight& light, RenderOptions r
   const auto q = boundary(outline, ro.areaApprox.edgeSamples);
   PlanarStats s;
   double sqI = 0, sqE = 0;
-  for (const Receiver& r : px) {
+  for (const ReceiverPixel& r : px) {
     // direction with gnomonic q reaches the blocker's plane at (x + h q0, z + h q1)
     auto litAt = [&](P2 g) { return !(r.x + h * g[0] < bx1 && r.z + h * g[1] < bz1); };
     // the blocked directions are the convex set {g0 < (bx1 - x) / h, g1 < (bz1 - z) / h}: the light

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/planar_penumbra.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -50,32 +51,6 @@ LightSet oneLight(Vec3 dir, float cosAlpha) {
   LightSet set;
   set.lights.push_back(light);
   return set;
-}
-
-// Irradiance-weighted unblocked fraction of a cap of half-angle alpha around +y, seen from a
-// receiver at x on the plane y = 0, when the half-plane {x' < 0, y = h} blocks (quadrature, as
-// tests/test_mssm.cpp), tabulated at n + 1 points across [-R, R], R = h tan(alpha).
-std::vector<double> analyticProfile(double h, double alpha, int n) {
-  const int nt = 200, np = 400;
-  std::vector<std::pair<double, double>> rays;  // (offset where the ray meets the blocker, weight)
-  double total = 0;
-  for (int i = 0; i < nt; ++i) {
-    double t0 = alpha * i / nt, t1 = alpha * (i + 1) / nt, th = 0.5 * (t0 + t1);
-    double dw = (std::cos(t0) - std::cos(t1)) * std::cos(th);
-    for (int j = 0; j < np; ++j) {
-      rays.push_back({h * std::tan(th) * std::cos(2 * M_PI * (j + 0.5) / np), dw});
-      total += dw;
-    }
-  }
-  const double R = h * std::tan(alpha);
-  std::vector<double> table(n + 1);
-  for (int k = 0; k <= n; ++k) {
-    double x = -R + 2 * R * k / n, lit = 0;
-    for (auto& [off, dw] : rays)
-      if (x + off >= 0) lit += dw;
-    table[k] = lit / total;
-  }
-  return table;
 }
 
 // The truncated complementary shadow test, seed 000 eq. 10, as a function of t = d - z, and the
@@ -140,32 +115,34 @@ struct PlanarResult {
 };
 
 PlanarResult planar(const PlanarCase& c) {
-  Scene scene;
-  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(planarQuad("blocker", -3, 0, -3, 3, float(c.h)));
+  PlanarPenumbra s;
+  s.blockers = {{0.0, c.h}};
   if (c.rangeTop > 0) {  // two, so that the map stays centred on the blocker's edge
-    scene.meshes.push_back(planarQuad("top", 3.5f, 3.6f, 3.5f, 3.6f, float(c.rangeTop)));
-    scene.meshes.push_back(planarQuad("top", -3.6f, -3.5f, -3.6f, -3.5f, float(c.rangeTop)));
+    s.extraMeshes.push_back(planarQuad("top", 3.5f, 3.6f, 3.5f, 3.6f, float(c.rangeTop)));
+    s.extraMeshes.push_back(planarQuad("top", -3.6f, -3.5f, -3.6f, -3.5f, float(c.rangeTop)));
   }
-  LightSet set = oneLight({0, 1, 0}, float(std::cos(c.alphaDeg * M_PI / 180)));
-  Camera cam;
-  cam.eye = c.steepView ? Vec3{1.0f, float(0.95 * c.h), 0.0f} : Vec3{2.2f, float(0.45 * c.h), 0.3f};
-  cam.target = c.steepView ? Vec3{-0.2f, 0, 0} : Vec3{-1.2f, 0, 0};
-  cam.up = {0, 1, 0};
-  cam.fovyDeg = c.steepView ? 40 : 50;
+  s.light = capLightAbove(c.alphaDeg);
+  if (c.steepView) {
+    s.eye = {1.0f, float(0.95 * c.h), 0.0f};
+    s.target = {-0.2f, 0, 0};
+    s.fovyDeg = 40;
+  }
+  s.mapSize = c.mapSize;
+  const double R = c.h * std::tan(c.alphaDeg * M_PI / 180);
+  // the blocker's other edges (x = -3, z = +-3), which the map sees past its range extenders
+  s.keep = [R](double px, double pz) { return !(px < -3 + 1.2 * R || std::fabs(pz) > 3 - 1.2 * R); };
   RenderOptions ro;
+<<<<<<< HEAD
   ro.width = 128;
   ro.height = 96;
   ro.shadowMapSize = c.mapSize;
   ro.environmentBackground = false;
   ro.shadow.maxFilterTexels = 64;
+=======
+>>>>>>> h4
   ro.shadows = ShadowTechnique::CSSM;
   ro.cssm = c.cssm;
-  Environment env = builtinEnvironment(16);
-  Renderer r(ctx());
-  Frame f = r.render(scene, cam, set, env, ro);
-  auto vis = r.lastVisibility();
-  CameraBasis b = cameraBasis(cam, ro.width, ro.height);
+  PlanarFrame f = renderPlanar(s, ro);
   Series ser(c.cssm.order);
   // The map's depth range as src/renderer.cpp's lightFrame fits it to the scene's box (margin
   // 1e-3 of the largest extent on both ends), so the blocker's depth above the ground is t_b.
@@ -173,29 +150,15 @@ PlanarResult planar(const PlanarCase& c) {
   const double range = top + 2e-3 * std::max(extent, top);
   PlanarResult res;
   res.Tb = ser.T(c.h / range);
-  const double R = c.h * std::tan(c.alphaDeg * M_PI / 180);
-  std::vector<double> table = analyticProfile(c.h, c.alphaDeg * M_PI / 180, 2000);
-  for (int y = 0; y < ro.height; ++y)
-    for (int x = 0; x < ro.width; ++x) {
-      if (f.image.at(x, y, 3) < 0.5f) continue;
-      Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
-      if (d[1] >= 0) continue;  // the blocker's underside, not the receiver
-      double t = -b.eye[1] / d[1];
-      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
-      if (std::fabs(px) > 2.9 || std::fabs(pz) > 2.9) continue;  // ground's border
-      // the blocker's other edges (x = -3, z = +-3), which the map sees past its range extenders
-      if (px < -3 + 1.2 * R || std::fabs(pz) > 3 - 1.2 * R) continue;
-      double u = std::clamp((px + R) / (2 * R), 0.0, 1.0) * 2000;
-      int k = std::min(int(u), 1999);
-      double expect = table[k] + (u - k) * (table[k + 1] - table[k]);
-      double got = vis[std::size_t(y) * ro.width + x];
-      double model = 1 - std::clamp((1 - expect) * res.Tb, 0.0, 1.0);
-      res.maxError = std::max(res.maxError, std::fabs(got - expect));
-      res.maxModelError = std::max(res.maxModelError, std::fabs(got - model));
-      ++res.samples;
-      if (std::fabs(px) < R) ++res.penumbraSamples;
-      if (x == ro.width / 2) res.column.push_back({px, got, expect});
-    }
+  ProfileComparison cmp = compareWithProfile(f.receivers, halfPlaneProfile(c.h, c.alphaDeg * M_PI / 180));
+  res.maxError = cmp.maxError;
+  res.samples = cmp.samples;
+  res.penumbraSamples = cmp.penumbraSamples;
+  for (const ComparedPixel& q : cmp.pixels) {
+    double model = 1 - std::clamp((1 - q.expect) * res.Tb, 0.0, 1.0);
+    res.maxModelError = std::max(res.maxModelError, std::fabs(q.got - model));
+    if (q.col == s.imageWidth / 2) res.column.push_back({q.x, q.got, q.expect});
+  }
   std::printf("[ penumbra ] CSSM M=%d planar alpha %.1f deg, h %.1f, range top %.1f, map %d, "
               "A %.0f: max |V - V_analytic| = %.4f, |V - V_series| = %.4f (T_b %.3f, bound %.3f) "
               "over %d pixels\n",

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/planar_penumbra.hpp"
 #include "shadows/mssm.hpp"
 
 using namespace penumbra;
@@ -359,14 +360,10 @@ namespace {
 // Whole frames
 
 
-// Blocker strip {start < x < edge, y = height} across the scene (start -3: a half-plane).
-struct HalfPlane {
-  double edge, height, start = -3.0;
-};
-
 // Irradiance-weighted unblocked fraction of a cap of half-angle alpha around +y, seen from a
-// receiver at x on the plane y = 0, under the half-plane blockers (quadrature).
-double analyticVisibility(double x, const std::vector<HalfPlane>& blockers, double alpha) {
+// receiver at x on the plane y = 0, under the blocker strips {start < x < edge} at their heights
+// above it (quadrature).
+double analyticVisibility(double x, const std::vector<PlanarBlocker>& blockers, double alpha) {
   const int nt = 200, np = 400;
   static std::vector<double> cosPhi;
   if (cosPhi.empty())
@@ -377,7 +374,7 @@ double analyticVisibility(double x, const std::vector<HalfPlane>& blockers, doub
     double dw = (std::cos(t0) - std::cos(t1)) * std::cos(th), tt = std::tan(th);
     for (int j = 0; j < np; ++j) {
       bool blocked = false;
-      for (const HalfPlane& b : blockers) {
+      for (const PlanarBlocker& b : blockers) {
         double xb = x + b.height * tt * cosPhi[j];
         blocked = blocked || (xb < b.edge && xb > b.start);
       }
@@ -388,13 +385,9 @@ double analyticVisibility(double x, const std::vector<HalfPlane>& blockers, doub
   return lit / total;
 }
 
-struct PlanarPixel {
-  double x, got, expect;
-};
-
 struct PlanarSetup {
   double alphaDeg = 5;
-  std::vector<HalfPlane> blockers{{0.0, 1.0}};
+  std::vector<PlanarBlocker> blockers{{0.0, 1.0}};
   int mapSize = 256;
   ShadowTechnique technique = ShadowTechnique::MSSM6;
   std::function<void(RenderOptions&)> tweak;
@@ -408,89 +401,44 @@ struct PlanarSetup {
 // Renders the blockers over a receiver plane lit straight from above and returns, per receiver
 // pixel, its x and the visibility against the analytic one (tests/test_mssm.cpp's planarCase,
 // generalized to several blockers and a raised receiver).
-std::vector<PlanarPixel> planarRun(const PlanarSetup& s) {
-  Scene scene;
-  const double yR = s.receiverHeight;
-  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
-  if (yR > 0) scene.meshes.push_back(planarQuad("platform", -3, float(s.receiverEdge), -3, 3, float(yR)));
-  double hMax = 0, lo = 1e9, hi = -1e9;
-  const double ta = std::tan(s.alphaDeg * M_PI / 180);
-  std::vector<HalfPlane> above;  // heights above the receiver
-  for (std::size_t i = 0; i < s.blockers.size(); ++i) {
-    const HalfPlane& b = s.blockers[i];
-    scene.meshes.push_back(planarQuad("blocker" + std::to_string(i), float(b.start), float(b.edge), -3, 3, float(b.height)));
+std::vector<ComparedPixel> planarRun(const PlanarSetup& s) {
+  PlanarPenumbra p;
+  p.blockers = s.blockers;
+  p.receiverHeight = s.receiverHeight;
+  p.receiverEdge = s.receiverEdge;
+  p.light = capLightAbove(s.alphaDeg);
+  p.eye = s.eye;
+  p.target = s.target;
+  p.mapSize = s.mapSize;
+  p.layered = true;
+  RenderOptions ro;
+  ro.shadows = s.technique;
+  if (s.tweak) s.tweak(ro);
+  PlanarFrame f = renderPlanar(p, ro);
+  // the profile is a function of x alone: tabulated at 1/2000 of the penumbrae's span
+  const double yR = s.receiverHeight, ta = std::tan(s.alphaDeg * M_PI / 180);
+  double lo = 1e9, hi = -1e9;
+  std::vector<PlanarBlocker> above;  // heights above the receiver
+  for (const PlanarBlocker& b : s.blockers) {
     above.push_back({b.edge, b.height - yR, b.start});
-    hMax = std::max(hMax, b.height - yR);
     lo = std::min(lo, (b.start > -2.9 ? b.start : b.edge) - (b.height - yR) * ta);
     hi = std::max(hi, b.edge + (b.height - yR) * ta);
   }
-  AreaLight light;
-  light.direction = {0, 1, 0};
-  light.cosAlpha = float(std::cos(s.alphaDeg * M_PI / 180));
-  light.radiance = {1, 1, 1};
-  LightSet set;
-  set.lights.push_back(light);
-  // By default on the lit side below the lowest blocker's height, looking across the shadow edges
-  double hMin = hMax;
-  for (const HalfPlane& b : above) hMin = std::min(hMin, b.height);
-  Camera cam;
-  cam.eye = s.eye;
-  if (cam.eye[1] < 0) cam.eye[1] = float(yR + 0.45 * hMin);
-  cam.target = s.target;
-  cam.up = {0, 1, 0};
-  cam.fovyDeg = 50;
-  RenderOptions ro;
-  ro.width = 128;
-  ro.height = 96;
-  ro.shadowMapSize = s.mapSize;
-  ro.environmentBackground = false;
-  ro.shadow.maxFilterTexels = 64;
-  ro.shadows = s.technique;
-  if (s.tweak) s.tweak(ro);
-  Environment env = builtinEnvironment(16);
-  Renderer r(ctx());
-  Frame f = r.render(scene, cam, set, env, ro);
-  auto vis = r.lastVisibility();
-  CameraBasis b = cameraBasis(cam, ro.width, ro.height);
-  const int N = 2000;
-  std::vector<double> table(N + 1);
-  for (int k = 0; k <= N; ++k)
-    table[k] = analyticVisibility(lo + (hi - lo) * k / N, above, s.alphaDeg * M_PI / 180);
-  std::vector<PlanarPixel> out;
-  for (int y = 0; y < ro.height; ++y)
-    for (int x = 0; x < ro.width; ++x) {
-      if (f.image.at(x, y, 3) < 0.5f) continue;
-      Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
-      if (d[1] >= 0) continue;  // a blocker's underside, not the receiver
-      double t = (yR - b.eye[1]) / d[1];
-      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
-      if (t <= 0 || px > s.receiverEdge - 0.02) continue;  // not the platform (or its edge)
-      bool hidden = false;  // a blocker's top face first (cameras above a blocker)
-      for (const HalfPlane& h : s.blockers) {
-        double th = (h.height - b.eye[1]) / d[1];
-        double xh = b.eye[0] + th * d[0];
-        hidden = hidden || (th > 0 && th < t && xh < h.edge && xh > h.start);
-      }
-      if (hidden) continue;
-      if (std::fabs(px) > 2.9 || std::fabs(pz) > 2.9) continue;  // ground's border
-      // the profile is a function of x alone: tabulated at 1/2000 of the penumbrae's span
-      double u = std::clamp((px - lo) / (hi - lo), 0.0, 1.0) * N;
-      int k = std::min(int(u), N - 1);
-      double expect = table[k] + (u - k) * (table[k + 1] - table[k]);
-      out.push_back({px, double(vis[std::size_t(y) * ro.width + x]), expect});
-    }
-  return out;
+  const PenumbraProfile profile(lo, hi, 2000, [&](double x) {
+    return analyticVisibility(x, above, s.alphaDeg * M_PI / 180);
+  });
+  return compareWithProfile(f.receivers, profile).pixels;
 }
 
-double maxError(const std::vector<PlanarPixel>& p) {
+double maxError(const std::vector<ComparedPixel>& p) {
   double e = 0;
-  for (const PlanarPixel& q : p) e = std::max(e, std::fabs(q.got - q.expect));
+  for (const ComparedPixel& q : p) e = std::max(e, std::fabs(q.got - q.expect));
   return e;
 }
 
-int penumbraPixels(const std::vector<PlanarPixel>& p) {
+int penumbraPixels(const std::vector<ComparedPixel>& p) {
   int n = 0;
-  for (const PlanarPixel& q : p) n += q.expect > 0.02 && q.expect < 0.98;
+  for (const ComparedPixel& q : p) n += q.expect > 0.02 && q.expect < 0.98;
   return n;
 }
 

@@ -15,6 +15,7 @@
 
 #include "shadows/shadow_pass.hpp"
 #include "common.hpp"
+#include "support/planar_penumbra.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -391,73 +392,22 @@ TEST(Prefilter, MipReproducesConstantsAndRamps) {
 // ---- MSSM4 with the mip pyramid ----
 namespace {
 
-
-
-struct PlanarResult {
-  double maxError = 0, rmsPenumbra = 0;
-  int samples = 0, penumbraSamples = 0;
-};
-
 // tests/test_mssm.cpp's planar parallel configuration with a choice of prefilter: a half-plane
 // blocker at height h over a receiver plane, one light straight down, per-pixel visibility against
 // the analytic profile.
-PlanarResult planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, double edgeTexels) {
+ProfileComparison planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, double edgeTexels) {
   // The light's map spans the ground's 6 units (+ renderer.cpp's 1e-3 margin) in x; the blocker's
   // edge x = xe lies edgeTexels texels from the map's centre line.
   const double xe = -edgeTexels * 2 * (3 + 6e-3) / mapSize;
-  Scene scene;
-  scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(planarQuad("blocker", -3, float(xe), -3, 3, float(h)));
-  AreaLight light;
-  light.direction = {0, 1, 0};
-  light.cosAlpha = float(std::cos(alphaDeg * M_PI / 180));
-  light.radiance = {1, 1, 1};
-  LightSet set;
-  set.lights.push_back(light);
-  Camera cam;
-  cam.eye = {2.2f, float(0.45 * h), 0.3f};
-  cam.target = {-1.2f, 0, 0};
-  cam.up = {0, 1, 0};
-  cam.fovyDeg = 50;
+  PlanarPenumbra s;
+  s.blockers = {{xe, h}};
+  s.light = capLightAbove(alphaDeg);
+  s.mapSize = mapSize;
   RenderOptions ro;
-  ro.width = 128;
-  ro.height = 96;
-  ro.shadowMapSize = mapSize;
-  ro.environmentBackground = false;
-  ro.shadow.maxFilterTexels = 64;
   ro.prefilter = pf;
-  Environment env = builtinEnvironment(16);
-  Renderer r(ctx());
-  Frame f = r.render(scene, cam, set, env, ro);
-  auto vis = r.lastVisibility();
-  CameraBasis b = cameraBasis(cam, ro.width, ro.height);
-  PlanarResult res;
-  const double R = h * std::tan(alphaDeg * M_PI / 180);
-  std::vector<double> table(2001);
-  for (int k = 0; k <= 2000; ++k)
-    table[k] = halfPlaneVisibility(-R + 2 * R * k / 2000.0, h, alphaDeg * M_PI / 180);
-  double sq = 0;
-  for (int y = 0; y < ro.height; ++y)
-    for (int x = 0; x < ro.width; ++x) {
-      if (f.image.at(x, y, 3) < 0.5f) continue;
-      Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
-      if (d[1] >= 0) continue;  // the blocker's underside, not the receiver
-      double t = -b.eye[1] / d[1];
-      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
-      if (std::fabs(px) > 2.9 || std::fabs(pz) > 2.9) continue;  // ground's border
-      px -= xe;
-      double u = std::clamp((px + R) / (2 * R), 0.0, 1.0) * 2000;
-      int k = std::min(int(u), 1999);
-      double expect = table[k] + (u - k) * (table[k + 1] - table[k]);
-      double err = std::fabs(vis[std::size_t(y) * ro.width + x] - expect);
-      res.maxError = std::max(res.maxError, err);
-      ++res.samples;
-      if (std::fabs(px) < R) {
-        ++res.penumbraSamples;
-        sq += err * err;
-      }
-    }
-  res.rmsPenumbra = std::sqrt(sq / std::max(1, res.penumbraSamples));
+  PlanarFrame f = renderPlanar(s, ro);
+  ProfileComparison res =
+      compareWithProfile(f.receivers, halfPlaneProfile(h, alphaDeg * M_PI / 180), xe);
   std::printf("[ penumbra ] MSSM4 + %s, planar alpha %.1f deg, h %.1f, map %d, edge %+.2f texels: "
               "max |V - V_analytic| = %.4f over %d pixels, RMS in the penumbra %.4f over %d\n",
               toString(pf), alphaDeg, h, mapSize, edgeTexels, res.maxError, res.samples,
@@ -483,21 +433,21 @@ PlanarResult planarCase(Prefilter pf, double alphaDeg, double h, int mapSize, do
 // RMS over the penumbra 0.144 + 0.05 < 0.20. Measured (printed): 0.042 / 0.048 on the grid;
 // 0.19 / 0.20 max and 0.13 / 0.14 RMS off it (SAT: 0.073 / 0.044 max, 0.047 / 0.023 RMS).
 TEST(PrefilterMSSM4, MipNarrowPenumbraMatchesAnalyticProfile) {
-  PlanarResult onGrid = planarCase(Prefilter::Mip, 5.0, 1.0, 256, 0.0);
+  ProfileComparison onGrid = planarCase(Prefilter::Mip, 5.0, 1.0, 256, 0.0);
   EXPECT_GT(onGrid.samples, 5000);
   EXPECT_GT(onGrid.penumbraSamples, 100);
   EXPECT_LT(onGrid.maxError, 0.125);
-  PlanarResult off = planarCase(Prefilter::Mip, 5.0, 1.0, 256, 128.0 / 3);
+  ProfileComparison off = planarCase(Prefilter::Mip, 5.0, 1.0, 256, 128.0 / 3);
   EXPECT_GT(off.penumbraSamples, 80);
   EXPECT_LT(off.maxError, 0.33);
   EXPECT_LT(off.rmsPenumbra, 0.20);
 }
 
 TEST(PrefilterMSSM4, MipWidePenumbraMatchesAnalyticProfile) {
-  PlanarResult onGrid = planarCase(Prefilter::Mip, 15.0, 1.0, 256, 0.0);
+  ProfileComparison onGrid = planarCase(Prefilter::Mip, 15.0, 1.0, 256, 0.0);
   EXPECT_GT(onGrid.penumbraSamples, 500);
   EXPECT_LT(onGrid.maxError, 0.125);
-  PlanarResult off = planarCase(Prefilter::Mip, 15.0, 1.0, 256, 128.0 / 3);
+  ProfileComparison off = planarCase(Prefilter::Mip, 15.0, 1.0, 256, 128.0 / 3);
   EXPECT_GT(off.penumbraSamples, 250);
   EXPECT_LT(off.maxError, 0.33);
   EXPECT_LT(off.rmsPenumbra, 0.20);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/planar_penumbra.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -30,112 +31,47 @@ Mesh hquad(const std::string& name, float x0, float x1, float z0, float z1, floa
   return quad(name, {x0, y, z0}, {x1, y, z0}, {x1, y, z1}, {x0, y, z1});
 }
 
-// Unblocked fraction of a cap of half-angle alpha around +y, seen from a receiver at x on the
-// plane y = 0, when the half-plane {x' < 0, y = h} blocks. cosWeighted: weighted by the
-// irradiance each direction brings (cos theta: the visibility the shading needs); otherwise by
-// solid angle alone. Quadrature over theta; the ring at theta meets the blocker plane in a circle
-// of radius r = h tan(theta) around x, whose lit share acos(-x/r)/pi is exact.
-double analyticVisibility(double x, double h, double alpha, bool cosWeighted = true) {
-  const int nt = 2000;
-  double lit = 0, total = 0;
-  for (int i = 0; i < nt; ++i) {
-    double t0 = alpha * i / nt, t1 = alpha * (i + 1) / nt, th = 0.5 * (t0 + t1);
-    double dw = (std::cos(t0) - std::cos(t1)) * (cosWeighted ? std::cos(th) : 1.0);
-    double r = h * std::tan(th);
-    double share = x >= r ? 1.0 : x <= -r ? 0.0 : std::acos(-x / r) / M_PI;
-    total += dw;
-    lit += dw * share;
-  }
-  return lit / total;
-}
-
-// One receiver pixel of the planar configuration: its ground position x and visibility.
-struct PlanarPixel {
-  double x, vis;
-};
-
 struct Planar {
-  std::vector<PlanarPixel> pixels;
+  std::vector<ReceiverPixel> pixels;
   double R = 0;        // penumbra half-width h tan(alpha)
   double texel = 0;    // shadow-map texel size (world)
   std::vector<float> image;
 };
 
-// Ground [-3,3]^2 at y = 0, a half-plane blocker x < 0 at height h, one light straight down with
-// half-angle alphaDeg; the camera stands on the lit side below the blocker and looks across the
-// shadow edge (as tests/test_mssm.cpp's planarCase). Returns every ground pixel inside the border.
+// tests/support's planar configuration: a half-plane blocker x < 0 at height h over the ground,
+// one light straight down with half-angle alphaDeg, the camera on the lit side below the blocker
+// (at least 0.2 over the ground), quads without normals. Returns every ground pixel inside the
+// border.
 Planar planarFrame(RenderOptions ro, double alphaDeg, double h, int mapSize) {
-  Scene scene;
-  scene.meshes.push_back(hquad("ground", -3, 3, -3, 3, 0));
-  scene.meshes.push_back(hquad("blocker", -3, 0, -3, 3, float(h)));
-  AreaLight light;
-  light.direction = {0, 1, 0};
-  light.cosAlpha = float(std::cos(alphaDeg * M_PI / 180));
-  light.radiance = {1, 1, 1};
-  LightSet set;
-  set.lights.push_back(light);
-  Camera cam;
-  cam.eye = {2.2f, float(std::max(0.45 * h, 0.2)), 0.3f};
-  cam.target = {-1.2f, 0, 0};
-  cam.up = {0, 1, 0};
-  cam.fovyDeg = 50;
-  ro.width = 128;
-  ro.height = 96;
-  ro.shadowMapSize = mapSize;
-  ro.environmentBackground = false;
-  ro.shadow.maxFilterTexels = 64;
-  Environment env = builtinEnvironment(16);
-  Renderer r(ctx());
-  Frame f = r.render(scene, cam, set, env, ro);
-  auto vis = r.lastVisibility();
-  CameraBasis b = cameraBasis(cam, ro.width, ro.height);
+  PlanarPenumbra s;
+  s.blockers = {{0.0, h}};
+  s.light = capLightAbove(alphaDeg);
+  s.vertexNormals = false;
+  s.minEyeHeight = 0.2;
+  s.mapSize = mapSize;
   Planar p;
   p.R = h * std::tan(alphaDeg * M_PI / 180);
   p.texel = 2 * (3 + 6e-3) / mapSize;  // lightFrame's half-extent 3 plus its 1e-3 margin
+  // the analytic blocker is a half-plane: leave out receivers that see past its far edges
+  // (brute force's sample maps reach there; the filters stop at the map's border)
+  const double R = p.R;
+  s.keep = [R](double px, double pz) {
+    return !(px < -2.95 + std::fabs(R) || std::fabs(pz) > 2.95 - std::fabs(R));
+  };
+  PlanarFrame f = renderPlanar(s, ro);
   p.image = f.image.pixels;
-  for (int y = 0; y < ro.height; ++y)
-    for (int x = 0; x < ro.width; ++x) {
-      if (f.image.at(x, y, 3) < 0.5f) continue;
-      Vec3 d = cameraRayDirection(b, ro.width, ro.height, x + 0.5f, y + 0.5f);
-      if (d[1] >= 0) continue;  // the blocker's underside, not the receiver
-      double t = -b.eye[1] / d[1];
-      double px = b.eye[0] + t * d[0], pz = b.eye[2] + t * d[2];
-      if (std::fabs(px) > 2.9 || std::fabs(pz) > 2.9) continue;  // ground's border
-      // the analytic blocker is a half-plane: leave out receivers that see past its far edges
-      // (brute force's sample maps reach there; the filters stop at the map's border)
-      if (px < -2.95 + std::fabs(p.R) || std::fabs(pz) > 2.95 - std::fabs(p.R)) continue;
-      p.pixels.push_back({px, vis[std::size_t(y) * ro.width + x]});
-    }
+  p.pixels = f.receivers;
   return p;
 }
 
-struct PlanarError {
-  double maxError = 0, rmsPenumbra = 0;
-  int samples = 0, penumbraSamples = 0;
-};
+using PlanarError = ProfileComparison;
 
 // Per pixel against the analytic profile (tabulated at 1/2000 of the penumbra width).
 PlanarError planarError(const Planar& p, double alphaDeg, double h, bool cosWeighted = true) {
   const double alpha = alphaDeg * M_PI / 180, R = p.R;
-  std::vector<double> table(2001);
-  for (int k = 0; k <= 2000; ++k)
-    table[k] = analyticVisibility(-R + 2 * R * k / 2000.0, h, alpha, cosWeighted);
-  PlanarError e;
-  double sq = 0;
-  for (const PlanarPixel& q : p.pixels) {
-    double u = std::clamp((q.x + R) / (2 * R), 0.0, 1.0) * 2000;
-    int k = std::min(int(u), 1999);
-    double expect = table[k] + (u - k) * (table[k + 1] - table[k]);
-    double err = std::fabs(q.vis - expect);
-    e.maxError = std::max(e.maxError, err);
-    ++e.samples;
-    if (std::fabs(q.x) < R) {
-      ++e.penumbraSamples;
-      sq += err * err;
-    }
-  }
-  e.rmsPenumbra = std::sqrt(sq / std::max(1, e.penumbraSamples));
-  return e;
+  return compareWithProfile(p.pixels, PenumbraProfile(-R, R, 2000, [&](double x) {
+                              return halfPlaneVisibilityByRings(x, h, alpha, cosWeighted);
+                            }));
 }
 
 PlanarError planarCase(const char* what, RenderOptions ro, double alphaDeg, double h,
@@ -229,7 +165,7 @@ TEST(HardShadows, ExactlyBinaryAwayFromTheEdge) {
   Planar p = planarFrame(withTechnique(ShadowTechnique::Hard), 10.0, 1.0, 256);
   ASSERT_GT(p.pixels.size(), 5000u);
   int shadowed = 0, lit = 0;
-  for (const PlanarPixel& q : p.pixels) {
+  for (const ReceiverPixel& q : p.pixels) {
     ASSERT_TRUE(q.vis == 0.0 || q.vis == 1.0) << "x " << q.x << " vis " << q.vis;
     if (std::fabs(q.x) <= p.texel) continue;
     EXPECT_EQ(q.vis, q.x < 0 ? 0.0 : 1.0) << "x " << q.x;
