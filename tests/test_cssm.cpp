@@ -132,14 +132,6 @@ PlanarResult planar(const PlanarCase& c) {
   // the blocker's other edges (x = -3, z = +-3), which the map sees past its range extenders
   s.keep = [R](double px, double pz) { return !(px < -3 + 1.2 * R || std::fabs(pz) > 3 - 1.2 * R); };
   RenderOptions ro;
-<<<<<<< HEAD
-  ro.width = 128;
-  ro.height = 96;
-  ro.shadowMapSize = c.mapSize;
-  ro.environmentBackground = false;
-  ro.shadow.maxFilterTexels = 64;
-=======
->>>>>>> h4
   ro.shadows = ShadowTechnique::CSSM;
   ro.cssm = c.cssm;
   PlanarFrame f = renderPlanar(s, ro);
