@@ -236,10 +236,13 @@ SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv = true) 
 const std::vector<OptionSpec> kExtractSpecs = {
     {"extract", true, "median-cut (default) | greedy | center-surround"},
     {"lights", true, "median-cut: number of lights (default 32); greedy, center-surround: the most "
-                     "lights kept (default 64, 256)"},
-    {"face-size", true, "median-cut, greedy: cube face size (default 256, 64)"},
+                     "lights kept (default 64, 256)",
+     {"MedianCutOptions.lights", "GreedyOptions.maxLights"}},
+    {"face-size", true, "median-cut, greedy: cube face size (default 256, 64)",
+     {"MedianCutOptions.faceSize", "GreedyOptions.faceSize"}},
     {"threshold", true, "greedy: a side grows while its added energy / the light's exceeds this "
-                        "(default 0.02)"},
+                        "(default 0.02)",
+     {"GreedyOptions.threshold"}},
     {"rect", false, "greedy: rectangular lights (default square)"},
     {"stop", true, "center-surround: stop when a light carries less than this fraction of the "
                    "lights so far (default 0.02)"},
@@ -616,18 +619,26 @@ int cmdRender(int argc, char** argv) {
   return 0;
 }
 
-int cmdReference(int argc, char** argv) {
-  // --lights (or any extraction option) selects light-set mode: the scene is lit by the
-  // extracted lights and their ambient residual instead of the map.
+std::vector<OptionSpec> referenceSpecs() {
   const ReferenceOptions R;
-  auto specs = with(with(sceneOptions(R.width, R.height), kExtractSpecs), {
+  std::vector<OptionSpec> scene = sceneOptions(R.width, R.height);
+  for (OptionSpec& o : scene)
+    if (o.name == "size") o.fields = {"ReferenceOptions.width", "ReferenceOptions.height"};
+  return with(with(scene, kExtractSpecs), {
       kLightSetSpec,
-      {"spp", true, "shadow-ray samples per pixel (default " + num(R.spp) + ")"},
+      {"spp", true, "shadow-ray samples per pixel (default " + num(R.spp) + ")",
+       {"ReferenceOptions.spp"}},
       {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
-      {"threads", true, "CPU threads (default: all)"},
+      {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
       {"exposure", true, "PNG exposure multiplier (default: automatic)"},
       {"out", true, "output image .exr (default reference.exr) or .png"},
   });
+}
+
+int cmdReference(int argc, char** argv) {
+  // --lights (or any extraction option) selects light-set mode: the scene is lit by the
+  // extracted lights and their ambient residual instead of the map.
+  const std::vector<OptionSpec> specs = referenceSpecs();
   Args a = parse(argc, argv, 2, specs, "reference");
   if (has(a, "help")) {
     printHelp("penumbra reference [options]",
@@ -728,14 +739,17 @@ int cmdLights(int argc, char** argv) {
   return 0;
 }
 
-// A library error names the RenderOptions field at fault ("RenderOptions.cssm.order must be in
-// [1, 32], got 40"); the user typed an option. Each field a render option sets is replaced by that
-// option ("--cssm-order must be ..."); fields no option sets stay as they are.
+// A library error names the options field at fault ("RenderOptions.cssm.order must be in [1, 32],
+// got 40", "MedianCutOptions.lights must be >= 1"); the user typed an option. Each field an option
+// of render or reference sets is replaced by that option ("--cssm-order must be ..."); fields no
+// option sets stay as they are.
 std::string withOptionNames(std::string message) {
   auto letter = [&](std::size_t i) {
     return i < message.size() && (std::isalnum(static_cast<unsigned char>(message[i])) || message[i] == '_');
   };
-  for (const OptionSpec& o : renderSpecs())
+  std::vector<OptionSpec> specs = renderSpecs();
+  for (const OptionSpec& o : referenceSpecs()) specs.push_back(o);
+  for (const OptionSpec& o : specs)
     for (const std::string& field : o.fields)
       for (std::size_t at = message.find(field); at != std::string::npos;
            at = message.find(field, at + 1)) {

@@ -1,4 +1,4 @@
-// Cost of the bitmask technique (seed 001; src/shadows_bitmask.cpp) against its three drivers:
+// Cost of the bitmask technique (seed 001; src/shadows/bitmask.cpp) against its three drivers:
 //   BM_BitmaskSamples/N/W     built-in scene and sky, 32 median-cut lights, N light samples per
 //                             light (128..1024), a W x (W * 9 / 16) frame. Seed 001 reports roughly
 //                             x2 from 128 to 1024 samples.
@@ -12,8 +12,9 @@
 // Counters: device time per stage in ms per frame (bitmask/lists/* summed as lists_ms,
 // bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the process's CPU time
 // per frame (process_cpu_ms: on a CPU device the work itself, which other processes loading the
-// machine stretch in wall-clock time but not in CPU time), the scene's triangle count, and the list statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and
-// max list length, view samples).
+// machine stretch in wall-clock time but not in CPU time), the scene's triangle count, and the list
+// statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and max list length,
+// view samples).
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
 

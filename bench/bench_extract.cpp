@@ -163,12 +163,12 @@ double processCpuMs() {
   return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
 }
 
-// The ambient as seed 004's pre-integrated irradiance map (kernels/irradiance.cl) at a table of
-// range(0) x range(0)/2, on median cut's 32 lights: map_ms is the map's kernels (ambient/map-*),
-// split into prefix_ms (the rows' running sums), normals_ms, widths_ms, bands_ms (the runs' sums
-// per normal) and table_ms (bands in order, minus the lights), process_cpu_ms the whole call's
-// process CPU time (all threads; steady state, the warm-up call left out); sh_ms the SH
-// projection every model also runs, and map_to_sh their ratio in the same run.
+// The ambient as seed 004's pre-integrated irradiance map (kernels/environment/irradiance.cl) at a
+// table of range(0) x range(0)/2, on median cut's 32 lights: map_ms is the map's kernels
+// (ambient/map-*), split into prefix_ms (the rows' running sums), normals_ms, widths_ms, bands_ms
+// (the runs' sums per normal) and table_ms (bands in order, minus the lights), process_cpu_ms the
+// whole call's process CPU time (all threads; steady state, the warm-up call left out); sh_ms the
+// SH projection every model also runs, and map_to_sh their ratio in the same run.
 void BM_AmbientMap(benchmark::State& state) {
   const LightSet lights = extractMedianCut(setup().ctx, setup().env, MedianCutOptions{});
   AmbientOptions ao;

@@ -1,6 +1,7 @@
-// The ambient residual (src/ambient.cpp, kernels/sh.cl): the map's SH projection against host
-// quadrature, the caps' analytic projection against quadrature, irradiance of a constant map,
-// median cut + ambient on every map, and the ambient in rendered frames and in the reference.
+// The ambient residual (src/environment/ambient.cpp, kernels/environment/sh.cl): the map's SH
+// projection against host quadrature, the caps' analytic projection against quadrature, irradiance
+// of a constant map, median cut + ambient on every map, and the ambient in rendered frames and in
+// the reference.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -121,8 +122,8 @@ TEST(Ambient, ProjectionMatchesHostQuadratureOnAwkwardSizes) {
 }
 
 TEST(Ambient, ConstantMapSH9IrradianceIsPiL) {
-  // AmbientModel::SH9. Exact per-texel integration: a constant map of any size projects onto Y_00 alone, and its
-  // irradiance is pi L on every normal. 1e-5: float sums of the texel integrals.
+  // AmbientModel::SH9. Exact per-texel integration: a constant map of any size projects onto Y_00
+  // alone, and its irradiance is pi L on every normal. 1e-5: float sums of the texel integrals.
   const float L[3] = {0.5f, 1.0f, 2.0f};
   for (auto& s : std::vector<std::array<int, 2>>{{1, 1}, {4, 2}, {37, 19}, {512, 256}}) {
     Environment env;
@@ -406,7 +407,8 @@ TEST(OclgrindAmbient, TinyFrameWithAmbient) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The pre-integrated irradiance map (AmbientModel::IrradianceMap, kernels/irradiance.cl).
+// The pre-integrated irradiance map (AmbientModel::IrradianceMap,
+// kernels/environment/irradiance.cl).
 
 namespace {
 

@@ -179,8 +179,8 @@ TEST(EnvRotation, WholeTurnIsTheIdentity) {
 // Median-cut lights of the map turned 90 degrees are bit for bit the lights of the column-shifted
 // map (same cube), carry the same power, and light the turned normals as the original lights
 // light the original ones. The turn permutes the four side faces of the cube but spins the top and
-// bottom ones, and median cut splits a square region along x (kernels/extract.cl, `w >= h`), so
-// the individual cuts there need not turn with the map: that is measured and printed.
+// bottom ones, and median cut splits a square region along x (kernels/environment/extract.cl, `w >=
+// h`), so the individual cuts there need not turn with the map: that is measured and printed.
 TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
   for (const Environment& env : testMaps()) {
     SCOPED_TRACE(env.source);
@@ -201,7 +201,7 @@ TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
     const auto pb = base.power(), pt = turned.power();
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(pt[c], pb[c], 1e-5 * pb[c]);
     // The cuts turn with the map (issue 4: directions within 1 degree, powers within 1%): square
-    // regions choose their cut axis by a rotation-consistent rule (kernels/extract.cl).
+    // regions choose their cut axis by a rotation-consistent rule (kernels/environment/extract.cl).
     double total = 0;
     for (auto& l : base.lights) total += lum(l.power);
     double worstDeg = 0, worstPow = 0;

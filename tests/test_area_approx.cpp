@@ -1,9 +1,9 @@
-// Area approximation for polygonal lights (seed 002; src/shadows_area.cpp, kernels/area.cl).
-//   - the visible-area estimate (kernels/area.cl's area_ratio) against a plain C++ reference on
-//     awkward case counts, and the reference itself against exact polygon clipping;
-//   - whole frames on synthetic planar cases (a straight occluder edge crossing the light, a
-//     corner, fully lit, fully blocked) against the exact solid-angle visibility and against the
-//     method's own ideal (exact point visibilities and crossing points);
+// Area approximation for polygonal lights (seed 002; src/shadows/area.cpp,
+// kernels/shadows/area.cl).   - the visible-area estimate (kernels/shadows/area.cl's area_ratio)
+// against a plain C++ reference on     awkward case counts, and the reference itself against exact
+// polygon clipping;   - whole frames on synthetic planar cases (a straight occluder edge crossing
+// the light, a     corner, fully lit, fully blocked) against the exact solid-angle visibility and
+// against the     method's own ideal (exact point visibilities and crossing points);
 //   - determinism, bad options, every extracted light set (caps), the default scene against brute
 //     force with many samples on the same lights, and tiny inputs under oclgrind (Oclgrind*).
 #include <gtest/gtest.h>
@@ -33,8 +33,8 @@ using P3 = std::array<double, 3>;
 P3 dirOf(P2 q) { return {q[0], q[1], 1.0}; }  // a gnomonic point as a direction (light's frame)
 double dot3(P3 a, P3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-// Irradiance (times 2, over unit radiance) a convex polygon of directions sends normal n: clipped by
-// the horizon n.w >= 0 (Sutherland-Hodgman), then Lambert's formula sum_i Theta_i n.g_i.
+// Irradiance (times 2, over unit radiance) a convex polygon of directions sends normal n: clipped
+// by the horizon n.w >= 0 (Sutherland-Hodgman), then Lambert's formula sum_i Theta_i n.g_i.
 double irradiance(const std::vector<P3>& poly, P3 n) {
   std::vector<P3> c;
   for (std::size_t i = 0; i < poly.size(); ++i) {
@@ -62,8 +62,8 @@ double irradiance2(const std::vector<P2>& poly, P3 n) {
   return irradiance(d, n);
 }
 
-// Plain C++ reference of kernels/area.cl's area_ratio: the lit boundary runs, each entered and
-// left at its crossing points and closed by the chord between them (seed 002 §2, Figure 1), as
+// Plain C++ reference of kernels/shadows/area.cl's area_ratio: the lit boundary runs, each entered
+// and left at its crossing points and closed by the chord between them (seed 002 §2, Figure 1), as
 // explicit polygons; S_e / S_a = their irradiance over the whole light's on normal n (light's
 // frame). seg[k] is the lit share of segment k -> k+1, lying next to its lit end.
 double refAreaRatio(const std::vector<P2>& q, std::uint64_t lit, const std::vector<double>& seg,
@@ -157,8 +157,9 @@ void exactInputs(const std::vector<P2>& q, const std::function<bool(P2)>& litAt,
   }
 }
 
-// Runs kernels/area.cl's area_ratio_cases on `cases` random inputs over boundary q; compares with
-// the reference. Random masks with runs (not only single bits) and random segment shares.
+// Runs kernels/shadows/area.cl's area_ratio_cases on `cases` random inputs over boundary q;
+// compares with the reference. Random masks with runs (not only single bits) and random segment
+// shares.
 void expectRatioKernelMatches(const std::vector<P2>& q, int cases, unsigned seed) {
   const int n = int(q.size());
   std::mt19937 rng(seed);
@@ -259,8 +260,9 @@ TEST(AreaApprox, ReferenceKeepsBothSidesOfABar) {
     }
 }
 
-// kernels/area.cl against the reference on awkward case counts (1, odd, more than a work-group)
-// and boundary sizes (a triangle's 3, an octagon with one sample per edge, the 64 maximum).
+// kernels/shadows/area.cl against the reference on awkward case counts (1, odd, more than a
+// work-group) and boundary sizes (a triangle's 3, an octagon with one sample per edge, the 64
+// maximum).
 TEST(AreaApprox, RatioKernelMatchesReference) {
   expectRatioKernelMatches(boundary(regularPolygon(3, 0.2, 0.0), 0), 2, 1);
   expectRatioKernelMatches(boundary(regularPolygon(8, 0.2, 0.1), 1), 37, 2);

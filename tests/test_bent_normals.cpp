@@ -35,8 +35,8 @@ V unit(V a) {
   return {a[0] / l, a[1] / l, a[2] / l};
 }
 
-// The renderer's upload of a scene (src/renderer.cpp): float4 positions (w 1), normals (w 1, or
-// all 0 without vertex normals), int4 triangles (w: mesh index).
+// The renderer's upload of a scene (src/render/renderer.cpp): float4 positions (w 1), normals (w 1,
+// or all 0 without vertex normals), int4 triangles (w: mesh index).
 struct Uploaded {
   std::vector<cl_float4> pos, nrm;
   std::vector<cl_int4> tris;

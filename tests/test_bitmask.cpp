@@ -1,6 +1,6 @@
-// Sample-based visibility (seed 001; src/shadows_bitmask.cpp, kernels/viewsamples.cl,
-// kernels/bitmask.cl). Every (view sample, light sample) bit is checked against an Embree shadow
-// ray along the same direction; the lists against a C++ recount; the resolve against a C++
+// Sample-based visibility (seed 001; src/shadows/bitmask.cpp, kernels/shadows/viewsamples.cl,
+// kernels/shadows/bitmask.cl). Every (view sample, light sample) bit is checked against an Embree
+// shadow ray along the same direction; the lists against a C++ recount; the resolve against a C++
 // weighted sum; awkward cases (empty lists, one list holding every sample, edge-on casters, a
 // light sample in a caster's plane), determinism, and a tiny frame under oclgrind (Oclgrind*).
 #include <gtest/gtest.h>
@@ -123,7 +123,7 @@ Agreement agreeWithEmbree(const Scene& scene, const BitmaskCapture& c) {
   return {pairs.load(), agree.load(), samples.load(), samplesAgree.load()};
 }
 
-// The resolve kernel's visibility recomputed from the masks in C++ (kernels/bitmask.cl).
+// The resolve kernel's visibility recomputed from the masks in C++ (kernels/shadows/bitmask.cl).
 void expectResolveMatches(const BitmaskRun& r) {
   const auto& c = r.cap;
   const int nl = int(c.lights.size()), npx = c.pixels;

@@ -46,7 +46,7 @@ TEST(Context, KernelBuildFailureCarriesLogAndFile) {
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::KernelBuild);
     std::string msg = e.what();
-    EXPECT_NE(msg.find("kernels/scan.cl"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("kernels/common/scan.cl"), std::string::npos) << msg;
     EXPECT_NE(msg.find("not_a_type"), std::string::npos) << msg;  // from the build log
   }
   EXPECT_THROW(ctx.kernel("missing.cl", "x"), Error);

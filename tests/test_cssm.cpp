@@ -54,7 +54,7 @@ LightSet oneLight(Vec3 dir, float cosAlpha) {
 }
 
 // The truncated complementary shadow test, seed 000 eq. 10, as a function of t = d - z, and the
-// ringing suppression of §3.3 as src/shadows_cssm.cpp derives it for ringingOffset = 0 (written
+// ringing suppression of §3.3 as src/shadows/cssm.cpp derives it for ringingOffset = 0 (written
 // again here from the definitions, independently of the library):
 //   S_M(t) = 1/2 + 2 sum_k sin(c_k t)/c_k, c_k = pi (2k - 1);
 //   s_hi = min of S_M past its first peak, t0 = first t with S_M(t) = s_hi;
@@ -136,8 +136,9 @@ PlanarResult planar(const PlanarCase& c) {
   ro.cssm = c.cssm;
   PlanarFrame f = renderPlanar(s, ro);
   Series ser(c.cssm.order);
-  // The map's depth range as src/renderer.cpp's lightFrame fits it to the scene's box (margin
-  // 1e-3 of the largest extent on both ends), so the blocker's depth above the ground is t_b.
+  // The map's depth range as src/render/renderer.cpp's lightFrame fits it to the scene's box
+  // (margin 1e-3 of the largest extent on both ends), so the blocker's depth above the ground is
+  // t_b.
   const double top = std::max(c.h, c.rangeTop), extent = c.rangeTop > 0 ? 7.2 : 6.0;
   const double range = top + 2e-3 * std::max(extent, top);
   PlanarResult res;
@@ -247,7 +248,8 @@ std::vector<float> contactVisibility(const CSSMOptions& cssm, float H) {
   Scene scene;
   scene.meshes.push_back(planarQuad("ground", -3, 3, -3, 3, 0));
   scene.meshes.push_back(box("wall", {-0.1f, 0.0f, -1.5f}, {0.1f, H, 1.5f}));
-  scene.meshes.push_back(planarQuad("top", 2.9f, 3.0f, 2.9f, 3.0f, 3.0f));  // depth range as a scene's
+  scene.meshes.push_back(planarQuad("top", 2.9f, 3.0f, 2.9f, 3.0f, 3.0f));  // depth range as a
+                                                                            // scene's
   LightSet set = oneLight({1, 1, 0}, float(std::cos(5.0 * M_PI / 180)));
   Camera cam;
   cam.eye = {-0.9f, 0.6f, 0.5f};

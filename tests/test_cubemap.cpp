@@ -1,6 +1,6 @@
-// kernels/envmap.cl against a plain C++ resampling (same sub-sample positions, double sums), on
-// awkward map and face sizes, turned and not, through both the splat and the gather path; the
-// splat's strips and the context's reused buffers against themselves, bit for bit.
+// kernels/environment/envmap.cl against a plain C++ resampling (same sub-sample positions, double
+// sums), on awkward map and face sizes, turned and not, through both the splat and the gather path;
+// the splat's strips and the context's reused buffers against themselves, bit for bit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -130,9 +130,9 @@ TEST(CubeMap, GatherMatchesReference) {
   compareWithReference(randomMap(101, 51, 16), 65, "101x51 -> 65");
 }
 
-// The splat merges a strip's adds in integers (kernels/envmap.cl slot_add), and integer sums do
-// not depend on their order: every strip width, one texel per work-item included, must give the
-// same bits.
+// The splat merges a strip's adds in integers (kernels/environment/envmap.cl slot_add), and integer
+// sums do not depend on their order: every strip width, one texel per work-item included, must give
+// the same bits.
 TEST(CubeMap, SplatStripsGiveIdenticalBits) {
   for (auto [w, h, m, rot] : {std::tuple{67, 33, 16, 33.3f}, std::tuple{401, 203, 100, 0.0f},
                               std::tuple{97, 51, 3, 0.0f}, std::tuple{256, 128, 64, 90.0f}}) {

@@ -138,7 +138,7 @@ TEST(GLFrame, PolygonLightsMatchOpenCLPath) {
 TEST(GLFrame, MatchesOpenCLPathEGL) { expectMatchesOpenCL(gl::Backend::EGL); }
 TEST(GLFrame, MatchesOpenCLPathOSMesa) { expectMatchesOpenCL(gl::Backend::OSMesa); }
 
-// --- the interop's conversion kernels (kernels/gl_interop.cl) against a plain C++ reference; no
+// --- the interop's conversion kernels (kernels/gl/gl_interop.cl) against a plain C++ reference; no
 // GL needed. Awkward sizes: 1x1, one row, one column, odd, wider than a work-group.
 namespace {
 
@@ -313,10 +313,11 @@ TEST(GLInterop, ChecksTextureFormatsAndSizes) {
                  {"output texture", "wrong format"});
   RenderOptions brute = opt;
   brute.shadows = ShadowTechnique::Brute;
-  expectBadInput([&] { shade(maps, g, out, lights, brute); }, {"--shadows brute"});
+  expectBadInput([&] { shade(maps, g, out, lights, brute); }, {"RenderOptions.shadows brute"});
   RenderOptions bent = opt;
   bent.bentNormals = true;
-  expectBadInput([&] { shade(maps, g, out, lights, bent); }, {"--bent-normals", "without --gl"});
+  expectBadInput([&] { shade(maps, g, out, lights, bent); },
+                 {"RenderOptions.bentNormals", "without GL"});
   // After all the refusals the valid frame still works.
   EXPECT_NO_THROW(shade(maps, g, out, lights, opt));
 }

@@ -23,9 +23,9 @@ namespace {
 
 using i64 = std::int64_t;
 
-// Plain C++ copy of kernels/greedy.cl's greedy_fit, one face after another. `e` (3 planes of
-// 6*m*m) is replaced by the remaining map. Moments are in double: the device rounds each texel's
-// product to an integer, so those are compared with a tolerance.
+// Plain C++ copy of kernels/environment/greedy.cl's greedy_fit, one face after another. `e` (3
+// planes of 6*m*m) is replaced by the remaining map. Moments are in double: the device rounds each
+// texel's product to an integer, so those are compared with a tolerance.
 struct RefLight {
   GreedyRect r;
   std::array<double, 3> moment{};

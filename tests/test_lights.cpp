@@ -64,7 +64,7 @@ double lum3(const std::array<double, 3>& e) {
 
 // Power (exact up to fixed-point rounding) and, for every normal, the part of the irradiance that
 // the cap model must reproduce exactly: E(n) - E(-n) = n . integral of L w dw, the region's first
-// moment, which cos(alpha) = 2R - 1 preserves (kernels/extract.cl).
+// moment, which cos(alpha) = 2R - 1 preserves (kernels/environment/extract.cl).
 void expectConserves(const Environment& env, const LightSet& set, const std::string& what) {
   double p[3];
   env.power(p);

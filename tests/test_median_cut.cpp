@@ -80,8 +80,8 @@ const AreaLight& brightest(const LightSet& set) {
 
 // The XYZ SATs (Y shared with the luminance SAT, X and Z exact in 1/10000 units) give back the
 // RGB powers of the old RGB SATs. Bound 1e-4 relative per channel (the issue's): what remains is
-// the per-texel truncation of Y, put back on average (src/lights.cpp XyzToRgb), and the float
-// rounding of cubeMapEnergy's texels; measured worst 1.2e-5 (interior, 256 lights).
+// the per-texel truncation of Y, put back on average (src/environment/median_cut.cpp XyzToRgb), and
+// the float rounding of cubeMapEnergy's texels; measured worst 1.2e-5 (interior, 256 lights).
 TEST(MedianCutXyz, PowersMatchRgbPathOnEveryMap) {
   const int m = 128;
   for (auto& env : everyMap()) {

@@ -31,8 +31,9 @@ ProfileComparison planarCase(double alphaDeg, double h, int mapSize) {
 }  // namespace
 
 // Bound 0.05 (issue 2). Budget: the box filter standing in for the disc-shaped light (equal-area
-// square, kernels/moments.cl) differs from the disc's profile by at most 0.023 on a straight edge;
-// the rest covers the moment bias and the shadow map's texel quantization of the edge.
+// square, kernels/shadows/moments.cl) differs from the disc's profile by at most 0.023 on a
+// straight edge; the rest covers the moment bias and the shadow map's texel quantization of the
+// edge.
 TEST(MSSM4, NarrowPenumbraMatchesAnalyticProfile) {
   ProfileComparison r = planarCase(5.0, 1.0, 256);
   EXPECT_GT(r.samples, 5000);

@@ -1,10 +1,10 @@
 // MSSM6 (seed 003 §4.2.1) and the upper-bound blocker depth (§4.2.2, eq. 19) of MSSM4 and MSSM6.
 //
-// 1. The reconstruction itself, on given moments (kernels/moments.cl's mssm_reconstruct): against
-//    an independent long-double implementation (power-basis Hankel solve, cubic by bisection,
-//    weights from the 4x4 Vandermonde system), float against double on the degenerate two-atom
-//    distributions at depths ~0 and ~1, exactness on three depths besides the receiver's where
-//    MSSM4 leaks, eq. 19 >= eq. 7.
+// 1. The reconstruction itself, on given moments (kernels/shadows/moments.cl's mssm_reconstruct):
+// against    an independent long-double implementation (power-basis Hankel solve, cubic by
+// bisection,    weights from the 4x4 Vandermonde system), float against double on the degenerate
+// two-atom    distributions at depths ~0 and ~1, exactness on three depths besides the receiver's
+// where    MSSM4 leaks, eq. 19 >= eq. 7.
 // 2. Whole frames: the planar analytic penumbra (as tests/test_mssm.cpp), a three-depth
 //    configuration (two blockers at different heights over the receiver) against its analytic
 //    visibility, degenerate inputs, determinism, and a tiny frame under oclgrind.
@@ -194,7 +194,8 @@ std::vector<Atoms> twoAtomCases(std::vector<double>& zf) {
 // 2e-5 off in float and in double, float within 5e-7 of double. Bound 2e-3 for both and 1e-3
 // between them: the bias (3e-5) alone may move the bound by up to ~25 bias on harder
 // distributions (7e-4 measured in double). (The same solve in the power basis z..z^6 has smallest
-// pivot bias/2800 = 1e-8 here and returns shadows off by up to 1 in float: kernels/moments.cl.)
+// pivot bias/2800 = 1e-8 here and returns shadows off by up to 1 in float:
+// kernels/shadows/moments.cl.)
 TEST(MSSM6, FloatSolveMatchesDoubleOnTwoAtomsAtZeroAndOne) {
   std::vector<double> zf;
   auto cases = twoAtomCases(zf);

@@ -422,7 +422,8 @@ TEST(PolygonLights, LightSetJsonRoundTripAndBadInput) {
   EXPECT_EQ(rect.lights[0].vertices.size(), 4u);
   const char* bad[] = {
       R"({"lights": [{"direction": [0, 1, 0], "radiance": [1, 1, 1]}]})",              // no angle
-      R"({"lights": [{"direction": [0, 1, 0], "half_angle_deg": 5}]})",                 // no radiance
+      R"({"lights": [{"direction": [0, 1, 0], "half_angle_deg": 5}]})",                 // no
+                                                                                        // radiance
       R"({"lights": [{"direction": [0, 1, 0], "half_angle_deg": 5, "radiance": [1, -1, 1]}]})",
       R"({"lights": [{"direction": [0, 0, 0], "half_angle_deg": 5, "radiance": [1, 1, 1]}]})",
       R"({"lights": [{"direction": [0, 1, 0], "half_angle_deg": 95, "radiance": [1, 1, 1]}]})",
@@ -460,10 +461,10 @@ TEST(PolygonLights, LightSetJsonRoundTripAndBadInput) {
   }
 }
 
-// The device shading of a polygon light (kernels/shade.cl, shared.h's pb_polygon_irradiance):
-// a quad facing +y lit by a rectangle light that crosses its horizon, no shadows, equals
-// albedo / pi times the host's irradiance; every technique runs on the same light and gives
-// finite pixels no brighter than the unshadowed frame.
+// The device shading of a polygon light (kernels/render/shade.cl, shared.h's
+// pb_polygon_irradiance): a quad facing +y lit by a rectangle light that crosses its horizon, no
+// shadows, equals albedo / pi times the host's irradiance; every technique runs on the same light
+// and gives finite pixels no brighter than the unshadowed frame.
 TEST(PolygonLights, RenderShadesPolygonExactlyAndEveryTechniqueRuns) {
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
@@ -505,12 +506,12 @@ TEST(PolygonLights, RenderShadesPolygonExactlyAndEveryTechniqueRuns) {
 
 TEST(PolygonLights, EmbreeReferenceAgreesWithBruteForceOnAPolygonLight) {
   // A tilted rectangle light over a floor with a small blocker: the Embree light-set reference
-  // samples the polygon by rejection from its bounding cap (src/reference.cpp), brute force takes
-  // lightSampleDirections' stratified polygon samples, so the two share only the light's shape.
-  // Measured 0.23% relative RMSE (4096 spp reference noise plus brute force's map texels). The
-  // bound, 1%, leaves room for other devices' rounding; the same light as its bounding cap (same
-  // radiance over the cap's larger solid angle; measured 121%) must miss it by far, so the test
-  // sees a polygon mistaken for a cap.
+  // samples the polygon by rejection from its bounding cap (src/reference/reference.cpp), brute
+  // force takes lightSampleDirections' stratified polygon samples, so the two share only the
+  // light's shape. Measured 0.23% relative RMSE (4096 spp reference noise plus brute force's map
+  // texels). The bound, 1%, leaves room for other devices' rounding; the same light as its bounding
+  // cap (same radiance over the cap's larger solid angle; measured 121%) must miss it by far, so
+  // the test sees a polygon mistaken for a cap.
   Scene scene;
   scene.meshes.push_back(planarQuad("floor", -1, 1, -1, 1, 0));
   scene.meshes.push_back(planarQuad("blocker", -0.25f, 0.25f, -0.25f, 0.25f, 0.3f));
@@ -536,8 +537,8 @@ TEST(PolygonLights, EmbreeReferenceAgreesWithBruteForceOnAPolygonLight) {
               m.relativeRmse);
   EXPECT_LT(m.relativeRmse, 0.01);
   // The bitmask technique keeps the disk samples of the bounding cap that fall inside the polygon
-  // (kernels/bitmask.cl, bitmask_resolve): 4 tan25 tan10 / (pi (tan^2 25 + tan^2 10)) = 42% of
-  // 1024 here. The same bound holds.
+  // (kernels/shadows/bitmask.cl, bitmask_resolve): 4 tan25 tan10 / (pi (tan^2 25 + tan^2 10)) = 42%
+  // of 1024 here. The same bound holds.
   RenderOptions bo = opt;
   bo.shadows = ShadowTechnique::Bitmask;
   bo.bitmask.lightSamples = 1024;

@@ -1,7 +1,8 @@
 // The two prefilters of the filtered techniques (seed 000 §4.1, "Mipmaps vs. Summed Area Tables",
-// Fig. 8): the mip pyramid (kernels/mip.cl) against a C++ reference on awkward sizes, its
-// trilinear query (kernels/filter.clh) against a C++ reference and against the SAT's exact box
-// on level-aligned boxes, and MSSM4 rendered with the pyramid (analytic planar penumbra, frame).
+// Fig. 8): the mip pyramid (kernels/shadows/mip.cl) against a C++ reference on awkward sizes, its
+// trilinear query (kernels/shadows/filter.clh) against a C++ reference and against the SAT's exact
+// box on level-aligned boxes, and MSSM4 rendered with the pyramid (analytic planar penumbra,
+// frame).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,7 +25,8 @@ namespace {
 
 using Texels = std::vector<cl_long4>;
 
-// The layout filter.clh documents, computed independently of src/shadows.cpp: n_k = ceil(S/2^k).
+// The layout filter.clh documents, computed independently of src/shadows/registry.cpp: n_k =
+// ceil(S/2^k).
 std::vector<int> levelSizes(int S) {
   std::vector<int> n{S};
   while (n.back() > 1) n.push_back((n.back() + 1) / 2);
@@ -216,7 +218,7 @@ TEST(Prefilter, MipPyramidMatchesReferenceOnAwkwardSizes) {
 
 // The build for every work-group tile the host may pick (16 unless the device takes fewer than
 // 256 work-items; CPUs and GPUs both get 16 here): launches of log2(tile) + 1 levels, as
-// src/shadows.cpp runs them, bit-identical to the reference.
+// src/shadows/registry.cpp runs them, bit-identical to the reference.
 TEST(Prefilter, MipPyramidIsTheSameForEveryTile) {
   const int S = 37, count = 2;
   const std::size_t stride = referenceStride(S);
@@ -253,9 +255,9 @@ TEST(Prefilter, MipBuildRejectsEmptyInput) {
 
 // On a level-aligned box (x0, y0 multiples of 2^k, side 2^k) the pyramid's answer is one texel's
 // exact mean, rounded once: it must equal the correctly rounded exact mean bit for bit. The SAT
-// sums up to four sub-rectangles (box_runs: first/middle runs with weight 1), each rounded to float,
-// then divides by the area (OpenCL division: 2.5 ulp): within 8 ulp of the exact mean for the
-// non-negative data used here (moments are non-negative), so within 8 ulp of the pyramid.
+// sums up to four sub-rectangles (box_runs: first/middle runs with weight 1), each rounded to
+// float, then divides by the area (OpenCL division: 2.5 ulp): within 8 ulp of the exact mean for
+// the non-negative data used here (moments are non-negative), so within 8 ulp of the pyramid.
 TEST(Prefilter, MipEqualsSatOnLevelAlignedBoxes) {
   for (int S : {64, 48, 37}) {  // 48 = 3 x 16: aligned boxes beside a ragged level 5; 37: odd
     const int count = 2;

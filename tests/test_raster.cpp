@@ -1,5 +1,5 @@
-// kernels/raster.cl against Embree: the device camera G-buffer covers exactly the pixels whose
-// primary ray hits geometry in the reference (same rays, scene.hpp's cameraRayDirection), on
+// kernels/render/raster.cl against Embree: the device camera G-buffer covers exactly the pixels
+// whose primary ray hits geometry in the reference (same rays, scene.hpp's cameraRayDirection), on
 // awkward image sizes.
 #include <gtest/gtest.h>
 

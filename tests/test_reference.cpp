@@ -446,15 +446,15 @@ TEST(ReferenceCommon, RejectsBadInput) {
     return o;
   };
   expectBadInput([&] { referenceEnvironment(scene, cam, env, withOpt([](auto& o) { o.spp = 0; })); },
-                 "--spp must be >= 1, got 0");
+                 "ReferenceOptions.spp must be >= 1, got 0");
   expectBadInput([&] { referenceEnvironment(scene, cam, env, withOpt([](auto& o) { o.width = 0; })); },
-                 "--width");
+                 "ReferenceOptions.width");
   expectBadInput(
       [&] { referenceEnvironment(scene, cam, env, withOpt([](auto& o) { o.height = 20000; })); },
-      "--height");
+      "ReferenceOptions.height");
   expectBadInput(
       [&] { referenceLights(scene, cam, LightSet{}, env, withOpt([](auto& o) { o.threads = -1; })); },
-      "--threads");
+      "ReferenceOptions.threads");
   expectBadInput([&] { referenceEnvironment(Scene{}, cam, env, withOpt([](auto&) {})); },
                  "no triangles");
   expectBadInput([&] { referenceEnvironment(scene, cam, Environment{}, withOpt([](auto&) {})); },

@@ -1,5 +1,5 @@
-// The techniques that sample the depth map texel by texel (kernels/pcss.cl): hard shadows, PCSS
-// and brute force. Each against the analytic penumbra of the planar, parallel configuration
+// The techniques that sample the depth map texel by texel (kernels/shadows/pcss.cl): hard shadows,
+// PCSS and brute force. Each against the analytic penumbra of the planar, parallel configuration
 // (seed 003 §3.2, the configuration where PCSS-style filtering is exact), on degenerate inputs,
 // for determinism, and on tiny inputs under oclgrind (suites Oclgrind*).
 #include <gtest/gtest.h>
@@ -190,8 +190,8 @@ TEST(HardShadows, TiltedPlaneDoesNotShadowItself) {
 // one depth, eqs. 4-5 give the exact penumbra width, and the box filter of the binary map (the
 // map's step lies exactly at x = 0, a texel boundary) is the linear ramp of a square light: it
 // differs from the disc-shaped cap's cos-weighted profile by at most 0.023 on a straight edge
-// (the equal-area square, kernels/pcss.cl's BOX_FROM_DISC). The rest covers the clamp to one
-// texel of filter and the bias.
+// (the equal-area square, kernels/shadows/pcss.cl's BOX_FROM_DISC). The rest covers the clamp to
+// one texel of filter and the bias.
 TEST(PCSS, ExplicitNarrowPenumbraMatchesAnalyticProfile) {
   RenderOptions ro = withTechnique(ShadowTechnique::PCSS);
   ro.pcss.blockerTaps = 0;
@@ -517,7 +517,8 @@ TEST(OclgrindPCSS, TinyFrameEveryTexelAndTaps) {
 TEST(OclgrindBrute, TinyFrameBatchedFrontBack) {
   RenderOptions ro = withTechnique(ShadowTechnique::Brute);
   ro.brute.samples = 3;
-  ro.brute.batchBytes = 2 * 8 * 8 * 4 * 2;  // two front+back map pairs a batch: batches end inside lights
+  ro.brute.batchBytes = 2 * 8 * 8 * 4 * 2;  // two front+back map pairs a batch: batches end inside
+                                            // lights
   ro.frontBackFaces = true;
   tinyFrame(ro);
 }

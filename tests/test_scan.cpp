@@ -1,7 +1,8 @@
-// Summed-area tables (kernels/scan.cl via penumbra::summedAreaTable) against a plain C++ reference:
-// exact int64 for long/long4, double with a derived rounding bound for float/float4; awkward sizes,
-// batches, tunings, bad input, and the box-filter test that motivates the fixed-point tables.
-// OclgrindScan.* use small sizes so that CTest can also run them under the oclgrind simulator.
+// Summed-area tables (kernels/common/scan.cl via penumbra::summedAreaTable) against a plain C++
+// reference: exact int64 for long/long4, double with a derived rounding bound for float/float4;
+// awkward sizes, batches, tunings, bad input, and the box-filter test that motivates the
+// fixed-point tables. OclgrindScan.* use small sizes so that CTest can also run them under the
+// oclgrind simulator.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -86,7 +87,7 @@ std::vector<Acc> referenceSat(const std::vector<S>& in, Size s, int L, F value) 
 // the serial run within a work-item (VPT), the up- and down-sweep over the group's totals
 // (2 log2 WG), one carry per earlier tile, the column segment (SEG), the segment offsets
 // (height/SEG) and a few joins. Unset knobs take the larger of the GPU and CPU defaults in
-// src/scan.cpp (VPT 4 or 64, WG 8..256, SEG 64) and the smallest default tile (8 x 4).
+// src/core/scan.cpp (VPT 4 or 64, WG 8..256, SEG 64) and the smallest default tile (8 x 4).
 double additionDepth(Size s, const ScanTuning& t) {
   const int vpt = t.valuesPerItem ? t.valuesPerItem : 64;
   const int wg = t.workGroup ? t.workGroup : 256;
@@ -241,11 +242,11 @@ TEST(Scan, TuningKeepsLongTablesIdentical) {
   }
 }
 
-// Why the moment and energy SATs are 64-bit fixed point (kernels/scan.cl): 1024^2 moment-like
-// values z, z^2, z^3, z^4 (z uniform in [0,1]). A box query is a difference of four corners; with
-// round(v * 2^32) in long4 it reproduces the direct sum of the quantized values exactly for every
-// box, while the same query on a float4 SAT of the same values is off by orders of magnitude more
-// than the fixed-point table's quantization error.
+// Why the moment and energy SATs are 64-bit fixed point (kernels/common/scan.cl): 1024^2
+// moment-like values z, z^2, z^3, z^4 (z uniform in [0,1]). A box query is a difference of four
+// corners; with round(v * 2^32) in long4 it reproduces the direct sum of the quantized values
+// exactly for every box, while the same query on a float4 SAT of the same values is off by orders
+// of magnitude more than the fixed-point table's quantization error.
 TEST(Scan, BoxFilterFixedPointIsExactFloatIsNot) {
   const int W = 1024, H = 1024;
   const double scale = 4294967296.0;  // 2^32, PB_MOMENT_SCALE

@@ -206,7 +206,8 @@ TEST(TexturedLights, PowerIsTheIntegralOfTheTexture) {
   cap.direction = dir;
   cap.cosAlpha = float(std::cos(10 * kDeg));
   setLightTexture(cap, {1, 2, {1, 1, 1, 3, 3, 3}});  // top half 1, bottom half 3
-  // the two halves of the disk have equal solid angles: mean radiance 2 (printed; bound 1e-5 relative)
+  // the two halves of the disk have equal solid angles: mean radiance 2 (printed; bound 1e-5
+  // relative)
   std::printf("textured cap: mean radiance %.7f (exact 2)\n", cap.radiance[0]);
   EXPECT_NEAR(cap.radiance[0], 2.0f, 2e-5f);
   EXPECT_NEAR(cap.power[0], 2.0f * cap.solidAngle(), 2e-5f * cap.power[0]);
@@ -368,7 +369,8 @@ TEST(TexturedLights, UniformTextureRendersAsNoTextureBitForBit) {
 
 // The bitmask technique's samples of an ellipse light are the disk's affine image: every one
 // inside the true ellipse, the capture's weights those of the texture, and every captured bit
-// agrees with an Embree shadow ray along the sample's direction (src/bitmask.hpp SampleTracer).
+// agrees with an Embree shadow ray along the sample's direction (src/shadows/bitmask.hpp
+// SampleTracer).
 TEST(EllipseLights, BitmaskSamplesTheEllipseItself) {
   HalfScene hs;
   const AreaLight l = halfTextured(true, true);

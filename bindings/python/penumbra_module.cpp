@@ -132,20 +132,32 @@ std::string bytesDefault(const std::string& text, std::size_t bytes) {
   return text + " Default " + std::to_string(bytes >> 20) + " MiB.";
 }
 
-// The library names a RenderOptions field as in C++ ("RenderOptions.areaApprox.edgeSamples");
-// Python users set it as an attribute or keyword: snake case ("RenderOptions.area_approx.
-// edge_samples"), and `shadows` is `technique`.
+// The library names an options field as in C++ ("RenderOptions.areaApprox.edgeSamples",
+// "MedianCutOptions.faceSize"); Python users set it as an attribute or keyword: snake case
+// ("RenderOptions.area_approx.edge_samples"), and RenderOptions' `shadows` is `technique`.
 std::string pythonFieldNames(const std::string& message) {
-  const std::string head = "RenderOptions.";
+  static const char* const kHeads[] = {"RenderOptions.", "MedianCutOptions.", "GreedyOptions.",
+                                       "CenterSurroundOptions.", "ReferenceOptions."};
   std::string out;
   std::size_t i = 0;
-  for (std::size_t at = message.find(head); at != std::string::npos; at = message.find(head, i)) {
+  for (;;) {
+    std::size_t at = std::string::npos;
+    std::string head;
+    for (const char* h : kHeads) {
+      const std::size_t k = message.find(h, i);
+      if (k < at) {
+        at = k;
+        head = h;
+      }
+    }
+    if (at == std::string::npos) break;
     out += message.substr(i, at - i) + head;
     std::size_t end = at + head.size();
     std::string name;
     for (; end < message.size(); ++end) {
       const char c = message[end];
-      if (c == '.' && end + 1 < message.size() && std::isalpha(static_cast<unsigned char>(message[end + 1]))) {
+      if (c == '.' && end + 1 < message.size() &&
+          std::isalpha(static_cast<unsigned char>(message[end + 1]))) {
         name += '.';
       } else if (std::isupper(static_cast<unsigned char>(c))) {
         name += '_';
@@ -156,7 +168,7 @@ std::string pythonFieldNames(const std::string& message) {
         break;
       }
     }
-    out += name == "shadows" ? "technique" : name;
+    out += head == "RenderOptions." && name == "shadows" ? "technique" : name;
     i = end;
   }
   return out + message.substr(i);

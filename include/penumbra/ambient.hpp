@@ -36,8 +36,8 @@ struct AmbientOptions {
 
 // Sets set.ambientSH to SH9(map) - sum of SH9(each light), computed on the device, and
 // set.hasAmbient = true; with AmbientModel::IrradianceMap also set.ambientMap (on the device,
-// kernels/irradiance.cl), else clears it. Honours env.rotationYDeg. Throws Error(BadInput) for a
-// table size outside 1..1024.
+// kernels/environment/irradiance.cl), else clears it. Honours env.rotationYDeg. Throws
+// Error(BadInput) for a table size outside 1..1024.
 void addAmbientResidual(Context& ctx, const Environment& env, LightSet& set,
                         const AmbientOptions& opt = {});
 

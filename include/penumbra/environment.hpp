@@ -50,9 +50,9 @@ Environment loadEnvironment(const std::string& path);
 // area near the horizon and a darker ground. Deterministic; `width` x width/2 texels.
 Environment builtinEnvironment(int width = 512);
 
-// The map resampled to a cube map on the device (kernels/envmap.cl), as radiant energy per texel
-// (radiance x solid angle, so the sum over all texels is the map's power): RGB, the six faces
-// stacked vertically (width m, height 6m; face f in rows f*m .. f*m+m-1), oriented as
+// The map resampled to a cube map on the device (kernels/environment/envmap.cl), as radiant energy
+// per texel (radiance x solid angle, so the sum over all texels is the map's power): RGB, the six
+// faces stacked vertically (width m, height 6m; face f in rows f*m .. f*m+m-1), oriented as
 // pb_cube_dir in shared.h. Radiance is energy / pb_cube_texel_solid_angle. `supersample` caps
 // the sub-samples per side. Throws Error(BadInput) for faceSize outside [1, 4096].
 Image cubeMapEnergy(Context& ctx, const Environment& env, int faceSize, int supersample = 4);

@@ -21,7 +21,8 @@ struct Environment;
 //            cosAlpha the cosine of its bounding cap about that direction (the cap every
 //            filtered technique sizes its filters by); radiance is uniform over the polygon and
 //            power = radiance * the polygon's solid angle.
-// Most lights a frame may have (the kernels' PB_MAX_LIGHTS; src/lights/lights.cpp checks they agree).
+// Most lights a frame may have (the kernels' PB_MAX_LIGHTS; src/lights/lights.cpp checks they
+// agree).
 constexpr int kMaxLights = 1024;
 
 enum class LightShape { Cap, Polygon };
@@ -65,7 +66,8 @@ struct AreaLight {
   std::array<float, 3> direction{0, 1, 0};  // unit vector towards the light, world space
   float cosAlpha = 1.0f;                    // cosine of the half-angle
   std::array<float, 3> radiance{0, 0, 0};   // uniform radiance inside the cap
-  std::array<float, 3> power{0, 0, 0};      // M = radiance * solid angle (irradiance at normal incidence / ((1+cos alpha)/2))
+  std::array<float, 3> power{0, 0, 0};      // M = radiance * solid angle (irradiance at normal
+                                            // incidence / ((1+cos alpha)/2))
   // Cube-face region(s) the light came from, for overlays: face, x0, y0, x1, y1 (texels, x1/y1
   // exclusive) on a cube of faceSize.
   std::vector<std::array<int, 5>> regions;
@@ -109,9 +111,9 @@ AreaLight makeEllipseLight(const std::array<float, 3>& direction, const std::arr
 // all zero; the light a cap, rect or ellipse), sets a cap's frame when it has none (the frame
 // lightSampleDirections uses), and sets power = the integral of the textured radiance over the
 // light (exact per texel for rects and for texels inside a disk or ellipse; texels on its rim
-// exact in y over 64 midpoint columns) and radiance = power / solid angle. A texture whose texels are all
-// equal gives that radiance exactly, so the light renders as the untextured one bit for bit.
-// Throws Error(BadInput) naming the problem.
+// exact in y over 64 midpoint columns) and radiance = power / solid angle. A texture whose texels
+// are all equal gives that radiance exactly, so the light renders as the untextured one bit for
+// bit. Throws Error(BadInput) naming the problem.
 void setLightTexture(AreaLight& light, LightTexture texture);
 // Scales a textured light's texture, channel by channel, so that its power is `power` (radiance =
 // power / solid angle, the texture's mean); a channel the texture leaves black is filled with that
@@ -143,17 +145,18 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
                            const std::array<float, 3>& radiance);
 
 // n light sample directions, stratified and uniform in solid angle over the light (cap:
-// spherical Fibonacci over the cap; polygon: stratified over the polygon), rotated about the light's direction by `rotation` radians (jitter between frames,
-// seed 001 §4.3). Deterministic. Used by lightSamples (brute force) and the ambient residual. An
-// ellipse light gets its shading polygon's samples here; lightSamples samples the ellipse itself.
+// spherical Fibonacci over the cap; polygon: stratified over the polygon), rotated about the
+// light's direction by `rotation` radians (jitter between frames, seed 001 §4.3). Deterministic.
+// Used by lightSamples (brute force) and the ambient residual. An ellipse light gets its shading
+// polygon's samples here; lightSamples samples the ellipse itself.
 std::vector<std::array<float, 3>> lightSampleDirections(const AreaLight& light, int n,
                                                         float rotation = 0.0f);
 
-// The ambient residual's irradiance as a table over normals (kernels/irradiance.cl). Texel (i, j)
-// holds the RGB irradiance E_res(n_ij) = E_map(n_ij) - sum of every light's unshadowed irradiance,
-// at the normal of longitude phi_i = ((i + 0.5) / width - 0.5) 2 pi (pb_equirect_dir's columns)
-// and colatitude theta_j = j pi / (height - 1) (pi / 2 when height is 1): rows are nodes from
-// the +y pole (row 0) to the -y pole, so the poles are table entries themselves (see
+// The ambient residual's irradiance as a table over normals (kernels/environment/irradiance.cl).
+// Texel (i, j) holds the RGB irradiance E_res(n_ij) = E_map(n_ij) - sum of every light's unshadowed
+// irradiance, at the normal of longitude phi_i = ((i + 0.5) / width - 0.5) 2 pi (pb_equirect_dir's
+// columns) and colatitude theta_j = j pi / (height - 1) (pi / 2 when height is 1): rows are nodes
+// from the +y pole (row 0) to the -y pole, so the poles are table entries themselves (see
 // pb_ambient_map_taps in shared.h for why). Read bilinearly, wrapping in longitude.
 struct AmbientMap {
   int width = 0, height = 0;

@@ -22,7 +22,8 @@ enum class ShadowTechnique {
   BitmaskHard,  // alias-free hard shadows from the light's centre (seed 001 §3)
   AreaApprox,   // polygon lights sampled along their edges, visible-area estimate (seed 002)
 };
-// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard" | "area-approx"
+// "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard" |
+// "area-approx"
 ShadowTechnique parseShadowTechnique(const std::string& name);
 const char* toString(ShadowTechnique t);
 
@@ -35,11 +36,11 @@ const char* toString(Prefilter p);
 // filter limits. Distances are in shadow-map texels or normalized light-space depth (0 at the
 // map's near plane, 1 at its far plane). Validated once per frame, whatever the technique.
 struct ShadowOptions {
-  float depthBias = 0.002f;     // normalized depth subtracted from the receiver's depth: hard, pcss,
-                                // mssm4, mssm6, brute, area-approx. Not CSSM (cssm.depthBias) nor
-                                // the bitmask techniques (no bias). Default 0.002
-  float lightSizeScale = 1.0f;  // multiplies every light's angular size for the filter widths: pcss,
-                                // cssm, mssm4, mssm6. Finite, >= 0; default 1
+  float depthBias = 0.002f;     // normalized depth subtracted from the receiver's depth: hard,
+                                // pcss, mssm4, mssm6, brute, area-approx. Not CSSM (cssm.depthBias)
+                                // nor the bitmask techniques (no bias). Default 0.002
+  float lightSizeScale = 1.0f;  // multiplies every light's angular size for the filter widths:
+                                // pcss, cssm, mssm4, mssm6. Finite, >= 0; default 1
   float maxFilterTexels = 27.0f;// largest filter width, texels: pcss, cssm, mssm4, mssm6. >=
                                 // minFilterTexels; default 27 (seed 003 §6.2 used 27 at 256^2)
   float minFilterTexels = 1.0f; // smallest filter width, texels. > 0; default 1
@@ -49,9 +50,9 @@ struct ShadowOptions {
 // MSSM6 alone read. Depths are normalized (0 at the map's near plane, 1 at its far plane).
 struct MSSMOptions {
   float momentBias = 3e-5f;     // blend of the filtered moments towards those of the uniform
-                                // distribution (kernels/moments.cl). Larger: more light leaking.
-                                // MSSM6 uses the same value: its float solve (Chebyshev basis)
-                                // is within 0.01 of a long-double one at 3e-5, 0.02 at 1e-5.
+                                // distribution (kernels/shadows/moments.cl). Larger: more light
+                                // leaking. MSSM6 uses the same value: its float solve (Chebyshev
+                                // basis) is within 0.01 of a long-double one at 3e-5, 0.02 at 1e-5.
                                 // In [0, 1); default 3e-5
   float slopeBias = 0.0f;       // extra depth bias: this times the filter radius times the
                                 // receiver's depth slope. Off by default: it hides real blockers
@@ -81,8 +82,8 @@ struct MSSMOptions {
 struct CSSMOptions {
   int order = 4;                // Fourier order M: terms k = 1..M, c_k = pi (2k - 1) (appendix).
                                 // In [1, 32]; default 4
-  float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0: off.
-                                // Finite, >= 0; default 30
+  float sharpenA = 30.0f;       // adaptive sharpening p = 1 + A exp(-B (d - z_avg)) (eq. 9); 0:
+                                // off. Finite, >= 0; default 30
   float sharpenB = 80.0f;       // per unit of normalized depth. It should match the depth over
                                 // which the series leaks, ~1/(2M). Default frame, A = 30: B = 10
                                 // 12.7% (M=4); B = 80 4.8/4.7/4.8% (M = 4/8/16; M = 16 is best at
@@ -199,13 +200,14 @@ struct RenderOptions {
   AreaApproxOptions areaApprox;
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0);
                                       // default on
-  // Bent normals at light silhouettes (seed 001 §4.3; kernels/bent.cl, kernels/shade.cl). Exact
-  // shadows (bitmask, bitmask-hard) black out every light-back-facing triangle while the
-  // interpolated normal still sees the light, a hard edge along the light's silhouette on smooth
-  // meshes. On: each light's shading blends from normal shading (where every face around the
-  // triangle's vertices faces the light's centre at cos >= 1/bentNormalsScale) to black on light-back-facing
-  // triangles, continuously, never brighter than without. A shading change, so every technique
-  // takes it; meant for the bitmask ones. Not in the GL path (refused). Default off.
+  // Bent normals at light silhouettes (seed 001 §4.3; kernels/render/bent.cl,
+  // kernels/render/shade.cl). Exact shadows (bitmask, bitmask-hard) black out every
+  // light-back-facing triangle while the interpolated normal still sees the light, a hard edge
+  // along the light's silhouette on smooth meshes. On: each light's shading blends from normal
+  // shading (where every face around the triangle's vertices faces the light's centre at cos >=
+  // 1/bentNormalsScale) to black on light-back-facing triangles, continuously, never brighter than
+  // without. A shading change, so every technique takes it; meant for the bitmask ones. Not in the
+  // GL path (refused). Default off.
   bool bentNormals = false;
   // c of seed 001 §4.3's blend a = min(1, max(c I_bend, 0)): shading is unchanged where I_bend
   // >= 1/c and fades to black over I_bend in (0, 1/c). Larger: a narrower, steeper fade. Default 3

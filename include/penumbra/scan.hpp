@@ -1,7 +1,7 @@
 // Summed-area tables (2D inclusive prefix sums) on the device, for batches of equally sized images.
 //
 // Element types: float, float4 (general use) and int64 / int64x4 fixed point (precision-safe; see
-// kernels/scan.cl for why moments and environment energies use it).
+// kernels/common/scan.cl for why moments and environment energies use it).
 #pragma once
 #include "penumbra/context.hpp"
 #include <string>
@@ -19,10 +19,10 @@ std::size_t scanElementBytes(ScanType t);
 void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
                      int batch = 1, const std::string& stage = "sat");
 
-// How summedAreaTable divides the work (the -D tuning knobs of kernels/scan.cl). 0 (-1 for
+// How summedAreaTable divides the work (the -D tuning knobs of kernels/common/scan.cl). 0 (-1 for
 // columnLockstep) means "choose for the device and image": the default overload always does that,
-// from a GPU or a CPU table in src/scan.cpp. The Long/Long4 results are bit-identical for every
-// choice; the Float/Float4 ones differ in rounding only.
+// from a GPU or a CPU table in src/core/scan.cpp. The Long/Long4 results are bit-identical for
+// every choice; the Float/Float4 ones differ in rounding only.
 struct ScanTuning {
   int workGroup = 0;        // row-pass work-items per row, a power of two (GPU: 32..256 by width;
                             // CPU: 8)

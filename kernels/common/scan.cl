@@ -13,7 +13,7 @@
 // float/float4 variants are for general use; the tests hold them to a double-precision reference
 // with a tolerance derived from the sums' magnitude, and show the box-query gap on moment data.
 //
-// Build options (tuning knobs; the host picks them per device, see src/scan.cpp):
+// Build options (tuning knobs; the host picks them per device, see src/core/scan.cpp):
 //   SCAN_T  element type: float, float4, long or long4
 //   WG      row-pass work-group size (power of two)
 //   VPT     elements each work-item scans serially per tile (a tile is WG*VPT elements)

@@ -1,6 +1,7 @@
 /* Constants and small functions shared by the host (C++) and the kernels (OpenCL C 1.2).
  * Written in the common subset of both languages: the kernels get it spliced in at build time
- * (cmake/embed_kernels.cmake), the host includes it directly, so nothing is kept in sync by hand. */
+ * (cmake/embed_kernels.cmake), the host includes it directly, so nothing is kept in sync by hand.
+ * */
 #ifndef PENUMBRA_SHARED_H
 #define PENUMBRA_SHARED_H
 
@@ -24,7 +25,8 @@
 #define PB_LUM_FIXED(r, g, b) ((PB_LUM_R_I * (r) + PB_LUM_G_I * (g) + PB_LUM_B_I * (b)) / 10000)
 /* The X and Z rows of the same matrix (IEC 61966-2-1:1999, the sRGB standard: Rec. 709 primaries,
  * D65 white), also in 1/10000 units: the median-cut SATs carry colour as CIE XYZ so that Y is
- * shared with the luminance SAT (seed 003 §5); src/lights.cpp inverts the whole matrix exactly. */
+ * shared with the luminance SAT (seed 003 §5); src/environment/median_cut.cpp inverts the whole
+ * matrix exactly. */
 #define PB_X_R_I 4124
 #define PB_X_G_I 3576
 #define PB_X_B_I 1805
@@ -43,7 +45,7 @@
 #define PB_ELLIPSE_VERTS 32
 
 /* Moments are stored in fixed point: round(z^k * 2^32) in 64-bit integers. A 4096^2 SAT of values
- * <= 2^32 stays below 2^56, far from overflow, and sums are exact (see kernels/scan.cl). */
+ * <= 2^32 stays below 2^56, far from overflow, and sums are exact (see kernels/common/scan.cl). */
 #define PB_MOMENT_SCALE 4294967296.0
 
 /* Depth written for texels/pixels that no triangle covers: bit pattern of +infinity. */
@@ -205,8 +207,8 @@ PB_INLINE float pb_polygon_irradiance(const float* v, int nv, float nx, float ny
 /* The 9 real spherical harmonics of order <= 2 (Ramamoorthi & Hanrahan 2001, "An efficient
  * representation for irradiance environment maps", eq. 3), written in world x, y, z of a unit
  * direction (any orthonormal basis works if projection and evaluation agree; this is the one both
- * kernels/sh.cl and the host use). Order: (l,m) = (0,0) (1,-1) (1,0) (1,1) (2,-2) (2,-1) (2,0)
- * (2,1) (2,2), as LightSet::ambientSH. */
+ * kernels/environment/sh.cl and the host use). Order: (l,m) = (0,0) (1,-1) (1,0) (1,1) (2,-2)
+ * (2,-1) (2,0) (2,1) (2,2), as LightSet::ambientSH. */
 #define PB_SH_K00 0.282094791773878f  /* 1 / (2 sqrt(pi)) */
 #define PB_SH_K1 0.488602511902920f   /* sqrt(3 / (4 pi)) */
 #define PB_SH_K2 1.092548430592079f   /* sqrt(15 / (4 pi)), l = 2, m = -2, -1, 1 */
@@ -228,18 +230,19 @@ PB_INLINE void pb_sh9(float x, float y, float z, float* b) {
   b[8] = PB_SH_K22 * (x * x - y * y);
 }
 
-/* Bilinear taps of the ambient irradiance map (lights.hpp AmbientMap, kernels/irradiance.cl) of
+/* Bilinear taps of the ambient irradiance map (lights.hpp AmbientMap, kernels/environment/irradiance.cl) of
  * w x h texels at unit normal (x, y, z): four texel indices (row-major) and their weights, read
- * the same way by LightSet::ambientIrradiance, kernels/shade.cl and src/gl/shaders/shade.frag
- * (whose GL_LINEAR texture, GL_REPEAT in s and clamped in t, takes these taps).
- * Parameterization: columns are the equirect's (texel centres at phi = ((i + 0.5) / w - 0.5) 2 pi,
- * wrapping), rows are nodes theta_j = j pi / (h - 1), so row 0 is the +y pole itself and row h - 1
- * the -y pole. With texel-centred rows instead the pole would lie half a row inside the first row,
- * where a bilinear lookup returns one ring texel's value, not the pole's: an error of the
- * irradiance's gradient times pi / (2h), first order, ~2.5% of E on an up-facing floor with a 32-row
- * table where the ambient is half the light (center-surround). Node rows are exact at the poles and
- * interpolate between a pole and the next ring near them. Latitude is clamped (never needed
- * inside [0, pi]); a 1-row table holds the equator's ring (theta = pi / 2) for every normal. */
+ * the same way by LightSet::ambientIrradiance, kernels/render/shade.cl and
+ * src/gl/shaders/shade.frag (whose GL_LINEAR texture, GL_REPEAT in s and clamped in t, takes these
+ * taps). Parameterization: columns are the equirect's (texel centres at phi = ((i + 0.5) / w - 0.5)
+ * 2 pi, wrapping), rows are nodes theta_j = j pi / (h - 1), so row 0 is the +y pole itself and row
+ * h - 1 the -y pole. With texel-centred rows instead the pole would lie half a row inside the first
+ * row, where a bilinear lookup returns one ring texel's value, not the pole's: an error of the
+ * irradiance's gradient times pi / (2h), first order, ~2.5% of E on an up-facing floor with a
+ * 32-row table where the ambient is half the light (center-surround). Node rows are exact at the
+ * poles and interpolate between a pole and the next ring near them. Latitude is clamped (never
+ * needed inside [0, pi]); a 1-row table holds the equator's ring (theta = pi / 2) for every normal.
+ * */
 PB_INLINE void pb_ambient_map_taps(float x, float y, float z, int w, int h, int* idx, float* wt) {
   float s, t;
   pb_dir_equirect(x, y, z, (float)w, 1.0f, &s, &t); /* s in [0, w], t = theta / pi in [0, 1] */
@@ -314,7 +317,7 @@ typedef struct {
 } pb_view;
 
 /* Floats as ints that order like the floats (negative ones with their magnitude bits flipped),
- * so kernels/bent.cl takes per-vertex minima and maxima of floats with integer atomics. */
+ * so kernels/render/bent.cl takes per-vertex minima and maxima of floats with integer atomics. */
 #ifdef __OPENCL_VERSION__
 PB_INLINE int pb_float_to_ordered(float f) { int i = as_int(f); return i < 0 ? i ^ 0x7fffffff : i; }
 PB_INLINE float pb_ordered_to_float(int i) { return as_float(i < 0 ? i ^ 0x7fffffff : i); }

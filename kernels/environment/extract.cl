@@ -1,5 +1,5 @@
 // Median-cut light extraction (seed 003 §3.1, §4.1; Debevec 2008) on the cube-map SATs made from
-// kernels/envmap.cl's fixed-point energies. Box sums are exact 64-bit differences.
+// kernels/environment/envmap.cl's fixed-point energies. Box sums are exact 64-bit differences.
 #include "shared.h"
 
 // Sum over texels [x0,x1) x [y0,y1) of face `face` from an inclusive SAT (seed 003 eqs. 2-3).

@@ -1,7 +1,7 @@
 // Greedy fitting of square or rectangular area lights to the faces of a cube map (seed 000 §4.2,
-// Figure 6), on the fixed-point energies of kernels/envmap.cl. Faces are independent, so one
-// work-group fits one face: the loops of the algorithm run inside the kernel, every sum is of
-// 64-bit integers (exact, so the result depends on neither the work-group size nor the device).
+// Figure 6), on the fixed-point energies of kernels/environment/envmap.cl. Faces are independent,
+// so one work-group fits one face: the loops of the algorithm run inside the kernel, every sum is
+// of 64-bit integers (exact, so the result depends on neither the work-group size nor the device).
 // src/environment/greedy.cpp turns the fitted rectangles into cap lights; tests/test_greedy.cpp
 // holds a plain C++ copy of the same algorithm.
 //
@@ -51,7 +51,8 @@ static void reduce_sum2(local long4* red, long4* a, long4* b) {
   }
   *a = red[0];
   *b = red[wg];
-  barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);  // everyone has read them before the next reduction
+  barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);  // everyone has read them before the next
+                                                        // reduction
 }
 
 // The better of two (energy, index) candidates: larger energy, ties to the smaller index; index

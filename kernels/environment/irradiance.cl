@@ -8,11 +8,11 @@
 //
 // The map is what it is everywhere else in penumbra: constant radiance over each lat-long texel.
 // Each texel's first moment m_t = integral of w dw over the texel is exact from the row and column
-// integrals the host tabulates in double for kernels/sh.cl (rows: int sin, int sin^2, int cos sin;
-// columns: int 1, int sin, int cos, with the map's rotation in them), and the texel contributes
-// L_t max(0, n.m_t): exact whenever the texel lies wholly on one side of n's horizon (the clamped
-// cosine is then linear over it), a second-order error in the texel's size for the few texels the
-// horizon cuts.
+// integrals the host tabulates in double for kernels/environment/sh.cl (rows: int sin, int sin^2,
+// int cos sin; columns: int 1, int sin, int cos, with the map's rotation in them), and the texel
+// contributes L_t max(0, n.m_t): exact whenever the texel lies wholly on one side of n's horizon
+// (the clamped cosine is then linear over it), a second-order error in the texel's size for the few
+// texels the horizon cuts.
 //
 // Summed texel by texel that is W x H work per table normal. But along one map row the sign of
 // n.m_t has a closed form: with theta_n, phi_n the normal's angles, rho = sin(theta_n), T1 = int
@@ -59,10 +59,10 @@ static float3 neumaier(float3* s, float3* comp, float3 x) {
 }
 
 // One work-item per map row r = r0 + k of a chunk of nrows rows: float3 (k (W + 1) + w) 3 + rgb
-// of prefix = sum over world columns < w of L_t m_t. World column w is map column w + whole (modulo W; pb_env_world_column): cols[] already
-// holds each map column's world integrals. The running sums are Neumaier's (compensated): each
-// stored prefix then differs from the exact one by about half a float ulp, and a run's sum loses
-// at most an ulp of the prefixes at its two ends.
+// of prefix = sum over world columns < w of L_t m_t. World column w is map column w + whole (modulo
+// W; pb_env_world_column): cols[] already holds each map column's world integrals. The running sums
+// are Neumaier's (compensated): each stored prefix then differs from the exact one by about half a
+// float ulp, and a run's sum loses at most an ulp of the prefixes at its two ends.
 kernel void irradiance_prefix(global const float* equirect, int W, int whole,
                               global const float8* rows, global const float8* cols, int r0,
                               int nrows, global float* prefix) {
@@ -202,8 +202,8 @@ kernel void irradiance_bands(global const float* prefix, int W, int H, float fra
   }
 }
 
-// Light l's irradiance at unit normal n: shading's own (kernels/lights.clh). *moment: for a cap,
-// pi sin^2(alpha) (its unclamped first moment's length, below), -1 for a polygon.
+// Light l's irradiance at unit normal n: shading's own (kernels/lights/lights.clh). *moment: for a
+// cap, pi sin^2(alpha) (its unclamped first moment's length, below), -1 for a polygon.
 static float light_irradiance(global const float4* lights, global const float4* polys, int l,
                               float3 n, float* moment) {
   global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
@@ -217,8 +217,8 @@ static float light_irradiance(global const float4* lights, global const float4* 
 // second evaluation: max(0, x) - max(0, -x) = x, so E(n) - E(-n) = integral over the cap of n.w =
 // pi sin^2(alpha) (n.d) exactly (n' = -n up to float rounding of the two normals, a few 1e-7 of
 // the cap's irradiance). lights: 2 float4 per light, (direction, cos alpha) and (radiance, 0);
-// polys: PB_MAX_POLY_VERTS float4 per light (src/light_buffers.hpp, shade.cl's layout). table: TW x
-// TH x RGB.
+// polys: PB_MAX_POLY_VERTS float4 per light (src/lights/light_buffers.hpp, shade.cl's layout).
+// table: TW x TH x RGB.
 kernel void irradiance_table(global const float* partial, int bands, global const float4* normals,
                              global const float4* lights, int nlights, global const float4* polys,
                              int TW, int TH, global float* table) {

@@ -5,15 +5,15 @@
 // terminator: on a smooth mesh the shading jumps to black along the triangle edges of the light's
 // silhouette. Seed 001 §4.3 bends the shading there: per vertex v and light l,
 //   I_bend(v) = min over the faces F adjacent to v of n_F . l       (l: the light's centre),
-// interpolated over each triangle; kernels/shade.cl blends back to the normal illumination with
-// it. Every light-back-facing triangle has all three vertices at I_bend <= n_F . l < 0, so it is
-// black everywhere; the blend is continuous because I_bend is (one value per vertex).
+// interpolated over each triangle; kernels/render/shade.cl blends back to the normal illumination
+// with it. Every light-back-facing triangle has all three vertices at I_bend <= n_F . l < 0, so it
+// is black everywhere; the blend is continuous because I_bend is (one value per vertex).
 //
-// Faces count as adjacent to v when they share its welded index (src/bent_normals.cpp: vertices
-// with the same position and normal are one), and each face normal is oriented to the vertex
-// normal's side, so inconsistently wound meshes bend like consistent ones. Both the minimum and
-// the maximum are kept: a surface seen from behind (an open mesh; the G-buffer flips the shading
-// normal to the camera) shades with -n_F, whose minimum over the faces is -max(n_F . l).
+// Faces count as adjacent to v when they share its welded index (src/render/bent_normals.cpp:
+// vertices with the same position and normal are one), and each face normal is oriented to the
+// vertex normal's side, so inconsistently wound meshes bend like consistent ones. Both the minimum
+// and the maximum are kept: a surface seen from behind (an open mesh; the G-buffer flips the
+// shading normal to the camera) shades with -n_F, whose minimum over the faces is -max(n_F . l).
 #include "shared.h"
 
 // Global (triangles, lights). bend: per (vertex, light), vertex-major so that a pixel's three
@@ -44,9 +44,9 @@ kernel void bent_vertices(global const float4* pos, global const float4* nrm,
   }
 }
 
-// Global (pixels): what kernels/shade.cl needs to interpolate I_bend at each pixel, for every
-// light: the pixel's triangle's three welded vertices (vert.xyz; w = 1 where the pixel shows the
-// surface's back side, whose I_bend is minus the maximum) and their barycentric weights at the
+// Global (pixels): what kernels/render/shade.cl needs to interpolate I_bend at each pixel, for
+// every light: the pixel's triangle's three welded vertices (vert.xyz; w = 1 where the pixel shows
+// the surface's back side, whose I_bend is minus the maximum) and their barycentric weights at the
 // G-buffer position (weight.xyz). vert.x = -1: no bending (the blend keeps the normal shading)
 // on the background and on triangles shaded by their geometric normal (a vertex without a
 // normal, w = 0): those have no interpolated normal, so no silhouette mismatch.
@@ -65,7 +65,8 @@ kernel void bent_pixels(global const float4* pos, global const float4* nrm,
     return;
   }
   float3 a = pos[tri.x].xyz, b = pos[tri.y].xyz, c = pos[tri.z].xyz, p = gpos[px].xyz;
-  // p - a = w1 (b - a) + w2 (c - a): w1 = ((p - a) x e2) . n / |n|^2, w2 = (e1 x (p - a)) . n / |n|^2.
+  // p - a = w1 (b - a) + w2 (c - a): w1 = ((p - a) x e2) . n / |n|^2, w2 = (e1 x (p - a)) . n /
+  // |n|^2.
   float3 e1 = b - a, e2 = c - a, q = p - a, n = cross(e1, e2);
   float nn = dot(n, n);
   float w1 = nn > 0.0f ? dot(cross(q, e2), n) / nn : 0.0f;

@@ -7,8 +7,8 @@
 // 9 RGB SH coefficients of radiance (zeros when the light set has none) as R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
 // bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by I_bend,
-// interpolated from kernels/bent.cl's per-vertex values (bend) with its per-pixel vertices and
-// weights (RenderOptions::bentNormals), with the blend's scale bend_c.
+// interpolated from kernels/render/bent.cl's per-vertex values (bend) with its per-pixel vertices
+// and weights (RenderOptions::bentNormals), with the blend's scale bend_c.
 #include "shared.h"
 #include "bent.clh"
 #include "lights.clh"
@@ -46,7 +46,7 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
   float3 acc = (float3)(0.0f);
   for (int l = 0; l < nlights; ++l) {
     pb_light L = lights[l];
-    // polys: the light's PB_MAX_POLY_VERTS float4 (src/light_buffers.hpp; a cap's are zero)
+    // polys: the light's PB_MAX_POLY_VERTS float4 (src/lights/light_buffers.hpp; a cap's are zero)
     global const float4* pv = polys + (size_t)l * PB_MAX_POLY_VERTS;
     const float4 dc = (float4)(L.dir[0], L.dir[1], L.dir[2], L.dir[3]);
     float e = pb_light_irradiance(dc, pv, n);
@@ -54,14 +54,15 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     const float e0 = bent ? pb_light_irradiance(dc, pv, dc.xyz) : 0.0f;
     if (bent) {
       // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
-      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend (kernels/bent.cl,
-      // interpolated) the smallest n_F . l around the triangle's vertices. In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the
-      // light's irradiance at normal incidence: on flat geometry (n = n_F, light above the horizon)
-      // that is e itself, so the blend changes nothing there. We take min(e, e0 max(I_bend, 0)) as
-      // the second term: the result is then never brighter than the unbent shading (visibility is
-      // only computed where e > 0), it is still continuous (e, I_bend and min are), it is e
-      // wherever I_bend >= 1/c, and 0 wherever I_bend <= 0, so on every light-back-facing
-      // triangle, whose own n_F . l < 0 bounds all three of its vertices' I_bend.
+      // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend
+      // (kernels/render/bent.cl, interpolated) the smallest n_F . l around the triangle's vertices.
+      // In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the light's irradiance
+      // at normal incidence: on flat geometry (n = n_F, light above the horizon) that is e itself,
+      // so the blend changes nothing there. We take min(e, e0 max(I_bend, 0)) as the second term:
+      // the result is then never brighter than the unbent shading (visibility is only computed
+      // where e > 0), it is still continuous (e, I_bend and min are), it is e wherever I_bend >=
+      // 1/c, and 0 wherever I_bend <= 0, so on every light-back-facing triangle, whose own n_F . l
+      // < 0 bounds all three of its vertices' I_bend.
       float ib = pb_bent_value(bend_vert[px], bend_weight[px], bend, nlights, l);
       float a = clamp(bend_c * ib, 0.0f, 1.0f);
       e = a * e + (1.0f - a) * fmin(e, e0 * fmax(ib, 0.0f));

@@ -52,7 +52,7 @@
 
 static float3 vec3(const float* v) { return (float3)(v[0], v[1], v[2]); }
 
-// Light-frame lateral coordinates and depth of world point p (as kernels/viewsamples.cl).
+// Light-frame lateral coordinates and depth of world point p (as kernels/shadows/viewsamples.cl).
 static float3 light_coords(const pb_light* L, float3 p) {
   float3 r = p - vec3(L->origin);
   return (float3)(dot(r, vec3(L->ex)), dot(r, vec3(L->ey)), -dot(r, vec3(L->dir)));
@@ -205,7 +205,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
       if (apart) continue;
       long first = end[j * S + i] - n;
       for (int s = 0; s < n; ++s) {
-        // the list holds pixel indices (kernels/viewsamples.cl, vs_scatter); light-frame
+        // the list holds pixel indices (kernels/shadows/viewsamples.cl, vs_scatter); light-frame
         // coordinates by the same function as there, so the same bits
         int px = list[first + s];
         float3 p = gpos[px].xyz;
@@ -337,9 +337,9 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
 // projection) and brings cos(theta between n and d_k), so with d'_k = (tan u, tan v, 1) its
 // weight is max(0, n'.d'_k) / |d'_k|^4. Pixels that are no view sample of the light get 1 (their
 // visibility is never used), as does a sample set wholly below the horizon.
-// frames: per light, two float4 (e1, f1), (e2, f2) (src/bitmask.hpp BitmaskFrame): disk sample
-// (u, v) is the direction ~ dir + tan(alpha) (f1 u e1 + f2 v e2). A cap or polygon uses its light
-// frame's ex, ey and f = 1; an ellipse its own axes and f = tan(half-angle) / tan(alpha), the
+// frames: per light, two float4 (e1, f1), (e2, f2) (src/shadows/bitmask.hpp BitmaskFrame): disk
+// sample (u, v) is the direction ~ dir + tan(alpha) (f1 u e1 + f2 v e2). A cap or polygon uses its
+// light frame's ex, ey and f = 1; an ellipse its own axes and f = tan(half-angle) / tan(alpha), the
 // disk's affine image (seed 001 §4.1's scaling), so tables and triangle stage stay shared by
 // every light. weights: per light, one per sample (seed 001 §4.1, textured sources): 0 for a
 // polygon's disk samples outside it, the texture's relative luminance on textured lights, else 1;

@@ -2,9 +2,9 @@
 // Peters et al. 2016 for MSSM, Peters & Klein 2015 for the Hamburger moment reconstruction), and
 // the upper-bound blocker depth of seed 003 §4.2.2 for both.
 //
-// Per light: depth map -> fixed-point moments -> prefilter (SAT: kernels/scan.cl, exact 64-bit
-// sums; or the mip pyramid) -> per pixel: blocker search box, average blocker depth (seed 003
-// eq. 7, or eq. 19), penumbra width (seed 003 eq. 5 for a directional light), filtered
+// Per light: depth map -> fixed-point moments -> prefilter (SAT: kernels/common/scan.cl, exact
+// 64-bit sums; or the mip pyramid) -> per pixel: blocker search box, average blocker depth (seed
+// 003 eq. 7, or eq. 19), penumbra width (seed 003 eq. 5 for a directional light), filtered
 // visibility (eq. 6) bounded from the box-filtered moments.
 #include "shared.h"
 #include "filter.clh"
@@ -29,10 +29,10 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
   moments[l * stride + (size_t)y * size + x] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
 }
 
-// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the three-atom
-// distribution it implies. With biased moments b and receiver depth zf: solve the Hankel system
-// B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <= z3 of
-// c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
+// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the
+// three-atom distribution it implies. With biased moments b and receiver depth zf: solve the Hankel
+// system B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <=
+// z3 of c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
 //   w_i = (b2 - b1 (z_j + z_k) + z_j z_k) / ((z_i - z_j)(z_i - z_k)).
 // The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
 // returns that weight, `blocker_sum` the weighted depth sum for seed 003 eq. 7 and
@@ -416,8 +416,9 @@ kernel void mssm6_visibility(global const float4* gpos, global const float4* gnr
 }
 
 // The reconstructions on given filtered moments, for tests: case i reads m[10 i ..]: (b1..b4)
-// power moments for MSSM4, then (t1..t6) Chebyshev moments for MSSM6, and zf[i]; writes out[8 i ..]:
-// MSSM4's shadowed fraction, z_avg by eq. 7, z_avg by eq. 19, receiver weight; then MSSM6's four.
+// power moments for MSSM4, then (t1..t6) Chebyshev moments for MSSM6, and zf[i]; writes out[8 i
+// ..]: MSSM4's shadowed fraction, z_avg by eq. 7, z_avg by eq. 19, receiver weight; then MSSM6's
+// four.
 kernel void mssm_reconstruct(global const float* m, global const float* zf, int n, mssm_params P,
                              global float* out) {
   int i = get_global_id(0);

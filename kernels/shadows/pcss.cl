@@ -21,8 +21,9 @@ typedef struct {
   float range;      // world depth range of the map
 } map_point;
 
-// Texel coordinates and depth exactly as kernels/moments.cl's mssm4_visibility computes them (the
-// orthographic view of raster.cl), plus the receiver plane of geometric normal g (0: no plane).
+// Texel coordinates and depth exactly as kernels/shadows/moments.cl's mssm4_visibility computes
+// them (the orthographic view of raster.cl), plus the receiver plane of geometric normal g (0: no
+// plane).
 static map_point map_point_of(const pb_light* L, float3 p, float3 g, int size) {
   float3 w = (float3)(L->dir[0], L->dir[1], L->dir[2]);
   float3 ex = (float3)(L->ex[0], L->ex[1], L->ex[2]), ey = (float3)(L->ey[0], L->ey[1], L->ey[2]);
@@ -81,7 +82,7 @@ kernel void hard_visibility(global const float4* gpos, global const float4* gnrm
 
 // Sums over the box [x0,x1] x [y0,y1] (texel units, inside [0,size]) of the piecewise-constant
 // map, each texel weighted by the area of it the box covers (the box filter w of eqs. 4 and 6
-// with fractional edges, as kernels/filter.clh's box_mean: no popping as the box grows):
+// with fractional edges, as kernels/shadows/filter.clh's box_mean: no popping as the box grows):
 // x = sum w [z < d], y = sum w z [z < d], z = sum w. Cost: the box's area in texels.
 static float3 box_scan(global const uint* map, int size, float x0, float y0, float x1, float y1,
                        const map_point* m, float bias) {

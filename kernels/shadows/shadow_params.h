@@ -8,7 +8,7 @@
 #ifndef PENUMBRA_SHADOW_PARAMS_H
 #define PENUMBRA_SHADOW_PARAMS_H
 
-/* MSSM4 and MSSM6 (kernels/moments.cl): ShadowOptions and MSSMOptions. */
+/* MSSM4 and MSSM6 (kernels/shadows/moments.cl): ShadowOptions and MSSMOptions. */
 typedef struct {
   float moment_bias, depth_bias, slope_bias, light_size_scale;
   float max_filter, min_filter, blocker_eps;
@@ -16,7 +16,7 @@ typedef struct {
   float delta1, delta2, pad0, pad1;
 } mssm_params;
 
-/* CSSM (kernels/csm.cl): the ringing suppression derived from the order (src/shadows/cssm.cpp),
+/* CSSM (kernels/shadows/csm.cl): the ringing suppression derived from the order (src/shadows/cssm.cpp),
  * ShadowOptions' light size and filter limits, and CSSMOptions. */
 typedef struct {
   /* Ringing suppression (§3.3) of the visibility test: shadow = clamp(scale * f_bar + shift), the
@@ -30,7 +30,7 @@ typedef struct {
   float min_filter, sharpen_a, sharpen_b, damping;
 } cssm_params;
 
-/* PCSS (kernels/pcss.cl): ShadowOptions and PCSSOptions. */
+/* PCSS (kernels/shadows/pcss.cl): ShadowOptions and PCSSOptions. */
 typedef struct {
   float depth_bias, light_size_scale, max_filter, min_filter;
   int blocker_taps;   /* 0: every texel of the search box; n > 0: round(sqrt(n))^2 grid points */
@@ -39,7 +39,7 @@ typedef struct {
   int pad;
 } pcss_params;
 
-/* Area approximation (kernels/area.cl): one light's boundary samples. */
+/* Area approximation (kernels/shadows/area.cl): one light's boundary samples. */
 typedef struct {
   int first; /* index of the light's first boundary sample (samples, q, and the maps from `base`) */
   int count; /* boundary samples, 3..AREA_MAX_SAMPLES */

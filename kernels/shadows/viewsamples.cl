@@ -1,5 +1,5 @@
 // View samples and their light-space lists (seed 001 §3.1), for the bitmask technique
-// (src/shadows/bitmask.cpp, kernels/bitmask.cl).
+// (src/shadows/bitmask.cpp, kernels/shadows/bitmask.cl).
 //
 // A view sample is a camera-visible G-buffer pixel that the light can reach: geometry, with the
 // light's cap not wholly below its shading normal's horizon (seed 001 Figure 2 keeps only
@@ -10,7 +10,7 @@
 //   vs_fit      the list grid fitted to those bounds, far plane at the farthest sample (§4.3)
 //   vs_count    per texel list length by atomic increment; each sample keeps the value it read,
 //               its index inside its texel's list
-//   (scan)      exclusive offsets from an inclusive scan of the lengths (src/scan.cpp, int64)
+//   (scan)      exclusive offsets from an inclusive scan of the lengths (src/core/scan.cpp, int64)
 //   vs_scatter  each sample's pixel index into one array, lists[light][offset + index] (4 bytes
 //               an entry; the triangle stage recomputes the light-frame coordinates from the
 //               G-buffer position, as the same light_coords gives them here)
@@ -146,7 +146,7 @@ kernel void vs_widen(global const int* counts, long n, global long* ends) {
 // [ends[t] - counts[t], ends[t])). The texel is recomputed exactly as vs_count computed it. Each
 // list entry holds the sample's light-frame coordinates and its pixel index (as_float bits), so
 // the triangle stage reads a list contiguously and loads the G-buffer only for the few samples
-// that survive its region test (kernels/bitmask.cl).
+// that survive its region test (kernels/shadows/bitmask.cl).
 kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
                        global const pb_list_grid* grids, int npixels, global const int* counts,
                        global const long* ends, global const int* slot, global int* lists) {

@@ -1,5 +1,5 @@
-// Summed-area tables on the device: argument checks, the choice of kernels/scan.cl's tuning knobs
-// for the device and image, and the four launches (row pass, then the three column steps).
+// Summed-area tables on the device: argument checks, the choice of kernels/common/scan.cl's tuning
+// knobs for the device and image, and the four launches (row pass, then the three column steps).
 #include "penumbra/scan.hpp"
 
 #include <algorithm>
@@ -32,7 +32,7 @@ struct Knobs {
 constexpr Knobs kGpuKnobs{32, 256, 4, 64, false};
 // CPUs run a group's work-items one after another: few items with long serial runs (fewer tree
 // steps and barriers per element) and row-synchronized column steps. Measured on PoCL, 2048^2
-// float4: rows ~40 ms with 256 x 4, ~12 ms with 8 x 64; columns see kernels/scan.cl.
+// float4: rows ~40 ms with 256 x 4, ~12 ms with 8 x 64; columns see kernels/common/scan.cl.
 constexpr Knobs kCpuKnobs{8, 8, 64, 64, true};
 
 const Knobs& defaultKnobs(Context& ctx) {
@@ -198,7 +198,8 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   const std::size_t rowGlobal = checkedMul(rows, wg, "row-pass global size");
 
   // --- row pass --------------------------------------------------------------------------------
-  // Arguments in kernels/scan.cl's order; launchWith checks their count against the kernel's.
+  // Arguments in kernels/common/scan.cl's order; launchWith checks their count against the
+  // kernel's.
   ctx.launchWith(stage + "/rows", rowsK, cl::NDRange(rowGlobal), cl::NDRange(wg), data,
                  cl_int(width));
 

@@ -1,13 +1,13 @@
 // The ambient residual of a light set (seed 004 §3; Ramamoorthi & Hanrahan 2001): what the lights
 // do not carry, the map minus the lights (caps or polygons), applied unshadowed. Always as 9
 // spherical-harmonic coefficients of order <= 2 (its power, the JSON, AmbientModel::SH9), and by
-// default also as seed 004's pre-integrated irradiance map (kernels/irradiance.cl), which is what
-// shading then reads. Also the LightSet methods that concern the ambient.
+// default also as seed 004's pre-integrated irradiance map (kernels/environment/irradiance.cl),
+// which is what shading then reads. Also the LightSet methods that concern the ambient.
 //
-// The map's projection runs on the device (kernels/sh.cl, exact per lat-long texel); each cap's
-// projection is analytic (below), each polygon's a quadrature on the host, so the residual costs
-// one pass over the map whatever the method. The irradiance map subtracts each light's exact
-// irradiance per table normal on the device.
+// The map's projection runs on the device (kernels/environment/sh.cl, exact per lat-long texel);
+// each cap's projection is analytic (below), each polygon's a quadrature on the host, so the
+// residual costs one pass over the map whatever the method. The irradiance map subtracts each
+// light's exact irradiance per table normal on the device.
 #include <algorithm>
 #include <cmath>
 
@@ -28,8 +28,8 @@ constexpr int kCoeffs = 9;
 // reduction, enough work-groups to fill a GPU (a 1024x512 map gives 128 groups of 256).
 constexpr std::size_t kTexelsPerItem = 16;
 constexpr std::size_t kMaxGroups = 1024;
-// Irradiance map (kernels/irradiance.cl): running sums per map texel (RGB x xyz moment, 9
-// floats), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
+// Irradiance map (kernels/environment/irradiance.cl): running sums per map texel (RGB x xyz moment,
+// 9 floats), and the table normals' sums in bands of kBandRows map rows (a 1024x512 map's band of
 // prefixes, 8 x 37 KB, stays in cache while every normal reads it), at most kMaxPartials normal x
 // band sums (12 MB) however large the table.
 constexpr std::size_t kBandRows = 8;
@@ -41,11 +41,12 @@ constexpr std::size_t kMaxPrefixBytes = std::size_t(64) << 20;
 
 using SH9 = std::array<std::array<double, 3>, kCoeffs>;
 
-// Row (theta) and column (phi) integrals of kernels/sh.cl's texel_sh9, in double: differences of
-// nearby cosines lose digits in float, in double they keep ~1e-12 relative on any map up to 16k.
-// `shift`: the map's rotation about +y in columns (Environment::rotationColumns): map column c
-// covers world columns [c - shift, c - shift + 1) (pb_env_world_column, modulo the width, which the
-// periodic phi integrals do not see), so the projection is the rotated map's, exactly.
+// Row (theta) and column (phi) integrals of kernels/environment/sh.cl's texel_sh9, in double:
+// differences of nearby cosines lose digits in float, in double they keep ~1e-12 relative on any
+// map up to 16k. `shift`: the map's rotation about +y in columns (Environment::rotationColumns):
+// map column c covers world columns [c - shift, c - shift + 1) (pb_env_world_column, modulo the
+// width, which the periodic phi integrals do not see), so the projection is the rotated map's,
+// exactly.
 void shTables(int W, int H, double shift, std::vector<cl_float8>& rows,
               std::vector<cl_float8>& cols) {
   rows.assign(H, cl_float8{});
@@ -67,7 +68,8 @@ void shTables(int W, int H, double shift, std::vector<cl_float8>& rows,
   for (int c = 0; c < W; ++c) {
     // phi = (s / W - 0.5) 2 pi at world column s, as pb_equirect_dir; s0 wrapped into
     // [-frac, W - frac) as pb_env_world_column does, so that a turn by whole columns gives each
-    // world column the very same floats (kernels/irradiance.cl sums them in world order)
+    // world column the very same floats (kernels/environment/irradiance.cl sums them in world
+    // order)
     int w = (c - int(whole)) % W;
     if (w < 0) w += W;
     const double s0 = double(w) - frac;
@@ -125,9 +127,9 @@ SH9 projectMap(Context& ctx, const DeviceMap& m) {
   return sh;
 }
 
-// The residual's irradiance table on the device (kernels/irradiance.cl): the map's running sums
-// of L_t m_t along each row, the runs' half-widths per table row, the sums per band of map rows,
-// then per normal the bands in order minus the lights.
+// The residual's irradiance table on the device (kernels/environment/irradiance.cl): the map's
+// running sums of L_t m_t along each row, the runs' half-widths per table row, the sums per band of
+// map rows, then per normal the bands in order minus the lights.
 AmbientMap irradianceMap(Context& ctx, const DeviceMap& m, float shift,
                          const std::vector<AreaLight>& lights, int TW, int TH) {
   const int W = m.W, H = m.H;

@@ -1,14 +1,14 @@
 // Center-surround light extraction (seed 004 §3), on the device. The host builds the small tables
 // (row and column trigonometry, the sorted filter radii), drives seed 004's iteration loop and
-// applies the 2% stopping rule; kernels/center_surround.cl resamples the map, selects the
-// candidate centres, evaluates the filter bank on the sphere (its header explains the
+// applies the 2% stopping rule; kernels/environment/center_surround.cl resamples the map, selects
+// the candidate centres, evaluates the filter bank on the sphere (its header explains the
 // parameterization), finds the strongest response and removes the chosen centre cap.
 //
 // Speed: a candidate's responses cost one pass over the rows of its largest cap with two prefix-sum
-// look-ups per row and radius (kernels/center_surround.cl). After a light is removed only the
-// candidates whose largest filter reaches the removed cap (centre distance < largest outer radius
-// + the light's radius) can change, so only those are re-evaluated; the candidate list is sorted
-// by texel index, so they lie in one contiguous range of rows, and the rest of that range is
+// look-ups per row and radius (kernels/environment/center_surround.cl). After a light is removed
+// only the candidates whose largest filter reaches the removed cap (centre distance < largest outer
+// radius + the light's radius) can change, so only those are re-evaluated; the candidate list is
+// sorted by texel index, so they lie in one contiguous range of rows, and the rest of that range is
 // culled per work-group on the device.
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-// Environment map -> cube map of radiant energy on the device (kernels/envmap.cl).
+// Environment map -> cube map of radiant energy on the device (kernels/environment/envmap.cl).
 #include "environment/cubemap.hpp"
 
 #include <algorithm>
@@ -11,7 +11,7 @@ namespace detail {
 
 DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int supersample,
                           int splatStrip) {
-  if (m < 1 || m > 4096) badInput("--face-size must be in [1, 4096], got " + std::to_string(m));
+  if (m < 1 || m > 4096) badInput("cube face size must be in [1, 4096], got " + std::to_string(m));
   if (splatStrip < 1) badInput("splat strip must be >= 1, got " + std::to_string(splatStrip));
   if (supersample < 1 || supersample > 64)
     badInput("supersample must be in [1, 64], got " + std::to_string(supersample));
@@ -42,7 +42,8 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   const double ratio = splat ? 4.0 * m / eq.width : eq.width / (4.0 * m);
   const int ss = std::clamp(int(std::ceil(2.0 * ratio)), 1, supersample);
   if (splat) {
-    // Tables of the separable sub-texel directions (kernels/envmap.cl env_splat_rows/_columns).
+    // Tables of the separable sub-texel directions (kernels/environment/envmap.cl
+    // env_splat_rows/_columns).
     const std::size_t nr = std::size_t(eq.height) * ss, nc = std::size_t(eq.width) * ss;
     cl::Buffer rows = ctx.scratch("splat row table", nr * sizeof(cl_float4));
     cl::Buffer cols = ctx.scratch("splat column table", nc * sizeof(cl_float2));
@@ -60,8 +61,8 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
                    cl::NullRange, eqBuf, rows, cols, cl_int(eq.width), cl_int(eq.height),
                    cl_int(ss), cl_int(strip), cl_int(m), cube.energy);
   } else {
-    // The side faces' map columns (kernels/envmap.cl env_gather_columns). Every cube texel is
-    // written: no clearing.
+    // The side faces' map columns (kernels/environment/envmap.cl env_gather_columns). Every cube
+    // texel is written: no clearing.
     const std::size_t nc = 4ull * m * ss;
     cl::Buffer cols = ctx.scratch("gather column table", nc * sizeof(cl_int));
     cl::Kernel kc = ctx.kernel("envmap.cl", "env_gather_columns");

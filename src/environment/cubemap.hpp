@@ -14,10 +14,11 @@ struct DeviceCube {
 
 // The cube lives in the context's scratch buffer "cube-map energy" (Context::scratch): valid until
 // the next call on the same context. splatStrip: equirect texels per work-item along a row when
-// splatting (kernels/envmap.cl env_splat); any value gives the same bits. Measured on the 1024x512
-// built-in map, 2-core CPU through PoCL, env/resample ms at face 64 / 256: strip 1: 8.2-10.3 /
-// 22.1-22.4, 4: 6.2-6.9 / 20.0-20.5, 16: 5.4-6.2 / 18.3-18.7, 64: 5.1-5.5 / 17.6-17.8. 16 keeps
-// W/16 x H work-items (32K here) for devices that want many; 64 would gain another 5% on this CPU.
+// splatting (kernels/environment/envmap.cl env_splat); any value gives the same bits. Measured on
+// the 1024x512 built-in map, 2-core CPU through PoCL, env/resample ms at face 64 / 256: strip 1:
+// 8.2-10.3 / 22.1-22.4, 4: 6.2-6.9 / 20.0-20.5, 16: 5.4-6.2 / 18.3-18.7, 64: 5.1-5.5 / 17.6-17.8.
+// 16 keeps W/16 x H work-items (32K here) for devices that want many; 64 would gain another 5% on
+// this CPU.
 DeviceCube resampleToCube(Context& ctx, const Environment& env, int faceSize, int supersample,
                           int splatStrip = 16);
 

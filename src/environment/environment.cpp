@@ -1,5 +1,5 @@
 // Environment maps on the host: loading, sanitizing, the built-in sky, and integrals used by tests
-// and the reference. The device-side cube map lives in cubemap.cpp / kernels/envmap.cl.
+// and the reference. The device-side cube map lives in cubemap.cpp / kernels/environment/envmap.cl.
 #include "penumbra/environment.hpp"
 
 #include <algorithm>

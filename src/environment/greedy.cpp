@@ -1,6 +1,6 @@
 // Greedy fitting of square or rectangular area lights to the cube-map faces (seed 000 §4.2,
-// Figure 6): the fit runs on the device (kernels/greedy.cl, one work-group per face); the host
-// turns each fitted rectangle's taken energy into a cap light and keeps the strongest.
+// Figure 6): the fit runs on the device (kernels/environment/greedy.cl, one work-group per face);
+// the host turns each fitted rectangle's taken energy into a cap light and keeps the strongest.
 #include "environment/greedy.hpp"
 
 #include <algorithm>
@@ -25,8 +25,8 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
   cl::Buffer covered = ctx.buffer(texels, "greedy covered flags");
   cl_uchar zero = 0;
   ctx.fill(covered, &zero, 1, texels, "greedy covered flags");
-  // The kernel's per-face scratch: luminance (by row and by column), row and column prefix sums, uncovered counts per
-  // row, the seed of each row (kernels/greedy.cl, greedy_fit).
+  // The kernel's per-face scratch: luminance (by row and by column), row and column prefix sums,
+  // uncovered counts per row, the seed of each row (kernels/environment/greedy.cl, greedy_fit).
   const std::size_t prefix = 6ull * m * (m + 1);
   cl::Buffer lum = ctx.buffer(texels * sizeof(cl_long), "greedy luminance");
   cl::Buffer lumT = ctx.buffer(texels * sizeof(cl_long), "greedy luminance by column");
@@ -81,10 +81,10 @@ std::vector<GreedyRect> greedyFit(Context& ctx, cl::Buffer& energy, int m, float
 LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions& opt) {
   const int m = opt.faceSize;
   if (!(opt.threshold > 0.0f && opt.threshold < 1.0f))
-    badInput("--threshold must be in (0, 1), got " + std::to_string(opt.threshold));
-  if (m < 1 || m > 1024) badInput("--face-size must be in [1, 1024], got " + std::to_string(m));
+    badInput("GreedyOptions.threshold must be in (0, 1), got " + std::to_string(opt.threshold));
+  if (m < 1 || m > 1024) badInput("GreedyOptions.faceSize must be in [1, 1024], got " + std::to_string(m));
   if (opt.maxLights < 1 || opt.maxLights > PB_MAX_LIGHTS)
-    badInput("greedy maxLights must be in [1, " + std::to_string(PB_MAX_LIGHTS) + "], got " +
+    badInput("GreedyOptions.maxLights must be in [1, " + std::to_string(PB_MAX_LIGHTS) + "], got " +
              std::to_string(opt.maxLights));
 
   detail::DeviceCube cube = detail::resampleToCube(ctx, env, m, opt.supersample);
@@ -119,8 +119,8 @@ LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions
 
     AreaLight l;
     // Direction and extent from the luminance moments of the taken energy, as for median cut
-    // (kernels/extract.cl resolve_lights): mean direction, and cos a = 2R - 1 for a uniform cap
-    // whose mean resultant length is R.
+    // (kernels/environment/extract.cl resolve_lights): mean direction, and cos a = 2R - 1 for a
+    // uniform cap whose mean resultant length is R.
     double Y = double(g.removed[3]);
     double mx = double(g.moment[0]), my = double(g.moment[1]), mz = double(g.moment[2]);
     double len = std::sqrt(mx * mx + my * my + mz * mz);

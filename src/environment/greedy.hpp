@@ -1,6 +1,6 @@
 // Internal: the greedy fit of seed 000 §4.2 on a device cube of fixed-point energies
-// (kernels/greedy.cl), below the public extractGreedy(). Exposed for tests/test_greedy.cpp, which
-// checks it against a plain C++ copy of the algorithm.
+// (kernels/environment/greedy.cl), below the public extractGreedy(). Exposed for
+// tests/test_greedy.cpp, which checks it against a plain C++ copy of the algorithm.
 #pragma once
 #include <array>
 #include <cstddef>

@@ -1,9 +1,9 @@
 // Median-cut extraction (Debevec 2005, "A median cut algorithm for light probe sampling"; seed 003
 // §3.1, §4.1) on the device: the map resampled to a cube (environment/cubemap.hpp), luminance and
-// colour SATs (kernels/envmap.cl), the cut and the regions' moments (kernels/extract.cl); on the
-// host the fixed-point XYZ sums become RGB and lights cut by a cube-face edge are merged again.
-// Both serve median cut alone: the other extractors take RGB energies, and only median cut merges
-// across faces (MedianCutOptions::mergeAcrossFaces).
+// colour SATs (kernels/environment/envmap.cl), the cut and the regions' moments
+// (kernels/environment/extract.cl); on the host the fixed-point XYZ sums become RGB and lights cut
+// by a cube-face edge are merged again. Both serve median cut alone: the other extractors take RGB
+// energies, and only median cut merges across faces (MedianCutOptions::mergeAcrossFaces).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -28,12 +28,12 @@ constexpr float kDeg = float(kPi / 180.0);
 
 namespace {
 
-// Fixed-point CIE XYZ sums (X and Z in 1/10000 units, Y in the energy's units; kernels/envmap.cl
-// env_sat_inputs) -> linear RGB with Rec. 709 primaries and D65 white (sRGB), in the energy's
-// units. The matrix is the exact inverse of IEC 61966-2-1's RGB -> XYZ matrix as shared.h states
-// it (4 decimals), adjugate over determinant of its integer form: the standard's printed inverse
-// (3.2406, -1.5372, ...) is rounded and would not give back the RGB sums (errors ~1e-4).
-// Integer products below 2^53 keep the adjugate and determinant exact in double.
+// Fixed-point CIE XYZ sums (X and Z in 1/10000 units, Y in the energy's units;
+// kernels/environment/envmap.cl env_sat_inputs) -> linear RGB with Rec. 709 primaries and D65 white
+// (sRGB), in the energy's units. The matrix is the exact inverse of IEC 61966-2-1's RGB -> XYZ
+// matrix as shared.h states it (4 decimals), adjugate over determinant of its integer form: the
+// standard's printed inverse (3.2406, -1.5372, ...) is rounded and would not give back the RGB sums
+// (errors ~1e-4). Integer products below 2^53 keep the adjugate and determinant exact in double.
 struct XyzToRgb {
   double inv[3][3];
   XyzToRgb() {
@@ -68,11 +68,11 @@ struct XyzToRgb {
 // seam between the copies. Lights whose regions share a stretch of a face edge and whose caps
 // overlap (angle between directions < sum of half-angles) are joined, transitively, into one
 // light whose moments are the sum of theirs: power adds, direction and extent come from the
-// summed luminance moments (kernels/extract.cl resolve_lights), so power and first moment are
-// conserved as for any region. This runs on the host: it needs only the regions (downloaded
-// anyway for the lights' outlines) and one float4 per light, at most PB_MAX_LIGHTS of them, and is
-// a serial union-find over at most 24 m face-border texels: a device kernel would be one
-// work-item's worth of work behind a launch and a download. The transitive closure does not
+// summed luminance moments (kernels/environment/extract.cl resolve_lights), so power and first
+// moment are conserved as for any region. This runs on the host: it needs only the regions
+// (downloaded anyway for the lights' outlines) and one float4 per light, at most PB_MAX_LIGHTS of
+// them, and is a serial union-find over at most 24 m face-border texels: a device kernel would be
+// one work-item's worth of work behind a launch and a download. The transitive closure does not
 // depend on the order pairs are found in, and groups are numbered by their lowest light, so the
 // result is deterministic. Lights with no luminance (black regions) are never merged: their
 // fallback caps are wide and say nothing about a source.
@@ -168,16 +168,16 @@ std::vector<int> mergeAcrossFaceEdges(int m, const std::vector<pb_region>& regs,
 LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutOptions& opt) {
   const int m = opt.faceSize;
   if (m < 1 || m > 4096)
-    badInput("--face-size must be in [1, 4096], got " + std::to_string(m));
-  if (opt.lights < 1) badInput("--lights must be >= 1, got " + std::to_string(opt.lights));
+    badInput("MedianCutOptions.faceSize must be in [1, 4096], got " + std::to_string(m));
+  if (opt.lights < 1) badInput("MedianCutOptions.lights must be >= 1, got " + std::to_string(opt.lights));
   if (opt.lights > PB_MAX_LIGHTS)
-    badInput("--lights must be <= " + std::to_string(PB_MAX_LIGHTS) + ", got " +
+    badInput("MedianCutOptions.lights must be <= " + std::to_string(PB_MAX_LIGHTS) + ", got " +
              std::to_string(opt.lights));
   if (std::int64_t(opt.lights) > 6LL * m * m)
-    badInput("--lights " + std::to_string(opt.lights) + " exceeds the " +
+    badInput("MedianCutOptions.lights " + std::to_string(opt.lights) + " exceeds the " +
              std::to_string(6LL * m * m) + " texels of a " + std::to_string(m) + "^2 cube map");
   if (!(opt.maxHalfAngleDeg > 0 && opt.maxHalfAngleDeg < 90))
-    badInput("max half-angle must be in (0, 90) degrees");
+    badInput("MedianCutOptions.maxHalfAngleDeg must be in (0, 90)");
   if (!(opt.mergeCompactness > 0 && opt.mergeCompactness <= 1))
     badInput("mergeCompactness must be in (0, 1], got " + std::to_string(opt.mergeCompactness));
 
@@ -186,7 +186,7 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   const std::size_t cubeTexels = 6ull * m * m;
   cl::Buffer& energy = cube.energy;
   // Colour as CIE XYZ (seed 003 §5): the luminance SAT's Y is shared, X and Z of two faces share
-  // a long4 (kernels/envmap.cl env_sat_inputs): 9 long4 images to scan instead of 12.
+  // a long4 (kernels/environment/envmap.cl env_sat_inputs): 9 long4 images to scan instead of 12.
   // Context scratch buffers: kept across extractions (an animation runs one per frame).
   cl::Buffer lum = ctx.scratch("luminance SAT", cubeTexels * sizeof(cl_long4));
   cl::Buffer xz = ctx.scratch("colour (X, Z) SAT", cubeTexels / 2 * sizeof(cl_long4));

@@ -235,18 +235,19 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
     case ShadowTechnique::CSSM: case ShadowTechnique::MSSM4: case ShadowTechnique::MSSM6:
       break;
     default:
-      badInput(std::string("GL interop: --shadows ") + toString(options.shadows) +
-               " rasterizes more depth maps from the scene's triangles; with --gl use none, "
+      badInput(std::string("GL interop: RenderOptions.shadows ") + toString(options.shadows) +
+               " rasterizes more depth maps from the scene's triangles; with GL use none, "
                "hard, pcss, cssm, mssm4 or mssm6");
   }
   if (nl > m.maxLights)
     badInput("GL interop: " + std::to_string(nl) + " lights; this GL context's uniform blocks " +
              "hold at most " + std::to_string(m.maxLights));
   if (options.frontBackFaces)
-    badInput("GL interop: --front-back needs back-face depth maps, which the interop does not take");
+    badInput("GL interop: RenderOptions.frontBackFaces needs back-face depth maps, which the "
+             "interop does not take");
   if (options.bentNormals)
-    badInput("GL interop: --bent-normals needs the scene's triangles and the OpenCL shading, "
-             "which the interop does not take; render without --gl");
+    badInput("GL interop: RenderOptions.bentNormals needs the scene's triangles and the OpenCL "
+             "shading, which the interop does not take; render without GL");
   if (env.equirect.empty()) badInput("environment map is empty");
 
   // --- formats and sizes: the output texture fixes W x H, the first depth map S

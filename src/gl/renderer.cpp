@@ -9,6 +9,7 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/gl/interop.hpp"
+#include "render/options_check.hpp"
 
 namespace penumbra::gl {
 
@@ -116,12 +117,8 @@ Frame GLRenderer::render(const Scene& scene, const Camera& camera, const LightSe
   auto tStart = Clock::now();
   Impl& m = *impl_;
   auto& gl = m.gl;
-  if (opt.width < 1 || opt.height < 1 || opt.width > 16384 || opt.height > 16384)
-    badInput("--size must be between 1x1 and 16384x16384, got " + std::to_string(opt.width) +
-             "x" + std::to_string(opt.height));
-  if (opt.shadowMapSize < 1 || opt.shadowMapSize > 4096)
-    badInput("--shadow-map-size must be in [1, 4096], got " + std::to_string(opt.shadowMapSize));
-  if (scene.triangleCount() == 0) badInput("scene has no triangles");
+  // The OpenCL renderer's checks, with the same field-named messages.
+  penumbra::detail::validateFrameInputs(scene, env, opt);
   const int W = opt.width, H = opt.height, S = opt.shadowMapSize;
   const int nl = int(lights.lights.size());
   std::vector<std::pair<std::string, double>> glTimes;

@@ -1,6 +1,6 @@
 // How polygon lights reach the device: one layout for every kernel and shader that evaluates a
-// light's irradiance (kernels/shade.cl, kernels/irradiance.cl through kernels/lights.clh, and the
-// GL shading pass), so the three cannot drift apart.
+// light's irradiance (kernels/render/shade.cl, kernels/environment/irradiance.cl through
+// kernels/lights/lights.clh, and the GL shading pass), so the three cannot drift apart.
 #pragma once
 #include <algorithm>
 #include <vector>

@@ -1,6 +1,7 @@
 // Internal: a scene flattened for Embree (every mesh's triangles in one geometry, two-sided,
 // with the inputs checked) and the Embree scene built from it. Used by the references
-// (src/reference.cpp) and by the bitmask technique's shadow-ray checks (src/reference_samples.cpp).
+// (src/reference/reference.cpp) and by the bitmask technique's shadow-ray checks
+// (src/reference/reference_samples.cpp).
 #pragma once
 #include <embree3/rtcore.h>
 

@@ -401,11 +401,11 @@ inline V3 sampleCap(V3 a, float cosAlpha, Pcg32& rng) {
 
 void validateOptions(const ReferenceOptions& opt) {
   if (opt.width < 1 || opt.width > kMaxImageSide)
-    badInput("--width must be between 1 and 16384, got " + std::to_string(opt.width));
+    badInput("ReferenceOptions.width must be between 1 and 16384, got " + std::to_string(opt.width));
   if (opt.height < 1 || opt.height > kMaxImageSide)
-    badInput("--height must be between 1 and 16384, got " + std::to_string(opt.height));
-  if (opt.spp < 1) badInput("--spp must be >= 1, got " + std::to_string(opt.spp));
-  if (opt.threads < 0) badInput("--threads must be >= 0, got " + std::to_string(opt.threads));
+    badInput("ReferenceOptions.height must be between 1 and 16384, got " + std::to_string(opt.height));
+  if (opt.spp < 1) badInput("ReferenceOptions.spp must be >= 1, got " + std::to_string(opt.spp));
+  if (opt.threads < 0) badInput("ReferenceOptions.threads must be >= 0, got " + std::to_string(opt.threads));
 }
 
 void validateEnvironment(const Environment& env) {
@@ -687,9 +687,9 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, rad[k]) * wgt;
       }
     }
-    // The ambient residual, unshadowed as the renderer applies it (kernels/shade.cl): the same
-    // light set, so the only difference left between the two is the shadow technique. The sum is
-    // clamped at 0 as there (a residual may be negative where a cap outshines its texels).
+    // The ambient residual, unshadowed as the renderer applies it (kernels/render/shade.cl): the
+    // same light set, so the only difference left between the two is the shadow technique. The sum
+    // is clamped at 0 as there (a residual may be negative where a cap outshines its texels).
     const std::array<double, 3> amb = lights.ambientIrradiance(n);
     const auto& a = h.mesh->albedo;
     for (int k = 0; k < 3; ++k)

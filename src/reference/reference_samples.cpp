@@ -1,6 +1,6 @@
-// Embree shadow rays for explicit origins and directions (src/bitmask.hpp's SampleTracer): the
-// bitmask technique's light samples are checked ray by ray against them, in the references' own
-// Embree scene (src/embree_scene.hpp: every mesh's triangles, two-sided, inputs checked).
+// Embree shadow rays for explicit origins and directions (src/shadows/bitmask.hpp's SampleTracer):
+// the bitmask technique's light samples are checked ray by ray against them, in the references' own
+// Embree scene (src/reference/embree_scene.hpp: every mesh's triangles, two-sided, inputs checked).
 #include <embree3/rtcore.h>
 
 #include <limits>

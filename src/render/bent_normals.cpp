@@ -1,5 +1,5 @@
-// Bent normals at light silhouettes (seed 001 §4.3): the host side of kernels/bent.cl (welding,
-// launches) and the plain C++ reference of its per-vertex stage.
+// Bent normals at light silhouettes (seed 001 §4.3): the host side of kernels/render/bent.cl
+// (welding, launches) and the plain C++ reference of its per-vertex stage.
 #include "render/bent_normals.hpp"
 
 #include <climits>

@@ -1,6 +1,6 @@
-// Internal: bent normals at light silhouettes (seed 001 §4.3; kernels/bent.cl says how). The
+// Internal: bent normals at light silhouettes (seed 001 §4.3; kernels/render/bent.cl says how). The
 // renderer calls bentNormals() after the G-buffer when RenderOptions::bentNormals is set; the
-// shading (kernels/shade.cl) reads the per-pixel, per-light I_bend it leaves.
+// shading (kernels/render/shade.cl) reads the per-pixel, per-light I_bend it leaves.
 #pragma once
 #include <array>
 #include <vector>
@@ -20,9 +20,10 @@ std::vector<cl_int4> weldedTriangles(const std::vector<cl_float4>& pos,
                                      const std::vector<cl_float4>& nrm,
                                      const std::vector<cl_int4>& tris);
 
-// Per (vertex, light), vertex-major, minimum and maximum over the adjacent faces of the oriented n_F . l
-// (kernels/bent.cl's bent_vertices) into `bend` (2 ints per entry, pb_float_to_ordered; INT_MAX /
-// INT_MIN where no face reached the vertex). tris must be welded. Stage "bent-normals/vertices".
+// Per (vertex, light), vertex-major, minimum and maximum over the adjacent faces of the oriented
+// n_F . l (kernels/render/bent.cl's bent_vertices) into `bend` (2 ints per entry,
+// pb_float_to_ordered; INT_MAX / INT_MIN where no face reached the vertex). tris must be welded.
+// Stage "bent-normals/vertices".
 void bentVertices(Context& ctx, const cl::Buffer& pos, const cl::Buffer& nrm,
                   const cl::Buffer& tris, int ntris, int nverts, const cl::Buffer& lights,
                   int nlights, cl::Buffer& bend);
@@ -34,8 +35,9 @@ std::vector<std::array<float, 2>> bentVerticesReference(const std::vector<cl_flo
                                                         const std::vector<cl_int4>& tris,
                                                         const std::vector<std::array<float, 3>>& lightDirs);
 
-// What the shading reads (kernels/shade.cl, kernels/bent.clh): per vertex and light the minimum
-// and maximum (bentVertices), per pixel its triangle's welded vertices and their weights.
+// What the shading reads (kernels/render/shade.cl, kernels/render/bent.clh): per vertex and light
+// the minimum and maximum (bentVertices), per pixel its triangle's welded vertices and their
+// weights.
 struct BentBuffers {
   cl::Buffer bend, vert, weight;
 };

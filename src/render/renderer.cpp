@@ -1,6 +1,6 @@
 // The frame as a list of stages: the scene on the device (device_scene.hpp), the lights' frames,
 // the camera G-buffer (rasterizer.hpp), bent normals, the lights' shadow maps and the technique's
-// visibility (visibility.hpp), shading (shading.hpp). Also the light frames every stage shares.
+// visibility (visibility.hpp), shading (shading.hpp).
 #include "penumbra/renderer.hpp"
 
 #include <algorithm>
@@ -22,11 +22,6 @@
 namespace penumbra {
 
 namespace {
-
-using detail::V3;
-using detail::cross;
-using detail::dot;
-using detail::normalize;
 
 pb_view cameraView(const Camera& c, int w, int h) {
   CameraBasis b = cameraBasis(c, w, h);
@@ -51,58 +46,6 @@ namespace detail {
 
 cl::Buffer& BufferPool::buffer(const std::string& role, std::size_t bytes) {
   return ctx_.reuse(pool_, role, bytes);
-}
-
-// Orthographic shadow-map frame of a directional light, fitted to the scene's bounding box: the
-// box's corners projected onto the light's axes give the map's extent and depth range (plus a
-// small margin so nothing sits exactly on the near plane or the border).
-pb_light lightFrame(const std::array<float, 3>& direction, float cosAlpha,
-                    const std::array<float, 3>& radiance, const Bounds& b) {
-  pb_light L{};
-  V3 w = normalize({direction[0], direction[1], direction[2]});
-  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
-  V3 ex = normalize(cross(ref, w));
-  V3 ey = cross(w, ex);
-  V3 fwd = {-w[0], -w[1], -w[2]};
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (int i = 0; i < 8; ++i) {
-    V3 c = {i & 1 ? b.hi[0] : b.lo[0], i & 2 ? b.hi[1] : b.lo[1], i & 4 ? b.hi[2] : b.lo[2]};
-    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], p[k]);
-      hi[k] = std::max(hi[k], p[k]);
-    }
-  }
-  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
-  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]), z0 = lo[2] - margin;
-  for (int k = 0; k < 3; ++k) {
-    L.dir[k] = w[k];
-    L.radiance[k] = radiance[k];
-    L.ex[k] = ex[k];
-    L.ey[k] = ey[k];
-    L.origin[k] = cx * ex[k] + cy * ey[k] + z0 * fwd[k];
-  }
-  L.dir[3] = cosAlpha;
-  L.radiance[3] = std::acos(std::clamp(cosAlpha, -1.0f, 1.0f));
-  L.ex[3] = 0.5f * (hi[0] - lo[0]) + margin;
-  L.ey[3] = 0.5f * (hi[1] - lo[1]) + margin;
-  L.origin[3] = hi[2] + margin - z0;
-  return L;
-}
-
-pb_view orthoView(const pb_light& L, int size) {
-  pb_view v{};
-  for (int k = 0; k < 3; ++k) {
-    v.origin[k] = L.origin[k];
-    v.forward[k] = -L.dir[k];
-    v.right[k] = L.ex[k];
-    v.up[k] = L.ey[k];
-  }
-  v.right[3] = L.ex[3];
-  v.up[3] = L.ey[3];
-  v.width = v.height = size;
-  v.ortho = 1;
-  return v;
 }
 
 }  // namespace detail

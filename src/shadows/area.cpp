@@ -1,7 +1,7 @@
 // Area approximation (seed 002, Ying, Tang, Dong, §2): a convex polygon light sampled at its
 // vertices and along its edges, one orthographic depth map per sample direction, and per receiver
 // the visible area S_e of the light estimated from the samples' point visibilities and the
-// boundary's crossing points (kernels/area.cl); visibility = S_e / S_a.
+// boundary's crossing points (kernels/shadows/area.cl); visibility = S_e / S_a.
 //
 // Lights are directional, so the polygon lives on the sphere of directions; its edges are great
 // arcs. The geometry is done in the light's gnomonic plane (the tangent plane at unit distance
@@ -11,14 +11,15 @@
 // paper's planar construction holds exactly there, and the samples "along an edge" are evenly
 // spaced on the straight gnomonic segment, which puts them exactly on the great arc. The lit area
 // itself is measured on the sphere, by the irradiance it sends the receiver (Lambert's formula,
-// kernels/area.cl), not by its gnomonic area, which would weigh a light's rim (1 + tan^2
+// kernels/shadows/area.cl), not by its gnomonic area, which would weigh a light's rim (1 + tan^2
 // alpha)^(-3/2) times its centre (0.95 at 10 degrees, 0.46 at 40).
 //
 // Cap lights (what median cut, greedy and center-surround extract) become a regular K-gon
 // (AreaApproxOptions::capVertices) in the gnomonic plane, area-matched: its circumradius is
 // tan(alpha) sqrt(2 pi / (K sin(2 pi / K))), so that S_a equals the cap's gnomonic disc area
-// pi tan^2(alpha) (the gnomonic plane's disc is the cap). An inscribed K-gon would shrink every penumbra (by up to 1 - cos(pi/K), 7.6%
-// at K = 8); the area-matched one lies within +5.4% / -2.6% of the circle at K = 8.
+// pi tan^2(alpha) (the gnomonic plane's disc is the cap). An inscribed K-gon would shrink every
+// penumbra (by up to 1 - cos(pi/K), 7.6% at K = 8); the area-matched one lies within +5.4% / -2.6%
+// of the circle at K = 8.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -34,7 +35,8 @@
 namespace penumbra::detail {
 namespace {
 
-constexpr int kMaxSamples = 64;  // kernels/area.cl's AREA_MAX_SAMPLES: visibilities in one ulong
+constexpr int kMaxSamples = 64;  // kernels/shadows/area.cl's AREA_MAX_SAMPLES: visibilities in one
+                                 // ulong
 
 }  // namespace
 

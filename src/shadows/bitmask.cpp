@@ -3,11 +3,11 @@
 //
 // Stages, per frame (all lights at once where memory allows):
 //   bitmask/lists/*     view samples from the G-buffer into per-light, per-texel lists
-//                       (kernels/viewsamples.cl: bounds, grid fit, atomic counts, int64 scan by
-//                       src/scan.cpp, scatter)
+//                       (kernels/shadows/viewsamples.cl: bounds, grid fit, atomic counts, int64
+// scan by                       src/core/scan.cpp, scatter)
 //   bitmask/triangles   every triangle against the list texels of its influence region, OR of
-//                       the light samples it blocks into each view sample's mask (kernels/bitmask.cl)
-//   bitmask/resolve     masks to visibility, weighted like the shading
+//                       the light samples it blocks into each view sample's mask
+// (kernels/shadows/bitmask.cl)   bitmask/resolve     masks to visibility, weighted like the shading
 // Masks are held for a batch of lights at a time (BitmaskOptions::maskBytes).
 //
 // Lights: our cap lights (half-angle alpha) are treated as disks of radius tan(alpha) at unit
@@ -30,7 +30,8 @@
 // through a triangle facing away from it), which drops about half of their triangles. Our view
 // samples are chosen by the shading normal, so a sample may lie on a triangle facing away from
 // part of the light; its rays below that triangle's plane are inside the mesh at once and are
-// blocked by kernels/bitmask.cl's bitmask_self, as the skipped far side would have blocked them.
+// blocked by kernels/shadows/bitmask.cl's bitmask_self, as the skipped far side would have blocked
+// them.
 #include <algorithm>
 #include <array>
 #include <climits>
@@ -51,8 +52,8 @@
 namespace penumbra::detail {
 namespace {
 
-// Look-up table cells (kernels/bitmask.cl's LUT_PHI x LUT_DELTA): the band of light samples the
-// table cannot decide, tested exactly, is about (pi / LUT_PHI + 1 / LUT_DELTA) disk radii wide
+// Look-up table cells (kernels/shadows/bitmask.cl's LUT_PHI x LUT_DELTA): the band of light samples
+// the table cannot decide, tested exactly, is about (pi / LUT_PHI + 1 / LUT_DELTA) disk radii wide
 // on each side of a cut (the angle dominates: 128 x 128 gave ~3% of the samples and 4.2 s of
 // triangle stage at 160x90, 128 samples; 512 x 128 halves the band, 3.2-3.8 s, same masks); the
 // tables take 2 * 512 * 128 * samples / 8 bytes (2 MiB at 128 samples, 16 MiB at 1024).
@@ -64,7 +65,7 @@ BitmaskCapture* gCapture = nullptr;
 
 std::size_t roundUp(std::size_t v, std::size_t m) { return (v + m - 1) / m * m; }
 
-// The two tables of kernels/bitmask.cl for `disk`: cell (ip, id) covers phi in
+// The two tables of kernels/shadows/bitmask.cl for `disk`: cell (ip, id) covers phi in
 // [-pi + ip dphi, -pi + (ip + 1) dphi), delta in [-1 + id ddelta, -1 + (id + 1) ddelta). Sample
 // (u, v) at radius rho is behind the plane iff f = u cos(phi) + v sin(phi) + delta >= 0; over the
 // cell, f varies from its value at the cell's centre angle by at most rho dphi / 2 (|df/dphi| <=
@@ -202,8 +203,8 @@ class BitmaskPass : public ShadowPass {
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
                              (hard_ ? " -DHARD" : "");
     // Each light's sampling frame (bitmaskFrame) and the weight of each of its samples
-    // (kernels/bitmask.cl's resolve): a polygon's disk samples outside it weigh 0 (those whose
-    // direction is not behind every edge's great-circle plane; lights.hpp's counter-clockwise
+    // (kernels/shadows/bitmask.cl's resolve): a polygon's disk samples outside it weigh 0 (those
+    // whose direction is not behind every edge's great-circle plane; lights.hpp's counter-clockwise
     // order), a textured light's weigh the texture's luminance (AreaLight::sampleWeight), all
     // others 1. An ellipse's samples are all inside it: its frame maps the disk onto it.
     std::vector<BitmaskFrame> frames(std::max(nl, 1));

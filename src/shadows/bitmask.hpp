@@ -1,6 +1,6 @@
 // Internal: what the bitmask technique (src/shadows/bitmask.cpp) shares with its tests and
 // benchmarks: its light samples, a capture of one frame's lists and masks, and exact Embree
-// shadow rays for explicit directions (src/reference_samples.cpp) to check them against.
+// shadow rays for explicit directions (src/reference/reference_samples.cpp) to check them against.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -28,9 +28,9 @@ double bitmaskJitterAngle(int jitter);
 // (pb_list_grid::tan_alpha): normalize(dir + tan(alpha) (u ex + v ey)).
 std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, float u, float v);
 
-// A light's sampling frame in the bitmask technique (kernels/bitmask.cl `frames`): two unit axes
-// e1, e2 orthogonal to the light's direction, each with a scale f in (0, 1] of tan(alpha). Disk
-// point (u, v) is the direction normalize(dir + tan(alpha) (f1 u e1 + f2 v e2)). Caps and
+// A light's sampling frame in the bitmask technique (kernels/shadows/bitmask.cl `frames`): two unit
+// axes e1, e2 orthogonal to the light's direction, each with a scale f in (0, 1] of tan(alpha).
+// Disk point (u, v) is the direction normalize(dir + tan(alpha) (f1 u e1 + f2 v e2)). Caps and
 // polygons: the light frame's ex, ey and f = 1 (the bounding cap's disk); an ellipse light: its
 // axes and f = tan(half-angle) / tan(alpha), the disk's affine image (seed 001 §4.1: "a virtual
 // scaling of the entire scene allows us to reestablish a spherical light source").

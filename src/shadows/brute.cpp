@@ -1,6 +1,6 @@
 // Brute force (seed 000 Fig. 11d): K point lights per area light, spread over its cap, one hard
 // shadow map each, visibility = the irradiance- and sample-weighted mean of the K depth tests
-// (kernels/pcss.cl's brute_visibility). The baseline that bounds the problem from above: it
+// (kernels/shadows/pcss.cl's brute_visibility). The baseline that bounds the problem from above: it
 // converges to the exact visibility of the cap as K grows, at K times the shadow-map cost.
 //
 // The K * lights maps are rasterized and tested in batches of at most BruteOptions::batchBytes,
@@ -16,62 +16,6 @@
 #include "core/vec3.hpp"
 
 namespace penumbra::detail {
-
-// Orthographic frame of a point light in direction `dir`, fitted (as lightFrame fits the scene's
-// box) to the oriented box of the area light's own frame, which holds the whole scene: a sample
-// near the cap's axis gets the area light's texel size, not that of a looser world-axis box.
-//
-// The map's texel grid is shifted by (jx, jy) texels (in [-1/2, 1/2)). Without it every sample's
-// grid is anchored at the projection of the box's centre, so a sample's texel rounding of its
-// shadow edge moves with the same tilt that moves the edge: on a plane the K edges then fall only
-// on every other texel-wide strip and the average is a staircase of two-texel steps (measured:
-// 0.086 max error at K = 256 on a 5-degree planar penumbra). Shifts from a Halton sequence make
-// the rounding independent of the direction, so it only blurs the profile by about a texel.
-pb_light sampleFrame(const pb_light& area, const V3& dir, int size, float jx, float jy) {
-  V3 aex = xyz(area.ex), aey = xyz(area.ey), afwd = {-area.dir[0], -area.dir[1], -area.dir[2]};
-  V3 w = normalize(dir);
-  V3 ref = std::fabs(w[1]) < 0.99f ? V3{0, 1, 0} : V3{1, 0, 0};
-  V3 ex = normalize(cross(ref, w));
-  V3 ey = cross(w, ex);
-  V3 fwd = {-w[0], -w[1], -w[2]};
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (int i = 0; i < 8; ++i) {
-    float sx = i & 1 ? area.ex[3] : -area.ex[3], sy = i & 2 ? area.ey[3] : -area.ey[3];
-    float sz = i & 4 ? area.origin[3] : 0.0f;
-    V3 c;
-    for (int a = 0; a < 3; ++a) c[a] = area.origin[a] + sx * aex[a] + sy * aey[a] + sz * afwd[a];
-    float p[3] = {dot(c, ex), dot(c, ey), dot(c, fwd)};
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
-    }
-  }
-  float margin = 1e-3f * std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-6f});
-  float hx = 0.5f * (hi[0] - lo[0]) + margin, hy = 0.5f * (hi[1] - lo[1]) + margin;
-  float cx = 0.5f * (lo[0] + hi[0]), cy = 0.5f * (lo[1] + hi[1]);
-  if (size > 0) {
-    // one more texel each side, so that the shift keeps the whole box inside the map
-    hx *= float(size) / std::max(size - 2, 1);
-    hy *= float(size) / std::max(size - 2, 1);
-    cx += jx * 2 * hx / size;
-    cy += jy * 2 * hy / size;
-  }
-  float z0 = lo[2] - margin;
-  pb_light L{};
-  for (int a = 0; a < 3; ++a) {
-    L.dir[a] = w[a];
-    L.radiance[a] = area.radiance[a];
-    L.ex[a] = ex[a];
-    L.ey[a] = ey[a];
-    L.origin[a] = cx * ex[a] + cy * ey[a] + z0 * fwd[a];
-  }
-  L.dir[3] = 1.0f;  // a point on the cap
-  L.radiance[3] = 0.0f;
-  L.ex[3] = hx;
-  L.ey[3] = hy;
-  L.origin[3] = hi[2] + margin - z0;
-  return L;
-}
 
 void validate(const BruteOptions& o) { checkRange("RenderOptions.brute.samples", o.samples, 1, 4096); }
 
@@ -121,7 +65,8 @@ class BrutePass : public ShadowPass {
         samples.push_back(sampleFrame(f.lights[l], ls[k].dir, S,
                                       radicalInverse(k + 1, 2) - 0.5f,
                                       radicalInverse(k + 1, 3) - 0.5f));
-        // the sample's weight, which kernels/pcss.cl's brute_visibility multiplies its cosine by
+        // the sample's weight, which kernels/shadows/pcss.cl's brute_visibility multiplies its
+        // cosine by
         samples.back().radiance[3] = ls[k].weight;
         views.push_back(orthoView(samples.back(), S));
       }

@@ -1,4 +1,4 @@
-// CSSM: convolution soft shadow maps (seed 000 §3 and appendix), kernels/csm.cl.
+// CSSM: convolution soft shadow maps (seed 000 §3 and appendix), kernels/shadows/csm.cl.
 //
 // The host derives the ringing suppression of §3.3 from the order M (deriveCssmSeries), writes
 // the 4M + 1 basis images per light, prefilters them and runs the visibility kernel. Lights are

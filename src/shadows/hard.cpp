@@ -1,6 +1,6 @@
 // Hard shadows: one depth test per pixel and light against the standard depth map at the light's
-// centre (nearest texel, no filtering), kernels/pcss.cl's hard_visibility. The baseline that
-// bounds the problem from below: what every soft technique must improve on.
+// centre (nearest texel, no filtering), kernels/shadows/pcss.cl's hard_visibility. The baseline
+// that bounds the problem from below: what every soft technique must improve on.
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {

@@ -1,5 +1,5 @@
 // What MSSM4 and MSSM6 share (src/shadows/mssm.hpp): their options' check, the parameter block
-// of kernels/moments.cl, and the pass but for the moments' layout.
+// of kernels/shadows/moments.cl, and the pass but for the moments' layout.
 #include "shadows/mssm.hpp"
 
 #include "shadows/shadow_options.hpp"

@@ -1,6 +1,6 @@
 // Internal: what MSSM4 and MSSM6 (src/shadows/mssm4.cpp, src/shadows/mssm6.cpp) share
 // (src/shadows/mssm.cpp): the pass itself but for how the moments are stored, and the parameter
-// block of kernels/moments.cl (shadows/shadow_params.h).
+// block of kernels/shadows/moments.cl (shadows/shadow_params.h).
 #pragma once
 #include <string>
 #include <utility>
@@ -10,13 +10,15 @@
 
 namespace penumbra::detail {
 
-// kernels/moments.cl's parameters. `shared` at its defaults is enough for the reconstruction
-// alone (mssm_reconstruct reads the moment bias, the blocker epsilon and the eq. 19 clamps).
+// kernels/shadows/moments.cl's parameters. `shared` at its defaults is enough for the
+// reconstruction alone (mssm_reconstruct reads the moment bias, the blocker epsilon and the eq. 19
+// clamps).
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
 
 // Moment soft shadow mapping (seed 003): the lights' moments from their depth maps, prefiltered
-// (RenderOptions::prefilter), then kernels/moments.cl's "<technique>_visibility" for every pixel
-// and light. Stages "<technique>/moments", "<technique>/sat" or "/mip", "<technique>/visibility".
+// (RenderOptions::prefilter), then kernels/shadows/moments.cl's "<technique>_visibility" for every
+// pixel and light. Stages "<technique>/moments", "<technique>/sat" or "/mip",
+// "<technique>/visibility".
 class MomentPass : public ShadowPass {
  public:
   explicit MomentPass(std::string technique) : technique_(std::move(technique)) {}

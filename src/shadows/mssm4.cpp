@@ -1,4 +1,5 @@
-// MSSM4: moment soft shadow mapping with four moments (seed 003 §3.2.1), kernels/moments.cl.
+// MSSM4: moment soft shadow mapping with four moments (seed 003 §3.2.1),
+// kernels/shadows/moments.cl.
 #include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
@@ -8,7 +9,7 @@ class MSSM4Pass : public MomentPass {
  public:
   MSSM4Pass() : MomentPass("mssm4") {}
   int images(int lights) const override { return lights; }
-  // one long4 image per light: b1..b4 (kernels/moments.cl, depth_to_moments)
+  // one long4 image per light: b1..b4 (kernels/shadows/moments.cl, depth_to_moments)
   void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
                const std::string& stage) const override {
     const int S = f.mapSize;

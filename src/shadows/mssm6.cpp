@@ -1,4 +1,4 @@
-// MSSM6: moment soft shadow mapping with six moments (seed 003 §4.2.1), kernels/moments.cl.
+// MSSM6: moment soft shadow mapping with six moments (seed 003 §4.2.1), kernels/shadows/moments.cl.
 #include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
@@ -7,7 +7,7 @@ namespace {
 class MSSM6Pass : public MomentPass {
  public:
   MSSM6Pass() : MomentPass("mssm6") {}
-  // Two lights share three long4 images (kernels/moments.cl, depth_to_moments6).
+  // Two lights share three long4 images (kernels/shadows/moments.cl, depth_to_moments6).
   int images(int lights) const override { return 3 * ((lights + 1) / 2); }
   void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
                const std::string& stage) const override {

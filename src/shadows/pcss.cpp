@@ -1,6 +1,6 @@
 // Percentage-closer soft shadows (Fernando 2005), seed 003 eqs. 4-6 computed by sampling the
-// standard depth map explicitly: kernels/pcss.cl's pcss_visibility. No prefilter: the price is a
-// shading cost that grows with the filter's area in texels (every texel of the box by default,
+// standard depth map explicitly: kernels/shadows/pcss.cl's pcss_visibility. No prefilter: the price
+// is a shading cost that grows with the filter's area in texels (every texel of the box by default,
 // PCSSOptions::filterTaps = 0; seed 003 §6.2), where the filtered techniques pay a constant.
 #include "shadows/shadow_options.hpp"
 #include "shadows/shadow_params.h"

@@ -44,8 +44,8 @@ bool prefilterAvailable(Prefilter p) { return p == Prefilter::SAT || p == Prefil
 
 namespace {
 
-// The mip pyramid's levels, as kernels/filter.clh lays them out: n_k = ceil(S / 2^k) texels a
-// side, k = 0 .. L-1, n_{L-1} = 1.
+// The mip pyramid's levels, as kernels/shadows/filter.clh lays them out: n_k = ceil(S / 2^k) texels
+// a side, k = 0 .. L-1, n_{L-1} = 1.
 int mipLevelSize(int size, int k) { return ((size - 1) >> k) + 1; }
 int mipLevels(int size) {
   int L = 1;
@@ -55,7 +55,7 @@ int mipLevels(int size) {
 
 std::size_t roundUpTo(std::size_t v, std::size_t m) { return (v + m - 1) / m * m; }
 
-// kernels/mip.cl's mip_build: levels src+1 .. src+depth of `count` images.
+// kernels/shadows/mip.cl's mip_build: levels src+1 .. src+depth of `count` images.
 void launchMipBuild(Context& ctx, cl::Kernel& k, cl::Buffer& maps, int size, std::size_t stride,
                     int src, int depth, int count, int tile, const std::string& stage) {
   std::size_t n1 = roundUpTo(std::size_t(mipLevelSize(size, src + 1)), std::size_t(tile));

@@ -15,7 +15,9 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
-#include "penumbra/renderer.hpp"
+#include "penumbra/lights.hpp"
+#include "penumbra/options.hpp"
+#include "penumbra/scene.hpp"
 #include "common/shared.h"
 
 namespace penumbra::detail {
@@ -108,14 +110,15 @@ class ShadowPass {
   virtual std::vector<std::pair<std::string, double>> frameStats() const { return {}; }
 };
 
-// One implementation per technique (src/shadows_*.cpp), dispatched in src/shadows.cpp; None has
-// no pass (nullptr).
+// One implementation per technique (src/shadows/<technique>.cpp), dispatched in
+// src/shadows/registry.cpp; None has no pass (nullptr).
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t);
 
 // Orthographic frame of a point light in direction `dir`, fitted to the oriented box of the area
 // light `area`'s own frame (which holds the whole scene): brute force's and area approximation's
 // one map per light sample. size > 0: the grid is shifted by (jx, jy) texels of a size x size map,
-// with a texel of margin each side so the shift keeps the box inside (src/shadows_brute.cpp).
+// with a texel of margin each side so the shift keeps the box inside
+// (src/shadows/light_frames.cpp).
 pb_light sampleFrame(const pb_light& area, const std::array<float, 3>& dir, int size = 0,
                      float jx = 0.0f, float jy = 0.0f);
 bool techniqueAvailable(ShadowTechnique t);
@@ -123,7 +126,7 @@ std::unique_ptr<ShadowPass> makeMSSM4Pass();
 std::unique_ptr<ShadowPass> makeMSSM6Pass();
 std::unique_ptr<ShadowPass> makeCSSMPass();
 std::unique_ptr<ShadowPass> makeHardPass(), makePCSSPass(), makeBrutePass();
-std::unique_ptr<ShadowPass> makeBitmaskPass(bool hard);  // src/shadows_bitmask.cpp
+std::unique_ptr<ShadowPass> makeBitmaskPass(bool hard);  // src/shadows/bitmask.cpp
 
 // Filterable maps: `count` images of S x S long4 texels, image i at element i * stride.
 // prefilterStride: elements one image needs for the prefilter (S*S for a SAT; more for a mip
@@ -135,7 +138,8 @@ void prefilter(Context& ctx, cl::Buffer& maps, Prefilter p, int size, int count,
                const std::string& stage);
 std::string prefilterOption(Prefilter p);
 
-// The orthographic frame of a directional light fitted to a box, and its view for the rasterizer.
+// The orthographic frame of a directional light fitted to a box, and its view for the rasterizer
+// (src/shadows/light_frames.cpp).
 pb_light lightFrame(const std::array<float, 3>& direction, float cosAlpha,
                     const std::array<float, 3>& radiance, const Bounds& bounds);
 pb_view orthoView(const pb_light& light, int size);

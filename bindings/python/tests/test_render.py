@@ -121,8 +121,8 @@ def test_bent_normals(scene, camera, lights, env, renderer, ctx):
     frame = renderer.render(scene, camera, lights, env, opt)
     img = frame.image
     assert np.isfinite(img).all()
-    # Shading only ever darkens (kernels/shade.cl), and the option does something on the sphere's
-    # and torus's silhouettes.
+    # Shading only ever darkens (kernels/render/shade.cl), and the option does something on the
+    # sphere's and torus's silhouettes.
     assert (img[..., :3] <= off.image[..., :3] + 1e-6).all()
     assert (img[..., :3] < off.image[..., :3]).any()
     report = json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))

@@ -11,11 +11,11 @@
 //   3. interop.shade(depthTextures, gbuffer, output, camera, lights, bounds, env, options):
 //      visibility with options.shadows in OpenCL (prefiltering etc.), then shading by a GL
 //      fragment shader into `output` (RGBA32F or RGBA16F, W x H: radiance, alpha 1 on geometry).
-//      The formula equals kernels/shade.cl's. When shade() returns, `output` is complete.
+//      The formula equals kernels/render/shade.cl's. When shade() returns, `output` is complete.
 // shade() restores the draw framebuffer, viewport, program, vertex array, active texture unit,
 // depth test and blending it found; it changes the GL_TEXTURE_2D / GL_TEXTURE_2D_ARRAY bindings of
-// texture units 0-6, uniform-buffer binding point 0 and the pixel pack/unpack alignment (4). Wrong formats or sizes throw
-// Error(BadInput) naming the texture, before anything is drawn.
+// texture units 0-6, uniform-buffer binding point 0 and the pixel pack/unpack alignment (4). Wrong
+// formats or sizes throw Error(BadInput) naming the texture, before anything is drawn.
 //
 // Transfers: zero-copy through cl_khr_gl_sharing needs an OpenCL context created against the GL
 // context; penumbra's Context is not (and PoCL has no GL sharing), so every frame takes the
