@@ -9,6 +9,7 @@
 namespace penumbra {
 namespace detail {
 const std::map<std::string, std::string>& embeddedKernels();
+const std::map<std::string, std::string>& embeddedKernelPaths();
 }
 
 const char* toString(ErrorKind kind) {
@@ -168,11 +169,12 @@ cl::Kernel Context::kernel(const std::string& file, const std::string& name,
     auto src = sources.find(file);
     if (src == sources.end())
       throw Error(ErrorKind::Internal, "kernel file " + file + " is not embedded in the library");
+    const std::string path = detail::embeddedKernelPaths().at(file);  // kernels/<family>/<file>
     cl::Program program;
     try {
       program = cl::Program(context_, src->second);
     } catch (const cl::Error& e) {
-      rethrowCl(e, "creating program kernels/" + file);
+      rethrowCl(e, "creating program " + path);
     }
     std::string opts = "-cl-std=CL1.2 " + options;
     if (info_.fp64) opts += " -DPB_HAS_FP64=1";
@@ -184,9 +186,8 @@ cl::Kernel Context::kernel(const std::string& file, const std::string& name,
         log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
       } catch (...) {
       }
-      throw Error(ErrorKind::KernelBuild, "kernels/" + file + " failed to build on " +
-                                              info_.name + " with options '" + opts + "':\n" +
-                                              log);
+      throw Error(ErrorKind::KernelBuild, path + " failed to build on " + info_.name +
+                                              " with options '" + opts + "':\n" + log);
     }
     it = programs_.emplace(key, program).first;
   }
