@@ -626,7 +626,7 @@ std::vector<OptionSpec> referenceSpecs() {
     if (o.name == "size") o.fields = {"ReferenceOptions.width", "ReferenceOptions.height"};
   return with(with(scene, kExtractSpecs), {
       kLightSetSpec,
-      {"spp", true, "shadow-ray samples per pixel (default " + num(R.spp) + ")",
+      {"spp", true, "shadow-ray samples per pixel, 1 to 1048576 (default " + num(R.spp) + ")",
        {"ReferenceOptions.spp"}},
       {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
       {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
@@ -661,9 +661,17 @@ int cmdReference(int argc, char** argv) {
   const bool useLightSet = userLightSet(a, userLights);
   lightMode = lightMode || useLightSet;
   SceneSetup s = loadSetup(a, ro.width, ro.height);
+  // A terminal gets one line rewritten in place; a log (not a terminal) gets a line per 10%, so
+  // a long run under a script still shows that it advances.
   bool tty = isatty(2);
-  ro.progress = [tty](double f) {
-    if (tty) std::fprintf(stderr, "\rreference: %3d%%", int(f * 100));
+  int lastTenth = 0;
+  ro.progress = [tty, &lastTenth](double f) {
+    if (tty) {
+      std::fprintf(stderr, "\rreference: %3d%%", int(f * 100));
+    } else if (int(f * 10) > lastTenth) {
+      lastTenth = int(f * 10);
+      std::fprintf(stderr, "reference: %d%%\n", lastTenth * 10);
+    }
   };
   Image img;
   if (lightMode) {
@@ -674,6 +682,7 @@ int cmdReference(int argc, char** argv) {
     img = referenceEnvironment(s.scene, s.camera, s.env, ro);
   }
   if (tty) std::fprintf(stderr, "\rreference: 100%%\n");
+  else if (lastTenth < 10) std::fprintf(stderr, "reference: 100%%\n");
   writeImage(out, img, exposure > 0 ? exposure : autoExposure(img));
   std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
             << ro.height << ", " << ro.spp << " spp, "
@@ -716,7 +725,8 @@ int cmdLights(int argc, char** argv) {
   Args a = parse(argc, argv, 2, specs, "lights");
   if (has(a, "help")) {
     printHelp("penumbra lights [options]",
-              "Extracts area lights from an environment map and writes them as JSON: each light's "
+              "Extracts area lights from an environment map and writes them as JSON: how many of the "
+              "map's pixels were sanitized (\"sanitized_pixels\"), each light's "
               "direction, half-angle, radiance and power, then the ambient residual (9 RGB "
               "spherical-harmonic coefficients of radiance, \"ambient_sh\", and its power; with "
               "--ambient map, the default, also its irradiance map, \"ambient_map\").",
@@ -726,10 +736,14 @@ int cmdLights(int argc, char** argv) {
   if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
   if (has(a, "overlay")) checkOutput(get(a, "overlay", ""), {".png"}, "overlay");
   ExtractOptions eo = parseExtractOptions(a);
-  Environment env = environmentFrom(get(a, "env", "builtin"));
+  Environment env = loadEnvironmentNoting(get(a, "env", "builtin"));
   Context ctx(get(a, "device", ""));
   LightSet lights = extractLights(ctx, env, eo);
+  // The count belongs to the map, not to the light set (LightSet has no field for it), so it is
+  // recorded here as render's report records it; loadLightSet ignores keys it does not read.
   std::string json = lights.toJson();
+  json.insert(json.find('\n') + 1,
+              "  \"sanitized_pixels\": " + std::to_string(env.sanitizedPixels) + ",\n");
   // the overlay first: if it fails, no JSON is left behind either
   if (has(a, "overlay")) writeLightOverlay(get(a, "overlay", ""), env, lights);
   if (has(a, "out"))
@@ -771,8 +785,10 @@ std::string oneLine(std::string s) {
   return s;
 }
 
-void usage() {
-  std::cout << "penumbra " PENUMBRA_VERSION
+// Usage asked for (--help) goes to stdout; usage as the answer to a missing command is an error and
+// goes to stderr, so that a script capturing stdout never takes it for a result.
+void usage(std::ostream& out) {
+  out << "penumbra " PENUMBRA_VERSION
                " - soft shadows from area lights and HDR environment maps (OpenCL)\n\n"
                "usage: penumbra COMMAND [options]    (penumbra COMMAND --help for details)\n\n"
                "commands:\n"
@@ -788,13 +804,13 @@ void usage() {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    usage();
+    usage(std::cerr);
     return 2;
   }
   std::string cmd = argv[1];
   try {
     if (cmd == "--help" || cmd == "-h" || cmd == "help") {
-      usage();
+      usage(std::cout);
       return 0;
     }
     if (cmd == "--version") {

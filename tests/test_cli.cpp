@@ -26,6 +26,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "penumbra/error.hpp"
@@ -443,6 +444,28 @@ TEST_F(CliHelp, TopLevel) {
   EXPECT_FALSE(v.out.empty());
 }
 
+// Usage as an answer to a missing or unknown command is an error: stderr, exit 2, nothing on
+// stdout (a script capturing stdout never takes it for a result). Asked for, it is the result.
+TEST_F(CliHelp, UsageErrorsOnStderr) {
+  Result none = run({});
+  EXPECT_EQ(none.code, 2) << describe(none);
+  EXPECT_TRUE(none.out.empty()) << describe(none);
+  EXPECT_NE(none.err.find("usage: penumbra COMMAND"), std::string::npos) << describe(none);
+  Result unknown = run({"rendr"});
+  EXPECT_EQ(unknown.code, 2) << describe(unknown);
+  EXPECT_TRUE(unknown.out.empty()) << describe(unknown);
+  EXPECT_EQ(lines(unknown.err).size(), 1u) << describe(unknown);
+  EXPECT_NE(unknown.err.find("rendr"), std::string::npos) << describe(unknown);
+  for (const char* flag : {"--help", "-h"}) {
+    SCOPED_TRACE(flag);
+    Result r = run({flag});
+    EXPECT_EQ(r.code, 0) << describe(r);
+    EXPECT_TRUE(r.err.empty()) << describe(r);
+    EXPECT_NE(r.out.find("usage: penumbra COMMAND"), std::string::npos) << describe(r);
+  }
+  EXPECT_TRUE(entries().empty());
+}
+
 class CliDevices : public CliFixture {};
 
 TEST_F(CliDevices, ListsAtLeastOne) {
@@ -561,6 +584,26 @@ TEST_F(CliLights, JsonOnStdout) {
   EXPECT_TRUE(entries().empty());
 }
 
+// A map with NaN/Inf/negative texels: lights says on stderr how many pixels were replaced, as
+// render does, and records the count in the JSON, which still loads as a light set.
+TEST_F(CliLights, SanitizedPixelsReportedAndRecorded) {
+  Result r = run({"lights", "--env", kData + "/envmaps/bad/nan_inf_negative.exr", "--lights", "4",
+                  "--face-size", "16", "--out", "l.json"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const std::string json = readText(dir_ / "l.json");
+  const double sanitized = jsonNumber(json, "sanitized_pixels");
+  EXPECT_GT(sanitized, 0) << json;
+  EXPECT_NE(r.err.find("replaced " + std::to_string(std::int64_t(sanitized)) + " pixel"),
+            std::string::npos)
+      << describe(r);
+  EXPECT_EQ(loadLightSet((dir_ / "l.json").string()).lights.size(), 4u);
+  // a clean map records zero and says nothing
+  Result clean = run({"lights", "--lights", "3", "--face-size", "16"});
+  ASSERT_EQ(clean.code, 0) << describe(clean);
+  EXPECT_EQ(jsonNumber(clean.out, "sanitized_pixels"), 0) << clean.out;
+  EXPECT_EQ(clean.err.find("replaced"), std::string::npos) << describe(clean);
+}
+
 // The ambient residual is in the JSON by default (9 RGB coefficients and their power); with
 // --no-ambient it is recorded as absent and zero.
 TEST_F(CliLights, AmbientInJsonUnlessNoAmbient) {
@@ -647,6 +690,28 @@ TEST_F(CliLights, TruncatedEnvironmentFails) {
 // 8. reference and compare.
 
 class CliReference : public CliFixture {};
+
+// Not on a terminal (the test's pipe), progress comes as one line per 10%, ending at 100%. One
+// thread reports after every row; with more, a frame this small may finish between two looks.
+TEST_F(CliReference, ProgressLinesWhenNotATerminal) {
+  Result r = run({"reference", "--size", "16x20", "--spp", "1", "--threads", "1", "--out",
+                  "ref.exr"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const auto err = lines(r.err);
+  ASSERT_FALSE(err.empty()) << describe(r);
+  EXPECT_EQ(err.back(), "reference: 100%") << describe(r);
+  EXPECT_NE(r.err.find("reference: 50%\n"), std::string::npos) << describe(r);
+  for (const auto& l : err) EXPECT_EQ(l.rfind("reference: ", 0), 0u) << describe(r);
+  EXPECT_LE(err.size(), 10u) << describe(r);
+}
+
+// --spp is bounded (1 to 1048576, stated in --help): beyond it, one line naming the flag.
+TEST_F(CliReference, SppBeyondTheMaximumIsRefused) {
+  expectFailure({"reference", "--size", "16x9", "--spp", "1048577", "--out", path("ref.exr")},
+                {"--spp", "1048576"});
+  Result help = run({"reference", "--help"});
+  EXPECT_NE(help.out.find("1048576"), std::string::npos) << describe(help);
+}
 
 TEST_F(CliReference, EnvironmentLightSetAndCompare) {
   Result env = run({"reference", "--size", "32x18", "--spp", "4", "--out", "ref.exr"});
@@ -767,4 +832,33 @@ TEST_F(CliLightSet, LightShapeIsMedianCutOnly) {
   expectFailure({"render", "--extract", "greedy", "--light-shape", "polygon", "--out", path("x.png")},
                 {"--light-shape"});
   expectFailure({"render", "--light-shape", "hexagon", "--out", path("x.png")}, {"--light-shape"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reproducible outputs: two identical runs write byte-identical files (no time in any header).
+// The runs are more than a second apart, the resolution of the EXR capDate a writer would stamp.
+
+class CliOutputs : public CliFixture {};
+
+TEST_F(CliOutputs, IdenticalRunsWriteIdenticalBytes) {
+  const std::vector<std::string> frame = cat({"render", "--size", "32x18"}, kFast);
+  const std::vector<std::string> reference = {"reference", "--size", "16x9", "--spp", "2"};
+  for (const char* pass : {"1", "2"}) {
+    for (const char* ext : {".exr", ".png"}) {
+      Result r = run(cat(frame, {"--out", std::string("frame") + pass + ext}));
+      ASSERT_EQ(r.code, 0) << describe(r);
+    }
+    Result r = run(cat(reference, {"--out", std::string("ref") + pass + ".exr"}));
+    ASSERT_EQ(r.code, 0) << describe(r);
+    if (std::string(pass) == "1") std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  }
+  for (const char* name : {"frame%.exr", "frame%.png", "ref%.exr"}) {
+    SCOPED_TRACE(name);
+    std::string a = name, b = name;
+    a.replace(a.find('%'), 1, "1");
+    b.replace(b.find('%'), 1, "2");
+    const std::string bytesA = readText(dir_ / a), bytesB = readText(dir_ / b);
+    ASSERT_FALSE(bytesA.empty());
+    EXPECT_TRUE(bytesA == bytesB) << a << " and " << b << " differ";
+  }
 }

@@ -92,6 +92,9 @@ void writeImage(const std::string& path, const Image& image, float exposure) {
     ImageSpec spec(image.width, image.height, image.channels, TypeDesc::FLOAT);
     if (image.channels == 4) spec.alpha_channel = 3;
     spec.attribute("compression", "zip");
+    // OpenImageIO stamps the current time into the EXR header (capDate) unless the spec holds a
+    // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
+    spec.attribute("DateTime", "");
     ok = out->open(tmp.string(), spec) &&
          out->write_image(TypeDesc::FLOAT, image.pixels.data()) && out->close();
   } else {
