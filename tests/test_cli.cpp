@@ -399,11 +399,6 @@ TEST_F(CliParams, LightsCommandBadCount) {
 TEST_F(CliParams, LightsOverlayNotPng) {
   expectFailure({"lights", "--lights", "4", "--overlay", path("o.exr")}, {"--overlay"});
 }
-TEST_F(CliParams, NoCommandShowsUsage) {
-  Result r = run({});
-  EXPECT_EQ(r.code, 2) << describe(r);
-  EXPECT_NE(r.out.find("usage"), std::string::npos) << describe(r);
-}
 
 // ---------------------------------------------------------------------------------------------
 // 4. --help for every command; 5. devices.
