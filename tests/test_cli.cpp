@@ -59,9 +59,16 @@ Result runCli(const std::vector<std::string>& args, const fs::path& cwd, int tim
   std::vector<char*> argv;
   for (auto& s : argStore) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);
+  // An inherited variable that extraEnv sets again is dropped: getenv() returns the first match,
+  // so a caller's OCL_ICD_VENDORS (bench/gpu/check.sh sets one) would shadow the test's.
+  auto overridden = [&](const char* e) {
+    for (auto& x : extraEnv)
+      if (std::strncmp(e, x.c_str(), x.find('=') + 1) == 0) return true;
+    return false;
+  };
   std::vector<char*> envp;
   for (char** e = environ; *e; ++e)
-    if (std::strncmp(*e, "PENUMBRA_DEVICE=", 16) != 0) envp.push_back(*e);
+    if (std::strncmp(*e, "PENUMBRA_DEVICE=", 16) != 0 && !overridden(*e)) envp.push_back(*e);
   for (auto& e : extraEnv) envp.push_back(const_cast<char*>(e.c_str()));
   envp.push_back(nullptr);
   std::string dir = cwd.string();
