@@ -286,9 +286,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   opt.height = H;
   opt.shadowMapSize = S;
 
-  std::vector<pb_light> lights;
-  for (auto& l : lightSet.lights)
-    lights.push_back(penumbra::detail::lightFrame(l.direction, l.cosAlpha, l.radiance, bounds));
+  const std::vector<pb_light> lights = penumbra::detail::lightFrames(lightSet, bounds, S).lights;
   cl::Buffer lightB = m.pool.upload("lights", lights);
 
   // --- GL -> host -> device
@@ -329,7 +327,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
                      cl_int(S), cl_int(nl), depth);
     }
   }
-  m.visibility.begin(opt.shadows, npx, nl);
+  m.visibility.begin(opt.shadow, opt.shadows, npx, nl);
   NoRasterizer noRaster;
   penumbra::detail::ShadowFrame sf(ctx, m.pool, opt, lights);
   sf.width = W;

@@ -134,8 +134,7 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
         badInput("polygon light is not convex (vertex " + std::to_string(j) +
                  " is not inside edge " + std::to_string(i) + ")");
   }
-  D3 ref = std::fabs(d[1]) < 0.99 ? D3{0, 1, 0} : D3{1, 0, 0};
-  const D3 ex = normalize(cross(ref, d)), ey = cross(d, ex);
+  const D3 ex = defaultAxisU(d), ey = cross(d, ex);
   double wind = 0;
   for (int i = 0; i < n; ++i) {
     const D3 &a = v[i], &b = v[(i + 1) % n];

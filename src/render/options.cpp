@@ -55,7 +55,6 @@ void validateFrameInputs(const Scene& scene, const Environment& env, const Rende
   checkRange("RenderOptions.width", opt.width, 1, 16384);
   checkRange("RenderOptions.height", opt.height, 1, 16384);
   checkRange("RenderOptions.shadowMapSize", opt.shadowMapSize, 1, 4096);
-  validate(opt.shadow);  // the technique's own options: its pass, when it runs
   if (scene.triangleCount() == 0) badInput("scene has no triangles");
   if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
     badOption("RenderOptions.bentNormalsScale", "be finite and > 0", opt.bentNormalsScale);

@@ -42,29 +42,8 @@ pb_view cameraView(const Camera& c, int w, int h) {
 
 }  // namespace
 
-namespace detail {
-
-cl::Buffer& BufferPool::buffer(const std::string& role, std::size_t bytes) {
-  return ctx_.reuse(pool_, role, bytes);
-}
-
-}  // namespace detail
-
 namespace {
 
-// The lights' orthographic frames fitted to the scene, and their shadow-map views.
-struct LightFrames {
-  std::vector<pb_light> lights;
-  std::vector<pb_view> views;
-};
-LightFrames lightFrames(const LightSet& lightSet, const Bounds& bounds, int mapSize) {
-  LightFrames f;
-  for (auto& l : lightSet.lights) {
-    f.lights.push_back(detail::lightFrame(l.direction, l.cosAlpha, l.radiance, bounds));
-    f.views.push_back(detail::orthoView(f.lights.back(), mapSize));
-  }
-  return f;
-}
 
 }  // namespace
 
@@ -81,15 +60,15 @@ struct Renderer::Impl {
                                   const detail::DeviceGBuffer& g) {
     if (opt.bentNormals && nl > 0)
       return detail::bentNormals(ctx, pool, scene, lightB, nl, g, opt.width * opt.height);
-    return {pool.buffer("bent normals off", 16), pool.buffer("bent normals off", 16),
-            pool.buffer("bent normals off", 16)};
+    const cl::Buffer& off = pool.buffer("bent normals off", 16);
+    return {off, off, off};
   }
 
   // The lights' shadow maps when the technique reads them, then its visibility.
-  void shadows(const RenderOptions& opt, const LightSet& lightSet, const LightFrames& lf,
+  void shadows(const RenderOptions& opt, const LightSet& lightSet, const detail::LightFrames& lf,
                const cl::Buffer& lightB, const detail::DeviceGBuffer& g) {
     const int S = opt.shadowMapSize, nl = int(lf.lights.size());
-    visibility.begin(opt.shadows, opt.width * opt.height, nl);
+    visibility.begin(opt.shadow, opt.shadows, opt.width * opt.height, nl);
     detail::ShadowFrame sf(ctx, pool, opt, lf.lights);
     if (visibility.runsPass()) {
       // Techniques with their own light-space structures (the bitmask's lists) never read them.
@@ -129,7 +108,7 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
 
   // scene, camera and lights on the device
   m.scene.update(scene);
-  const LightFrames lf = lightFrames(lightSet, scene.bounds(), opt.shadowMapSize);
+  const detail::LightFrames lf = detail::lightFrames(lightSet, scene.bounds(), opt.shadowMapSize);
   cl::Buffer camB = m.pool.upload("camera", std::vector<pb_view>{cameraView(camera, W, H)});
   cl::Buffer lightB = m.pool.upload("lights", lf.lights);
   // camera G-buffer

@@ -1,11 +1,15 @@
 // The visibility stage: the technique cache, the visibility buffer and the frame's report.
 #include "render/visibility.hpp"
+#include "shadows/shadow_options.hpp"
 
 #include <algorithm>
 
 namespace penumbra::detail {
 
-void Visibility::begin(ShadowTechnique t, int pixels, int lights) {
+void Visibility::begin(const ShadowOptions& shared, ShadowTechnique t, int pixels, int lights) {
+  // The settings every technique reads, checked here because the renderer and the GL interop
+  // both come through this stage; each technique checks its own struct in its pass.
+  validate(shared);
   const std::size_t bytes =
       std::max<std::size_t>(1, std::size_t(pixels) * std::max(lights, 1)) * 4;
   vis_ = pool_.buffer("visibility buffer", bytes);

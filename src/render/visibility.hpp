@@ -22,8 +22,9 @@ class Visibility {
   // Starts a frame of `pixels` x `lights` with technique t: sizes the visibility buffer and
   // makes the technique's pass unless the last frame's was the same technique. Passes hold what
   // depends only on their options (the bitmask's light samples and look-up tables), not on the
-  // frame, so keeping them saves that work.
-  void begin(ShadowTechnique t, int pixels, int lights);
+  // frame, so keeping them saves that work. Throws Error(BadInput) naming the field for shared
+  // settings out of range (both the renderer and the GL interop start here).
+  void begin(const ShadowOptions& shared, ShadowTechnique t, int pixels, int lights);
   // Whether compute() will run a pass (lights and a technique other than None), and whether
   // that pass reads the lights' shadow maps (ShadowFrame::depth).
   bool runsPass() const { return lights_ > 0 && pass_; }

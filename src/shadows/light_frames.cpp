@@ -124,4 +124,13 @@ pb_view orthoView(const pb_light& L, int size) {
   return v;
 }
 
+LightFrames lightFrames(const LightSet& lightSet, const Bounds& bounds, int size) {
+  LightFrames f;
+  for (auto& l : lightSet.lights) {
+    f.lights.push_back(lightFrame(l.direction, l.cosAlpha, l.radiance, bounds));
+    f.views.push_back(orthoView(f.lights.back(), size));
+  }
+  return f;
+}
+
 }  // namespace penumbra::detail

@@ -28,7 +28,9 @@ namespace penumbra::detail {
 class BufferPool {
  public:
   explicit BufferPool(Context& ctx) : ctx_(ctx) {}
-  cl::Buffer& buffer(const std::string& role, std::size_t bytes);
+  cl::Buffer& buffer(const std::string& role, std::size_t bytes) {
+    return ctx_.reuse(pool_, role, bytes);
+  }
   template <class T>
   cl::Buffer& upload(const std::string& role, const std::vector<T>& data) {
     cl::Buffer& b = buffer(role, std::max<std::size_t>(1, data.size()) * sizeof(T));
@@ -143,5 +145,11 @@ std::string prefilterOption(Prefilter p);
 pb_light lightFrame(const std::array<float, 3>& direction, float cosAlpha,
                     const std::array<float, 3>& radiance, const Bounds& bounds);
 pb_view orthoView(const pb_light& light, int size);
+// Every light's frame fitted to the scene's box and its view for a size x size map, in order.
+struct LightFrames {
+  std::vector<pb_light> lights;
+  std::vector<pb_view> views;
+};
+LightFrames lightFrames(const LightSet& lightSet, const Bounds& bounds, int size);
 
 }  // namespace penumbra::detail
