@@ -227,6 +227,14 @@ float maxColorDistance() {
   return std::pow(hyab(g, b), kQc);
 }
 
+// Andersson et al. 2021's tone mapper with the exposure factor 2^exposure, clamped to [0,1].
+float toneMap(double v, double scale) {
+  const double x = v * scale;
+  if (!(x < 1e30)) return 1.0f;  // the rational function tends to k0/k3 > 1: clamped to 1
+  const double t = (kTone[0] * x * x + kTone[1] * x + kTone[2]) / (kTone[3] * x * x + kTone[4] * x + kTone[5]);
+  return float(std::clamp(t, 0.0, 1.0));
+}
+
 // What the feature and colour pipelines keep of one image at one exposure.
 struct Percept {
   Plane L, A, B;      // spatially filtered, Hunt-adjusted CIELAB
@@ -238,14 +246,16 @@ struct Scratch {
   std::vector<float> pad;
 };
 
-// Both pipelines' per-image part for linear RGB planes in [0,1].
-void perceive(const Plane* rgb, int w, int h, const Kernels& k, Scratch& s, Percept& out) {
+// Both pipelines' per-image part for non-negative linear RGB planes, tone-mapped at the exposure
+// factor `scale` (HDR) or, for a negative scale, clamped to [0,1] (LDR) on the way in.
+void perceive(const Plane* rgb, double scale, int w, int h, const Kernels& k, Scratch& s, Percept& out) {
   const std::size_t n = std::size_t(w) * h;
   // Linear RGB -> YyCxCz opponent space (Andersson et al. 2020, Sec. 3.1; Zhang and Wandell's
   // linearized CIELAB): Y = 116 y - 16, Cx = 500 (x - y), Cz = 200 (y - z) for white-normalized XYZ.
   for (int c = 0; c < 3; ++c) s.opp[c].resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const float v[3] = {rgb[0][i], rgb[1][i], rgb[2][i]};
+    float v[3];
+    for (int c = 0; c < 3; ++c) v[c] = scale >= 0 ? toneMap(rgb[c][i], scale) : std::min(rgb[c][i], 1.0f);
     float xyz[3];
     mul3(kRgbToXyz, v, xyz);
     const float x = xyz[0] / kWhite[0], y = xyz[1] / kWhite[1], z = xyz[2] / kWhite[2];
@@ -298,13 +308,13 @@ void perceive(const Plane* rgb, int w, int h, const Kernels& k, Scratch& s, Perc
   for (std::size_t i = 0; i < n; ++i) out.point[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
 }
 
-// LDR-FLIP of two linear RGB images in [0,1] (as planes) into `err`.
-void ldrFlip(const Plane* test, const Plane* ref, int w, int h, const Kernels& k, float cmax,
-             Scratch& s, Percept& pt, Percept& pr, Plane& err) {
-  perceive(test, w, h, k, s, pt);
-  perceive(ref, w, h, k, s, pr);
+// LDR-FLIP of two linear RGB images (as planes, brought to [0,1] as perceive() says), kept in
+// `err` where larger than what it holds (HDR-FLIP's maximum over exposures).
+void ldrFlip(const Plane* test, const Plane* ref, double scale, int w, int h, const Kernels& k,
+             float cmax, Scratch& s, Percept& pt, Percept& pr, Plane& err) {
+  perceive(test, scale, w, h, k, s, pt);
+  perceive(ref, scale, w, h, k, s, pr);
   const std::size_t n = std::size_t(w) * h;
-  err.resize(n);
   const float pccmax = kPc * cmax;
   const float invSqrt2 = float(1.0 / std::sqrt(2.0));
   for (std::size_t i = 0; i < n; ++i) {
@@ -321,16 +331,8 @@ void ldrFlip(const Plane* test, const Plane* ref, int w, int h, const Kernels& k
     const float ef = std::pow(invSqrt2 * df, kQf);
     // Final error (Andersson et al. 2020, Sec. 3.3): feature differences raise the colour error
     // towards 1, Delta E = Delta E_c ^ (1 - Delta E_f).
-    err[i] = std::pow(ec, 1.0f - ef);
+    err[i] = std::max(err[i], std::pow(ec, 1.0f - ef));
   }
-}
-
-// Andersson et al. 2021's tone mapper with the exposure factor 2^exposure, clamped to [0,1].
-float toneMap(double v, double scale) {
-  const double x = v * scale;
-  if (!(x < 1e30)) return 1.0f;  // the rational function tends to k0/k3 > 1: clamped to 1
-  const double t = (kTone[0] * x * x + kTone[1] * x + kTone[2]) / (kTone[3] * x * x + kTone[4] * x + kTone[5]);
-  return float(std::clamp(t, 0.0, 1.0));
 }
 
 // Andersson et al. 2021, Sec. 3: the input x at which the tone mapper outputs kToneTarget, the
@@ -398,14 +400,9 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
   Plane& out = res.map.pixels;
 
   if (!opt.hdr) {
-    for (int c = 0; c < 3; ++c)
-      for (std::size_t i = 0; i < n; ++i) {
-        tIn[c][i] = std::min(tIn[c][i], 1.0f);
-        rIn[c][i] = std::min(rIn[c][i], 1.0f);
-      }
     Scratch s;
     Percept pt, pr;
-    ldrFlip(tIn, rIn, w, h, k, cmax, s, pt, pr, out);
+    ldrFlip(tIn, rIn, -1.0, w, h, k, cmax, s, pt, pr, out);
   } else {
     double start = opt.startExposure, stop = opt.stopExposure;
     if (std::isnan(start) || std::isnan(stop)) {
@@ -445,20 +442,8 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
       try {
         Scratch s;
         Percept pt, pr;
-        Plane tm[3], rm[3], err;
-        for (int e = int(t); e < count; e += int(threads)) {
-          const double scale = std::exp2(start + e * step);
-          for (int c = 0; c < 3; ++c) {
-            tm[c].resize(n);
-            rm[c].resize(n);
-            for (std::size_t i = 0; i < n; ++i) {
-              tm[c][i] = toneMap(tIn[c][i], scale);
-              rm[c][i] = toneMap(rIn[c][i], scale);
-            }
-          }
-          ldrFlip(tm, rm, w, h, k, cmax, s, pt, pr, err);
-          for (std::size_t i = 0; i < n; ++i) partial[t][i] = std::max(partial[t][i], err[i]);
-        }
+        for (int e = int(t); e < count; e += int(threads))
+          ldrFlip(tIn, rIn, std::exp2(start + e * step), w, h, k, cmax, s, pt, pr, partial[t]);
       } catch (...) {
         failures[t] = std::current_exception();
       }
