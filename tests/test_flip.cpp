@@ -29,7 +29,7 @@ Image uniform(int w, int h, float r, float g, float b) {
   return im;
 }
 
-Image random(int w, int h, unsigned seed, float lo, float hi) {
+Image randomImage(int w, int h, unsigned seed, float lo, float hi) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(lo, hi);
   Image im(w, h, 3);
@@ -72,12 +72,12 @@ void expectBadInput(const std::function<void()>& call, const std::string& named)
 }  // namespace
 
 TEST(Flip, IdenticalImagesGiveZero) {
-  const Image a = random(37, 23, 1, 0.0f, 1.0f);
+  const Image a = randomImage(37, 23, 1, 0.0f, 1.0f);
   const FlipResult l = flip(a, a, ldr());
   EXPECT_EQ(l.mean, 0.0);
   for (float v : l.map.pixels) ASSERT_EQ(v, 0.0f);
 
-  const Image h = random(37, 23, 2, 0.0f, 20.0f);
+  const Image h = randomImage(37, 23, 2, 0.0f, 20.0f);
   const FlipResult r = flip(h, h);
   EXPECT_EQ(r.mean, 0.0);
   for (float v : r.map.pixels) ASSERT_EQ(v, 0.0f);
@@ -113,7 +113,7 @@ TEST(Flip, BlackAgainstWhiteFollowsTheColourMapping) {
 TEST(Flip, LdrLiesInUnitRangeAndIsSymmetric) {
   for (unsigned seed = 10; seed < 14; ++seed) {
     // Values past [0,1] are clamped by LDR-FLIP; include some to exercise that.
-    const Image a = random(41, 29, seed, -0.2f, 1.2f), b = random(41, 29, seed + 100, -0.2f, 1.2f);
+    const Image a = randomImage(41, 29, seed, -0.2f, 1.2f), b = randomImage(41, 29, seed + 100, -0.2f, 1.2f);
     const FlipResult ab = flip(a, b, ldr()), ba = flip(b, a, ldr());
     EXPECT_GT(ab.mean, 0.0);
     EXPECT_LT(ab.mean, 1.0);
@@ -218,7 +218,7 @@ TEST(Flip, HdrExposureRangeFollowsThePaper) {
     FlipOptions o;
     o.startExposure = -3.0;
     o.stopExposure = 4.5;
-    const FlipResult r = flip(random(8, 8, 3, 0, 4), random(8, 8, 4, 0, 4), o);
+    const FlipResult r = flip(randomImage(8, 8, 3, 0, 4), randomImage(8, 8, 4, 0, 4), o);
     EXPECT_EQ(r.startExposure, -3.0);
     EXPECT_EQ(r.stopExposure, 4.5);
     EXPECT_EQ(r.exposures, 8);
@@ -242,7 +242,7 @@ TEST(Flip, HdrExposureRangeFollowsThePaper) {
 // one of them: in particular of the first, and of a range holding just one exposure.
 TEST(Flip, HdrIsTheMaximumOverExposures) {
   // Log-uniform values over 2^-4 .. 2^4: a range wide enough for several exposures.
-  Image ref = random(24, 18, 5, -4.0f, 4.0f), test = random(24, 18, 6, -4.0f, 4.0f);
+  Image ref = randomImage(24, 18, 5, -4.0f, 4.0f), test = randomImage(24, 18, 6, -4.0f, 4.0f);
   for (Image* im : {&ref, &test})
     for (float& v : im->pixels) v = std::exp2(v);
   const FlipResult all = flip(test, ref);
@@ -257,7 +257,7 @@ TEST(Flip, HdrIsTheMaximumOverExposures) {
 }
 
 TEST(Flip, HdrGrowsWithTheTestsScale) {
-  const Image ref = random(32, 24, 7, 0.01f, 10.0f);
+  const Image ref = randomImage(32, 24, 7, 0.01f, 10.0f);
   double last = 0;
   for (float s : {1.1f, 1.5f, 2.0f, 4.0f}) {
     Image t = ref;
@@ -295,7 +295,7 @@ TEST(Flip, TinyImagesWork) {
     for (bool hdr : {false, true}) {
       FlipOptions o;
       o.hdr = hdr;
-      const Image ref = random(w, h, 8, 0, 2), test = random(w, h, 9, 0, 2);
+      const Image ref = randomImage(w, h, 8, 0, 2), test = randomImage(w, h, 9, 0, 2);
       const FlipResult r = flip(test, ref, o);
       ASSERT_EQ(r.map.width, w);
       ASSERT_EQ(r.map.height, h);
@@ -327,7 +327,7 @@ TEST(Flip, AllBlackReferenceIsHandled) {
 }
 
 TEST(Flip, MaskSelectsThePixelsOfTheMean) {
-  const Image ref = random(20, 10, 11, 0, 3), test = random(20, 10, 12, 0, 3);
+  const Image ref = randomImage(20, 10, 11, 0, 3), test = randomImage(20, 10, 12, 0, 3);
   Image mask(20, 10, 2, 0.0f);
   double sum = 0;
   int n = 0;
@@ -350,7 +350,7 @@ TEST(Flip, MaskSelectsThePixelsOfTheMean) {
 }
 
 TEST(Flip, ExtraChannelsAreIgnored) {
-  const Image ref = random(12, 9, 13, 0, 2), test = random(12, 9, 14, 0, 2);
+  const Image ref = randomImage(12, 9, 13, 0, 2), test = randomImage(12, 9, 14, 0, 2);
   Image ref4(12, 9, 4), test4(12, 9, 4);
   for (int i = 0; i < 12 * 9; ++i)
     for (int c = 0; c < 4; ++c) {
@@ -361,9 +361,9 @@ TEST(Flip, ExtraChannelsAreIgnored) {
 }
 
 TEST(Flip, BadInputNamesTheArgument) {
-  const Image a = random(8, 6, 15, 0, 1), b = random(8, 6, 16, 0, 1);
-  expectBadInput([&] { flip(random(7, 6, 1, 0, 1), b); }, "reference");
-  expectBadInput([&] { flip(a, random(8, 5, 1, 0, 1)); }, "test");
+  const Image a = randomImage(8, 6, 15, 0, 1), b = randomImage(8, 6, 16, 0, 1);
+  expectBadInput([&] { flip(randomImage(7, 6, 1, 0, 1), b); }, "reference");
+  expectBadInput([&] { flip(a, randomImage(8, 5, 1, 0, 1)); }, "test");
   expectBadInput([&] { flip(Image(8, 6, 2), b); }, "test");
   expectBadInput([&] { flip(a, Image(8, 6, 1)); }, "reference");
   expectBadInput([&] { flip(Image(), b); }, "test");
