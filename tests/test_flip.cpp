@@ -416,3 +416,38 @@ TEST(Flip, MatchesTheReferenceImplementation) {
   EXPECT_NEAR(r.stopExposure, 0.0235603, 1e-5);
   EXPECT_EQ(r.exposures, 3);
 }
+
+// A second cross-check against the same reference implementation (as above: NVlabs/flip
+// src/cpp/FLIP.h, commit 1eb247c, FLIP::evaluate's float-array overload): an odd size, a wider
+// luminance range (5 exposures) and two viewing distances. Values printed there: LDR 0.1563606
+// (20 ppd), 0.1400169 (67 ppd); HDR 0.4510136 (20 ppd), 0.4364364 (67 ppd), start -3.8005354,
+// stop 0.9713961.
+TEST(Flip, MatchesTheReferenceImplementationAtOtherSizesAndDistances) {
+  auto refv = [](int x, int y, int c) { return float((x * 5 + y * 11 + c * 3) % 13) / 12.0f; };
+  auto testv = [&](int x, int y, int c) { return (x + y) % 3 == 0 ? refv(x, y, c) * 0.8f : refv(x, y, c); };
+  const int w = 37, h = 23;
+  Image ref(w, h, 3), test(w, h, 3), refH(w, h, 3), testH(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float a = refv(x, y, c), b = testv(x, y, c);
+        ref.at(x, y, c) = a;
+        test.at(x, y, c) = b;
+        refH.at(x, y, c) = 0.01f * std::exp2(12.0f * a * a);
+        testH.at(x, y, c) = 0.01f * std::exp2(12.0f * b * b);
+      }
+  const struct {
+    double ppd, ldr, hdr;
+  } expected[] = {{20.0, 0.1563606, 0.4510136}, {67.0, 0.1400169, 0.4364364}};
+  for (const auto& e : expected) {
+    FlipOptions o = ldr();
+    o.pixelsPerDegree = e.ppd;
+    EXPECT_NEAR(flip(test, ref, o).mean, e.ldr, 2e-5) << e.ppd << " ppd";
+    o.hdr = true;
+    const FlipResult r = flip(testH, refH, o);
+    EXPECT_NEAR(r.mean, e.hdr, 2e-5) << e.ppd << " ppd";
+    EXPECT_NEAR(r.startExposure, -3.8005354, 1e-5);
+    EXPECT_NEAR(r.stopExposure, 0.9713961, 1e-5);
+    EXPECT_EQ(r.exposures, 5);
+  }
+}
