@@ -418,36 +418,60 @@ TEST(Flip, MatchesTheReferenceImplementation) {
 }
 
 // A second cross-check against the same reference implementation (as above: NVlabs/flip
-// src/cpp/FLIP.h, commit 1eb247c, FLIP::evaluate's float-array overload): an odd size, a wider
-// luminance range (5 exposures) and two viewing distances. Values printed there: LDR 0.1563606
-// (20 ppd), 0.1400169 (67 ppd); HDR 0.4510136 (20 ppd), 0.4364364 (67 ppd), start -3.8005354,
-// stop 0.9713961.
+// src/cpp/FLIP.h, commit 1eb247c, FLIP::evaluate's float-array overload): odd sizes, one taller
+// than the implementation's bands of rows, a wider luminance range (5 exposures, start -3.8005354,
+// stop 0.9713961) and two viewing distances; the means printed there are in the table.
 TEST(Flip, MatchesTheReferenceImplementationAtOtherSizesAndDistances) {
   auto refv = [](int x, int y, int c) { return float((x * 5 + y * 11 + c * 3) % 13) / 12.0f; };
   auto testv = [&](int x, int y, int c) { return (x + y) % 3 == 0 ? refv(x, y, c) * 0.8f : refv(x, y, c); };
-  const int w = 37, h = 23;
-  Image ref(w, h, 3), test(w, h, 3), refH(w, h, 3), testH(w, h, 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const float a = refv(x, y, c), b = testv(x, y, c);
-        ref.at(x, y, c) = a;
-        test.at(x, y, c) = b;
-        refH.at(x, y, c) = 0.01f * std::exp2(12.0f * a * a);
-        testH.at(x, y, c) = 0.01f * std::exp2(12.0f * b * b);
-      }
   const struct {
+    int w, h;
     double ppd, ldr, hdr;
-  } expected[] = {{20.0, 0.1563606, 0.4510136}, {67.0, 0.1400169, 0.4364364}};
+  } expected[] = {{37, 23, 20.0, 0.1563606, 0.4510136},
+                  {37, 23, 67.0, 0.1400169, 0.4364364},
+                  {29, 157, 20.0, 0.1548507, 0.4483036},
+                  {29, 157, 67.0, 0.1379634, 0.4342222}};
   for (const auto& e : expected) {
+    Image ref(e.w, e.h, 3), test(e.w, e.h, 3), refH(e.w, e.h, 3), testH(e.w, e.h, 3);
+    for (int y = 0; y < e.h; ++y)
+      for (int x = 0; x < e.w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float a = refv(x, y, c), b = testv(x, y, c);
+          ref.at(x, y, c) = a;
+          test.at(x, y, c) = b;
+          refH.at(x, y, c) = 0.01f * std::exp2(12.0f * a * a);
+          testH.at(x, y, c) = 0.01f * std::exp2(12.0f * b * b);
+        }
     FlipOptions o = ldr();
     o.pixelsPerDegree = e.ppd;
-    EXPECT_NEAR(flip(test, ref, o).mean, e.ldr, 2e-5) << e.ppd << " ppd";
+    EXPECT_NEAR(flip(test, ref, o).mean, e.ldr, 2e-5) << e.w << "x" << e.h << ", " << e.ppd << " ppd";
     o.hdr = true;
     const FlipResult r = flip(testH, refH, o);
-    EXPECT_NEAR(r.mean, e.hdr, 2e-5) << e.ppd << " ppd";
+    EXPECT_NEAR(r.mean, e.hdr, 2e-5) << e.w << "x" << e.h << ", " << e.ppd << " ppd";
     EXPECT_NEAR(r.startExposure, -3.8005354, 1e-5);
     EXPECT_NEAR(r.stopExposure, 0.9713961, 1e-5);
     EXPECT_EQ(r.exposures, 5);
   }
+}
+
+// Every filter is the same along x and y and the feature magnitudes are rotation-free, so the
+// map of transposed images is the transposed map (up to float rounding: the passes' order swaps).
+// A tall and a wide image also cut differently into the implementation's bands of rows.
+TEST(Flip, TransposedImagesGiveTheTransposedMap) {
+  const int w = 150, h = 41;
+  Image ref = randomImage(w, h, 21, -3.0f, 3.0f), test = randomImage(w, h, 22, -3.0f, 3.0f);
+  for (Image* im : {&ref, &test})
+    for (float& v : im->pixels) v = std::exp2(v);
+  auto transpose = [](const Image& im) {
+    Image t(im.height, im.width, im.channels);
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 0; x < im.width; ++x)
+        for (int c = 0; c < im.channels; ++c) t.at(y, x, c) = im.at(x, y, c);
+    return t;
+  };
+  const FlipResult a = flip(test, ref), b = flip(transpose(test), transpose(ref));
+  EXPECT_EQ(a.exposures, b.exposures);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) ASSERT_NEAR(a.map.at(x, y, 0), b.map.at(y, x, 0), 1e-4) << x << ", " << y;
+  EXPECT_NEAR(a.mean, b.mean, 1e-6);
 }

@@ -3,8 +3,8 @@
 // 2021, "Visualizing Errors in Rendered High Dynamic Range Images", Sec. 3: LDR-FLIP over a range
 // of tone-mapped exposures, per-pixel maximum). Every 2D filter of the papers is separable (a
 // Gaussian, a sum of two Gaussians, or a Gaussian derivative times a Gaussian), so all filtering is
-// done as row and column passes over float planes with clamp-to-edge borders. HDR exposures run in
-// parallel on std::threads, one LDR-FLIP per exposure.
+// done as row and column passes over float planes with clamp-to-edge borders, band of rows by band
+// of rows, the bands shared among std::threads.
 #include "penumbra/flip.hpp"
 
 #include <algorithm>
@@ -148,13 +148,14 @@ Kernels makeKernels(double ppd) {
   return k;
 }
 
-// Row pass: out(x,y) = sum_i taps[i] in(clamp(x + i - r), y). `pad` is scratch.
-void convolveRows(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps,
+// Row pass over `rows` rows of width w: out(x,y) = sum_i taps[i] in(clamp(x + i - r), y).
+// `pad` is scratch.
+void convolveRows(const Plane& in, Plane& out, int w, int rows, const std::vector<float>& taps,
                   std::vector<float>& pad) {
   const int r = int(taps.size()) / 2;
   pad.resize(std::size_t(w) + 2 * r);
-  out.resize(in.size());
-  for (int y = 0; y < h; ++y) {
+  out.resize(std::size_t(w) * rows);
+  for (int y = 0; y < rows; ++y) {
     const float* row = &in[std::size_t(y) * w];
     for (int i = 0; i < r; ++i) {
       pad[i] = row[0];
@@ -171,16 +172,24 @@ void convolveRows(const Plane& in, Plane& out, int w, int h, const std::vector<f
   }
 }
 
-// Column pass: out(x,y) = sum_i taps[i] in(x, clamp(y + i - r)).
-void convolveColumns(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps) {
+// Rows [y0, y1) of an h-row image in bands: the filters' reach of rows around them, [ya, yb),
+// clamped to the image, is what a band's column passes read.
+struct Band {
+  int y0, y1, ya, yb;
+};
+
+// Column pass for a band: out holds image rows [y0, y1), in holds rows [ya, yb);
+// out(x,y) = sum_i taps[i] in(x, clamp(y + i - r, 0, h - 1)).
+void convolveColumns(const Plane& in, Plane& out, int w, int h, const Band& b,
+                     const std::vector<float>& taps) {
   const int r = int(taps.size()) / 2;
-  out.resize(in.size());
-  for (int y = 0; y < h; ++y) {
-    float* o = &out[std::size_t(y) * w];
+  out.resize(std::size_t(w) * (b.y1 - b.y0));
+  for (int y = b.y0; y < b.y1; ++y) {
+    float* o = &out[std::size_t(y - b.y0) * w];
     std::fill(o, o + w, 0.0f);
     for (int i = -r; i <= r; ++i) {
       const float t = taps[std::size_t(i + r)];
-      const float* p = &in[std::size_t(std::clamp(y + i, 0, h - 1)) * w];
+      const float* p = &in[std::size_t(std::clamp(y + i, 0, h - 1) - b.ya) * w];
       for (int x = 0; x < w; ++x) o[x] += t * p[x];
     }
   }
@@ -246,16 +255,23 @@ struct Scratch {
   std::vector<float> pad;
 };
 
-// Both pipelines' per-image part for non-negative linear RGB planes, tone-mapped at the exposure
-// factor `scale` (HDR) or, for a negative scale, clamped to [0,1] (LDR) on the way in.
-void perceive(const Plane* rgb, double scale, int w, int h, const Kernels& k, Scratch& s, Percept& out) {
-  const std::size_t n = std::size_t(w) * h;
+// Both pipelines' per-image part for one band of non-negative linear RGB planes, tone-mapped at
+// the exposure factor `scale` (HDR) or, for a negative scale, clamped to [0,1] (LDR) on the way in.
+// `out` holds the band's rows.
+void perceive(const Plane* rgb, double scale, int w, int h, const Band& band, const Kernels& k,
+              Scratch& s, Percept& out) {
+  const int rowsIn = band.yb - band.ya;
+  const std::size_t nIn = std::size_t(w) * rowsIn, n = std::size_t(w) * (band.y1 - band.y0);
+  const std::size_t first = std::size_t(band.ya) * w;
   // Linear RGB -> YyCxCz opponent space (Andersson et al. 2020, Sec. 3.1; Zhang and Wandell's
   // linearized CIELAB): Y = 116 y - 16, Cx = 500 (x - y), Cz = 200 (y - z) for white-normalized XYZ.
-  for (int c = 0; c < 3; ++c) s.opp[c].resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (int c = 0; c < 3; ++c) s.opp[c].resize(nIn);
+  for (std::size_t i = 0; i < nIn; ++i) {
     float v[3];
-    for (int c = 0; c < 3; ++c) v[c] = scale >= 0 ? toneMap(rgb[c][i], scale) : std::min(rgb[c][i], 1.0f);
+    for (int c = 0; c < 3; ++c) {
+      const float in = rgb[c][first + i];
+      v[c] = scale >= 0 ? toneMap(in, scale) : std::min(in, 1.0f);
+    }
     float xyz[3];
     mul3(kRgbToXyz, v, xyz);
     const float x = xyz[0] / kWhite[0], y = xyz[1] / kWhite[1], z = xyz[2] / kWhite[2];
@@ -268,14 +284,14 @@ void perceive(const Plane* rgb, double scale, int w, int h, const Kernels& k, Sc
   out.L.resize(n);
   out.A.resize(n);
   out.B.resize(n);
-  convolveRows(s.opp[0], s.t0, w, h, k.y, s.pad);
-  convolveColumns(s.t0, s.t1, w, h, k.y);  // t1: filtered Y
-  convolveRows(s.opp[1], s.t0, w, h, k.cx, s.pad);
-  convolveColumns(s.t0, s.t2, w, h, k.cx);  // t2: filtered Cx
-  convolveRows(s.opp[2], s.t0, w, h, k.cz1, s.pad);
-  convolveColumns(s.t0, s.t3, w, h, k.cz1);
-  convolveRows(s.opp[2], s.t0, w, h, k.cz2, s.pad);
-  convolveColumns(s.t0, s.t4, w, h, k.cz2);  // t3 + t4: filtered Cz
+  convolveRows(s.opp[0], s.t0, w, rowsIn, k.y, s.pad);
+  convolveColumns(s.t0, s.t1, w, h, band, k.y);  // t1: filtered Y
+  convolveRows(s.opp[1], s.t0, w, rowsIn, k.cx, s.pad);
+  convolveColumns(s.t0, s.t2, w, h, band, k.cx);  // t2: filtered Cx
+  convolveRows(s.opp[2], s.t0, w, rowsIn, k.cz1, s.pad);
+  convolveColumns(s.t0, s.t3, w, h, band, k.cz1);
+  convolveRows(s.opp[2], s.t0, w, rowsIn, k.cz2, s.pad);
+  convolveColumns(s.t0, s.t4, w, h, band, k.cz2);  // t3 + t4: filtered Cz
   for (std::size_t i = 0; i < n; ++i) {
     // Back to linear RGB, clamped to [0,1] (the filtered colour may leave the gamut), then the
     // Hunt-adjusted CIELAB the colour difference is measured in.
@@ -294,27 +310,28 @@ void perceive(const Plane* rgb, double scale, int w, int h, const Kernels& k, Sc
 
   // Feature pipeline (Andersson et al. 2020, Sec. 3.2) on the unfiltered achromatic channel
   // normalized to [0,1], (Y + 16) / 116 (the paper's erratum: 116, not 100).
-  for (std::size_t i = 0; i < n; ++i) s.opp[1][i] = (s.opp[0][i] + 16.0f) / 116.0f;
-  convolveRows(s.opp[1], s.t0, w, h, k.g, s.pad);    // G along x
-  convolveRows(s.opp[1], s.t1, w, h, k.dg, s.pad);   // dG along x
-  convolveRows(s.opp[1], s.t2, w, h, k.ddg, s.pad);  // ddG along x
-  convolveColumns(s.t1, s.t3, w, h, k.g);            // edge, x component
-  convolveColumns(s.t0, s.t4, w, h, k.dg);           // edge, y component
+  for (std::size_t i = 0; i < nIn; ++i) s.opp[1][i] = (s.opp[0][i] + 16.0f) / 116.0f;
+  convolveRows(s.opp[1], s.t0, w, rowsIn, k.g, s.pad);    // G along x
+  convolveRows(s.opp[1], s.t1, w, rowsIn, k.dg, s.pad);   // dG along x
+  convolveRows(s.opp[1], s.t2, w, rowsIn, k.ddg, s.pad);  // ddG along x
+  convolveColumns(s.t1, s.t3, w, h, band, k.g);            // edge, x component
+  convolveColumns(s.t0, s.t4, w, h, band, k.dg);           // edge, y component
   out.edge.resize(n);
   for (std::size_t i = 0; i < n; ++i) out.edge[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
-  convolveColumns(s.t2, s.t3, w, h, k.g);    // point, x component
-  convolveColumns(s.t0, s.t4, w, h, k.ddg);  // point, y component
+  convolveColumns(s.t2, s.t3, w, h, band, k.g);    // point, x component
+  convolveColumns(s.t0, s.t4, w, h, band, k.ddg);  // point, y component
   out.point.resize(n);
   for (std::size_t i = 0; i < n; ++i) out.point[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
 }
 
-// LDR-FLIP of two linear RGB images (as planes, brought to [0,1] as perceive() says), kept in
-// `err` where larger than what it holds (HDR-FLIP's maximum over exposures).
-void ldrFlip(const Plane* test, const Plane* ref, double scale, int w, int h, const Kernels& k,
-             float cmax, Scratch& s, Percept& pt, Percept& pr, Plane& err) {
-  perceive(test, scale, w, h, k, s, pt);
-  perceive(ref, scale, w, h, k, s, pr);
-  const std::size_t n = std::size_t(w) * h;
+// LDR-FLIP of one band of two linear RGB images (as planes, brought to [0,1] as perceive() says),
+// kept in the full-size `err` where larger than what it holds (HDR-FLIP's maximum over exposures).
+void ldrFlip(const Plane* test, const Plane* ref, double scale, int w, int h, const Band& band,
+             const Kernels& k, float cmax, Scratch& s, Percept& pt, Percept& pr, Plane& err) {
+  perceive(test, scale, w, h, band, k, s, pt);
+  perceive(ref, scale, w, h, band, k, s, pr);
+  const std::size_t n = std::size_t(w) * (band.y1 - band.y0);
+  float* bandErr = &err[std::size_t(band.y0) * w];
   const float pccmax = kPc * cmax;
   const float invSqrt2 = float(1.0 / std::sqrt(2.0));
   for (std::size_t i = 0; i < n; ++i) {
@@ -331,7 +348,7 @@ void ldrFlip(const Plane* test, const Plane* ref, double scale, int w, int h, co
     const float ef = std::pow(invSqrt2 * df, kQf);
     // Final error (Andersson et al. 2020, Sec. 3.3): feature differences raise the colour error
     // towards 1, Delta E = Delta E_c ^ (1 - Delta E_f).
-    err[i] = std::max(err[i], std::pow(ec, 1.0f - ef));
+    bandErr[i] = std::max(bandErr[i], std::pow(ec, 1.0f - ef));
   }
 }
 
@@ -399,11 +416,9 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
   res.map = Image(w, h, 1, 0.0f);
   Plane& out = res.map.pixels;
 
-  if (!opt.hdr) {
-    Scratch s;
-    Percept pt, pr;
-    ldrFlip(tIn, rIn, -1.0, w, h, k, cmax, s, pt, pr, out);
-  } else {
+  // Exposure factors: one negative entry for LDR-FLIP (clamped input), 2^exposure for HDR-FLIP.
+  std::vector<double> scales{-1.0};
+  if (opt.hdr) {
     double start = opt.startExposure, stop = opt.stopExposure;
     if (std::isnan(start) || std::isnan(stop)) {
       // Andersson et al. 2021, Sec. 3: start = log2(x / Y_max), stop = log2(x / Y_median), with x
@@ -434,37 +449,48 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
     res.stopExposure = stop;
     res.exposures = count;
 
-    // One LDR-FLIP per exposure, the per-pixel maximum over all (Andersson et al. 2021, Sec. 3).
-    unsigned threads = std::max(1u, std::min(std::thread::hardware_concurrency(), unsigned(count)));
-    std::vector<Plane> partial(threads, Plane(n, 0.0f));
-    std::vector<std::exception_ptr> failures(threads);
-    auto work = [&](unsigned t) {
-      try {
-        Scratch s;
-        Percept pt, pr;
-        for (int e = int(t); e < count; e += int(threads))
-          ldrFlip(tIn, rIn, std::exp2(start + e * step), w, h, k, cmax, s, pt, pr, partial[t]);
-      } catch (...) {
-        failures[t] = std::current_exception();
-      }
-    };
-    std::vector<std::thread> pool;
-    for (unsigned t = 1; t < threads; ++t) {
-      try {
-        pool.emplace_back(work, t);
-      } catch (...) {
-        break;  // no more threads: this one does the remaining shares below
-      }
-    }
-    work(0);
-    for (unsigned t = 1; t < threads; ++t)
-      if (t - 1 >= pool.size()) work(t);
-    for (auto& th : pool) th.join();
-    for (auto& f : failures)
-      if (f) std::rethrow_exception(f);
-    for (const Plane& p : partial)
-      for (std::size_t i = 0; i < n; ++i) out[i] = std::max(out[i], p[i]);
+    scales.clear();
+    for (int e = 0; e < count; ++e) scales.push_back(std::exp2(start + e * step));
   }
+
+  // One LDR-FLIP per exposure, the per-pixel maximum over all (Andersson et al. 2021, Sec. 3).
+  // The image is processed in bands of rows, each with the rows its filters reach, so that the
+  // working planes stay small (cache-resident, no fresh pages per call); threads take whole bands,
+  // so each output row has one writer.
+  const int reach = int(std::max(k.y.size(), k.g.size()) / 2);
+  const int bandRows = std::max(64, 4 * reach);
+  std::vector<Band> bands;
+  for (int y0 = 0; y0 < h; y0 += bandRows) {
+    const int y1 = std::min(h, y0 + bandRows);
+    bands.push_back({y0, y1, std::max(0, y0 - reach), std::min(h, y1 + reach)});
+  }
+  const unsigned threads =
+      std::max(1u, std::min(std::thread::hardware_concurrency(), unsigned(bands.size())));
+  std::vector<std::exception_ptr> failures(threads);
+  auto work = [&](unsigned t) {
+    try {
+      Scratch s;
+      Percept pt, pr;
+      for (std::size_t b = t; b < bands.size(); b += threads)
+        for (double scale : scales) ldrFlip(tIn, rIn, scale, w, h, bands[b], k, cmax, s, pt, pr, out);
+    } catch (...) {
+      failures[t] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) {
+    try {
+      pool.emplace_back(work, t);
+    } catch (...) {
+      break;  // no more threads: this one does the remaining shares below
+    }
+  }
+  work(0);
+  for (unsigned t = 1; t < threads; ++t)
+    if (t - 1 >= pool.size()) work(t);
+  for (auto& th : pool) th.join();
+  for (auto& f : failures)
+    if (f) std::rethrow_exception(f);
 
   double sum = 0;
   std::size_t counted = 0;
