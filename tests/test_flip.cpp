@@ -311,6 +311,26 @@ TEST(Flip, TinyImagesWork) {
   }
 }
 
+// Exposures far outside float's range saturate to black or white instead of producing NaN.
+TEST(Flip, ExtremeExposuresStayFinite) {
+  FlipOptions o;
+  o.startExposure = -300;
+  o.stopExposure = 300;
+  Image ref = randomImage(3, 2, 23, 0, 2), test = randomImage(3, 2, 24, 0, 2);
+  ref.at(0, 0, 0) = ref.at(0, 0, 1) = ref.at(0, 0, 2) = 0.0f;  // a black pixel times 2^300...
+  test.at(0, 0, 0) = test.at(0, 0, 1) = test.at(0, 0, 2) = 1e-30f;  // ...against one made white
+  const FlipResult r = flip(test, ref, o);
+  EXPECT_GT(r.map.at(0, 0, 0), 0.5f);  // black against white at the top exposures
+  EXPECT_EQ(r.exposures, 600);
+  for (float v : r.map.pixels) {
+    ASSERT_TRUE(std::isfinite(v));
+    ASSERT_GE(v, 0.0f);
+    ASSERT_LE(v, 1.0f);
+  }
+  EXPECT_GT(r.mean, 0.0);
+  EXPECT_EQ(flip(ref, ref, o).mean, 0.0);
+}
+
 TEST(Flip, AllBlackReferenceIsHandled) {
   const Image black = uniform(6, 4, 0, 0, 0);
   const FlipResult same = flip(black, black);

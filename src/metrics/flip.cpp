@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -236,12 +237,15 @@ float maxColorDistance() {
   return std::pow(hyab(g, b), kQc);
 }
 
-// Andersson et al. 2021's tone mapper with the exposure factor 2^exposure, clamped to [0,1].
-float toneMap(double v, double scale) {
-  const double x = v * scale;
-  if (!(x < 1e30)) return 1.0f;  // the rational function tends to k0/k3 > 1: clamped to 1
-  const double t = (kTone[0] * x * x + kTone[1] * x + kTone[2]) / (kTone[3] * x * x + kTone[4] * x + kTone[5]);
-  return float(std::clamp(t, 0.0, 1.0));
+// Andersson et al. 2021's tone mapper with the exposure factor 2^exposure, clamped to [0,1]. The
+// curve rises through 1 near x = 12.1 (where (k0 - k3) x^2 + (k1 - k4) x - k5 = 0) and stays above
+// it, so anything past 16 is 1 without evaluating it (which also keeps x^2 finite in float).
+float toneMap(float v, float scale) {
+  const float x = v * scale;
+  if (!(x < 16.0f)) return 1.0f;
+  const float t = (float(kTone[0]) * x * x + float(kTone[1]) * x + float(kTone[2])) /
+                  (float(kTone[3]) * x * x + float(kTone[4]) * x + float(kTone[5]));
+  return std::clamp(t, 0.0f, 1.0f);
 }
 
 // What the feature and colour pipelines keep of one image at one exposure.
@@ -265,12 +269,14 @@ void perceive(const Plane* rgb, double scale, int w, int h, const Band& band, co
   const std::size_t first = std::size_t(band.ya) * w;
   // Linear RGB -> YyCxCz opponent space (Andersson et al. 2020, Sec. 3.1; Zhang and Wandell's
   // linearized CIELAB): Y = 116 y - 16, Cx = 500 (x - y), Cz = 200 (y - z) for white-normalized XYZ.
+  // In float, an exposure past 2^128 saturates rather than turning 0 * inf into NaN.
+  const float fscale = float(std::min(scale, double(std::numeric_limits<float>::max())));
   for (int c = 0; c < 3; ++c) s.opp[c].resize(nIn);
   for (std::size_t i = 0; i < nIn; ++i) {
     float v[3];
     for (int c = 0; c < 3; ++c) {
       const float in = rgb[c][first + i];
-      v[c] = scale >= 0 ? toneMap(in, scale) : std::min(in, 1.0f);
+      v[c] = scale >= 0 ? toneMap(in, fscale) : std::min(in, 1.0f);
     }
     float xyz[3];
     mul3(kRgbToXyz, v, xyz);
