@@ -85,7 +85,7 @@ TEST(Flip, IdenticalImagesGiveZero) {
 }
 
 // c_max is defined as the (q_c-powered) HyAB distance of green and blue (Andersson et al. 2020,
-// Sec. 3.1), so uniform green against uniform blue (no features) maps to exactly 1.
+// colour pipeline), so uniform green against uniform blue (no features) maps to exactly 1.
 TEST(Flip, GreenAgainstBlueIsTheMaximum) {
   const FlipResult r = flip(uniform(9, 7, 0, 1, 0), uniform(9, 7, 0, 0, 1), ldr());
   EXPECT_NEAR(r.mean, 1.0, 1e-5);
@@ -94,8 +94,8 @@ TEST(Flip, GreenAgainstBlueIsTheMaximum) {
 
 // Black against white is not the maximum: HyAB = 100 (L* 0 vs 100, no chroma) raised to q_c lies
 // above p_c c_max, so it lands on the upper segment of the colour mapping (Andersson et al. 2020,
-// Sec. 3.1), 0.95 + 0.05 (100^0.7 - 0.4 c_max) / (0.6 c_max). c_max from the published CIELAB
-// (D65) values of the sRGB primaries, green (87.73, -86.18, 83.18) and blue (32.30, 79.19,
+// colour pipeline), 0.95 + 0.05 (100^0.7 - 0.4 c_max) / (0.6 c_max). c_max from the published
+// CIELAB (D65) values of the sRGB primaries, green (87.73, -86.18, 83.18) and blue (32.30, 79.19,
 // -107.86), with the Hunt adjustment (a, b scaled by L/100).
 TEST(Flip, BlackAgainstWhiteFollowsTheColourMapping) {
   const double gL = 87.73, ga = -86.18 * gL / 100, gb = 83.18 * gL / 100;
@@ -113,7 +113,8 @@ TEST(Flip, BlackAgainstWhiteFollowsTheColourMapping) {
 TEST(Flip, LdrLiesInUnitRangeAndIsSymmetric) {
   for (unsigned seed = 10; seed < 14; ++seed) {
     // Values past [0,1] are clamped by LDR-FLIP; include some to exercise that.
-    const Image a = randomImage(41, 29, seed, -0.2f, 1.2f), b = randomImage(41, 29, seed + 100, -0.2f, 1.2f);
+    const Image a = randomImage(41, 29, seed, -0.2f, 1.2f),
+                b = randomImage(41, 29, seed + 100, -0.2f, 1.2f);
     const FlipResult ab = flip(a, b, ldr()), ba = flip(b, a, ldr());
     EXPECT_GT(ab.mean, 0.0);
     EXPECT_LT(ab.mean, 1.0);
@@ -145,7 +146,7 @@ TEST(Flip, ErrorGrowsWithColourDistance) {
   }
 }
 
-// Andersson et al. 2020, Sec. 3.3: feature differences raise the colour error towards 1
+// Andersson et al. 2020, final error: feature differences raise the colour error towards 1
 // (Delta E_c ^ (1 - Delta E_f) >= Delta E_c). Around an edge moved by one pixel, the error is
 // larger than for the same total difference spread uniformly over that neighbourhood, which
 // changes no feature. The comparison is over the columns within 3 pixels of the edge (a mask).
@@ -179,7 +180,7 @@ TEST(Flip, ShiftedEdgeOutweighsUniformShiftOfSameMeanDifference) {
   EXPECT_GT(flat, 0.0);
 }
 
-// Andersson et al. 2021, Sec. 3: start = log2(x85 / Y_max), stop = log2(x85 / Y_median), with x85
+// Andersson et al. 2021, HDR-FLIP: start = log2(x85 / Y_max), stop = log2(x85 / Y_median), with x85
 // the tone mapper's input for 0.85, and max(2, ceil(stop - start)) exposures.
 TEST(Flip, HdrExposureRangeFollowsThePaper) {
   const double x85 = acesInverse(0.85);
@@ -199,9 +200,9 @@ TEST(Flip, HdrExposureRangeFollowsThePaper) {
   {
     // Luminance weights: pure red 0.2126, pure green 0.7152 (Rec. 709); 3 pixels, median = red.
     Image ref(3, 1, 3, 0.0f);
-    ref.at(0, 0, 0) = 1.0f;        // Y = 0.2126
-    ref.at(1, 0, 1) = 1.0f;        // Y = 0.7152
-    ref.at(2, 0, 0) = 0.5f;        // Y = 0.1063
+    ref.at(0, 0, 0) = 1.0f;  // Y = 0.2126
+    ref.at(1, 0, 1) = 1.0f;  // Y = 0.7152
+    ref.at(2, 0, 0) = 0.5f;  // Y = 0.1063
     const FlipResult r = flip(ref, ref);
     EXPECT_NEAR(r.startExposure, std::log2(x85 / 0.7152), 1e-6);
     EXPECT_NEAR(r.stopExposure, std::log2(x85 / 0.2126), 1e-6);
@@ -268,10 +269,10 @@ TEST(Flip, HdrGrowsWithTheTestsScale) {
   }
 }
 
-// The CSF filters remove detail finer than the eye resolves (Andersson et al. 2020, Sec. 3.1):
-// a one-pixel checkerboard against its mean grey matters less the more pixels per degree. The
-// mean is taken away from the borders, farther than the widest filter's radius at 200 ppd (28
-// pixels), so that the clamped borders do not count.
+// The CSF filters remove detail finer than the eye resolves (Andersson et al. 2020, colour
+// pipeline): a one-pixel checkerboard against its mean grey matters less the more pixels per
+// degree. The mean is taken away from the borders, farther than the widest filter's radius at 200
+// ppd (28 pixels), so that the clamped borders do not count.
 TEST(Flip, FineDetailMattersLessFartherAway) {
   const int n = 96, border = 32;
   Image checker(n, n, 3), grey = uniform(n, n, 0.5f, 0.5f, 0.5f), inner(n, n, 1, 0.0f);
@@ -317,7 +318,7 @@ TEST(Flip, ExtremeExposuresStayFinite) {
   o.startExposure = -300;
   o.stopExposure = 300;
   Image ref = randomImage(3, 2, 23, 0, 2), test = randomImage(3, 2, 24, 0, 2);
-  ref.at(0, 0, 0) = ref.at(0, 0, 1) = ref.at(0, 0, 2) = 0.0f;  // a black pixel times 2^300...
+  ref.at(0, 0, 0) = ref.at(0, 0, 1) = ref.at(0, 0, 2) = 0.0f;       // a black pixel times 2^300...
   test.at(0, 0, 0) = test.at(0, 0, 1) = test.at(0, 0, 2) = 1e-30f;  // ...against one made white
   const FlipResult r = flip(test, ref, o);
   EXPECT_GT(r.map.at(0, 0, 0), 0.5f);  // black against white at the top exposures
@@ -394,7 +395,8 @@ TEST(Flip, BadInputNamesTheArgument) {
   Image inf = a;
   inf.at(0, 5, 2) = std::numeric_limits<float>::infinity();
   expectBadInput([&] { flip(inf, b); }, "test");
-  for (double ppd : {0.0, -3.0, std::numeric_limits<double>::infinity(), std::numeric_limits<double>::quiet_NaN()}) {
+  for (double ppd : {0.0, -3.0, std::numeric_limits<double>::infinity(),
+                     std::numeric_limits<double>::quiet_NaN()}) {
     FlipOptions o;
     o.pixelsPerDegree = ppd;
     expectBadInput([&] { flip(a, b, o); }, "pixelsPerDegree");
@@ -443,7 +445,9 @@ TEST(Flip, MatchesTheReferenceImplementation) {
 // stop 0.9713961) and two viewing distances; the means printed there are in the table.
 TEST(Flip, MatchesTheReferenceImplementationAtOtherSizesAndDistances) {
   auto refv = [](int x, int y, int c) { return float((x * 5 + y * 11 + c * 3) % 13) / 12.0f; };
-  auto testv = [&](int x, int y, int c) { return (x + y) % 3 == 0 ? refv(x, y, c) * 0.8f : refv(x, y, c); };
+  auto testv = [&](int x, int y, int c) {
+    return (x + y) % 3 == 0 ? refv(x, y, c) * 0.8f : refv(x, y, c);
+  };
   const struct {
     int w, h;
     double ppd, ldr, hdr;
@@ -464,7 +468,8 @@ TEST(Flip, MatchesTheReferenceImplementationAtOtherSizesAndDistances) {
         }
     FlipOptions o = ldr();
     o.pixelsPerDegree = e.ppd;
-    EXPECT_NEAR(flip(test, ref, o).mean, e.ldr, 2e-5) << e.w << "x" << e.h << ", " << e.ppd << " ppd";
+    EXPECT_NEAR(flip(test, ref, o).mean, e.ldr, 2e-5)
+        << e.w << "x" << e.h << ", " << e.ppd << " ppd";
     o.hdr = true;
     const FlipResult r = flip(testH, refH, o);
     EXPECT_NEAR(r.mean, e.hdr, 2e-5) << e.w << "x" << e.h << ", " << e.ppd << " ppd";
@@ -492,6 +497,7 @@ TEST(Flip, TransposedImagesGiveTheTransposedMap) {
   const FlipResult a = flip(test, ref), b = flip(transpose(test), transpose(ref));
   EXPECT_EQ(a.exposures, b.exposures);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) ASSERT_NEAR(a.map.at(x, y, 0), b.map.at(y, x, 0), 1e-4) << x << ", " << y;
+    for (int x = 0; x < w; ++x)
+      ASSERT_NEAR(a.map.at(x, y, 0), b.map.at(y, x, 0), 1e-4) << x << ", " << y;
   EXPECT_NEAR(a.mean, b.mean, 1e-6);
 }

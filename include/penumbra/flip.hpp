@@ -11,8 +11,10 @@
 namespace penumbra {
 
 struct FlipOptions {
-  double pixelsPerDegree = 67.0;  // the papers' default viewing setup (0.7 m from a 0.7 m wide 3840-px screen)
-  bool hdr = true;                // HDR-FLIP over an exposure range; false: LDR-FLIP on values clamped to [0,1]
+  // The papers' default viewing setup: 0.7 m from a 0.7 m wide 3840-px screen.
+  double pixelsPerDegree = 67.0;
+  // HDR-FLIP over an exposure range; false: LDR-FLIP on values clamped to [0,1].
+  bool hdr = true;
   // HDR only: exposure range; NaN = computed from the reference as the 2021 paper does
   double startExposure = std::numeric_limits<double>::quiet_NaN(),
          stopExposure = std::numeric_limits<double>::quiet_NaN();
@@ -26,8 +28,8 @@ struct FlipResult {
 };
 
 // FLIP of `test` against `reference` (linear RGB, >= 3 channels, same size; channels past the third
-// are ignored, negative values count as 0). mask: optional, pixels with mask value > 0.5 (channel 0)
-// count in `mean` (all pixels of the map are always computed); a mask with no such pixel gives
+// are ignored, negative values count as 0). mask: optional, pixels with mask value > 0.5 (channel
+// 0) count in `mean` (all pixels of the map are always computed); a mask with no such pixel gives
 // mean 0. HDR: the LDR-FLIP of each exposure (ACES-fit tone mapping, as the 2021 paper) and the
 // per-pixel maximum over them; without a given range the start exposure maps the reference's
 // maximum luminance and the stop exposure its median luminance to 0.85 after tone mapping (when

@@ -1,6 +1,6 @@
 // FLIP on the host: LDR-FLIP (Andersson et al. 2020, "FLIP: A Difference Evaluator for Alternating
-// Images", Sec. 3: colour pipeline, feature pipeline, final error) and HDR-FLIP (Andersson et al.
-// 2021, "Visualizing Errors in Rendered High Dynamic Range Images", Sec. 3: LDR-FLIP over a range
+// Images": colour pipeline, feature pipeline, final error) and HDR-FLIP (Andersson et al.
+// 2021, "Visualizing Errors in Rendered High Dynamic Range Images": LDR-FLIP over a range
 // of tone-mapped exposures, per-pixel maximum). Every 2D filter of the papers is separable (a
 // Gaussian, a sum of two Gaussians, or a Gaussian derivative times a Gaussian), so all filtering is
 // done as row and column passes over float planes with clamp-to-edge borders, band of rows by band
@@ -23,7 +23,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Andersson et al. 2020, Sec. 3 and Table 1: colour exponent q_c, feature exponent q_f, the
+// Andersson et al. 2020, their chosen parameters: colour exponent q_c, feature exponent q_f, the
 // colour-error breakpoints p_c (of c_max) and p_t (of the [0,1] output range), and the feature
 // detectors' width w in degrees of visual angle.
 constexpr float kQc = 0.7f;
@@ -32,9 +32,9 @@ constexpr float kPc = 0.4f;
 constexpr float kPt = 0.95f;
 constexpr double kFeatureWidth = 0.082;
 
-// Contrast sensitivity functions as sums of Gaussians, Andersson et al. 2020, Sec. 3.1 (after
-// Mullen's and Johnson and Fairchild's CSFs): S(x) = a1 sqrt(pi/b1) exp(-pi^2 x^2 / b1) +
-// a2 sqrt(pi/b2) exp(-pi^2 x^2 / b2), x in degrees, for the achromatic (Y), red-green (Cx) and
+// Contrast sensitivity functions as sums of Gaussians, Andersson et al. 2020, colour pipeline
+// (after Mullen's and Johnson and Fairchild's CSFs): S(x) = a1 sqrt(pi/b1) exp(-pi^2 x^2 / b1) + a2
+// sqrt(pi/b2) exp(-pi^2 x^2 / b2), x in degrees, for the achromatic (Y), red-green (Cx) and
 // blue-yellow (Cz) channels. Y and Cx have a2 = 0: one Gaussian each.
 constexpr double kA1[3] = {1.0, 1.0, 34.1};
 constexpr double kB1[3] = {0.0047, 0.0053, 0.04};
@@ -54,11 +54,11 @@ constexpr float kWhite[3] = {kRgbToXyz[0][0] + kRgbToXyz[0][1] + kRgbToXyz[0][2]
                              kRgbToXyz[1][0] + kRgbToXyz[1][1] + kRgbToXyz[1][2],
                              kRgbToXyz[2][0] + kRgbToXyz[2][1] + kRgbToXyz[2][2]};
 
-// HDR-FLIP's tone mapper (Andersson et al. 2021, Sec. 3): Narkowicz's ACES fit applied after a
+// HDR-FLIP's tone mapper (Andersson et al. 2021, HDR-FLIP): Narkowicz's ACES fit applied after a
 // 0.6 pre-scale, t(x) = (k0 x^2 + k1 x + k2) / (k3 x^2 + k4 x + k5) per channel, clamped to [0,1].
 constexpr double kTone[6] = {0.6 * 0.6 * 2.51, 0.6 * 0.03, 0.0, 0.6 * 0.6 * 2.43, 0.6 * 0.59, 0.14};
-// Andersson et al. 2021, Sec. 3: the exposure range puts the reference's maximum luminance (start)
-// and median luminance (stop) at this tone-mapped value.
+// Andersson et al. 2021, HDR-FLIP: the exposure range puts the reference's maximum luminance
+// (start) and median luminance (stop) at this tone-mapped value.
 constexpr double kToneTarget = 0.85;
 
 const double kLumaWeights[3] = {0.2126, 0.7152, 0.0722};  // Rec. 709 luminance of linear sRGB
@@ -82,31 +82,34 @@ struct Kernels {
 
 Kernels makeKernels(double ppd) {
   Kernels k;
-  // Andersson et al. 2020, Sec. 3.1: each Gaussian exp(-pi^2 x^2 / b) has standard deviation
+  // Andersson et al. 2020, colour pipeline: each Gaussian exp(-pi^2 x^2 / b) has standard deviation
   // sqrt(b / (2 pi^2)) degrees; the filters reach 3 standard deviations of the widest one.
   double bMax = 0;
   for (int c = 0; c < 3; ++c) bMax = std::max({bMax, kB1[c], kB2[c]});
   const int rs = int(std::ceil(3.0 * std::sqrt(bMax / (2.0 * kPi * kPi)) * ppd));
-  auto gaussian = [&](double a, double b, int i) {
+  auto gaussian = [&](double b, int i) {
     const double x = i / ppd;  // degrees
-    return a * std::sqrt(kPi / b) * std::exp(-kPi * kPi * x * x / b);
+    return std::exp(-kPi * kPi * x * x / b);
   };
+  // A separable 2D term a sqrt(pi/b) G(x) G(y) factors into sqrt(a sqrt(pi/b)) G per axis. For Y
+  // and Cx the amplitude cancels in the normalization below; for Cz it sets the two terms' mix.
+  const double amp1 = std::sqrt(kA1[2] * std::sqrt(kPi / kB1[2]));
+  const double amp2 = std::sqrt(kA2[2] * std::sqrt(kPi / kB2[2]));
   const int ns = 2 * rs + 1;
   std::vector<double> y(ns), cx(ns), cz1(ns), cz2(ns);
   double sy = 0, scx = 0, s1 = 0, s2 = 0;
   for (int i = -rs; i <= rs; ++i) {
-    // A separable 2D Gaussian a sqrt(pi/b) G(x) G(y) factors into sqrt(a sqrt(pi/b)) G per axis.
-    y[i + rs] = gaussian(kA1[0], kB1[0], i);
-    cx[i + rs] = gaussian(kA1[1], kB1[1], i);
-    cz1[i + rs] = std::sqrt(kA1[2] * std::sqrt(kPi / kB1[2])) * std::exp(-kPi * kPi * (i / ppd) * (i / ppd) / kB1[2]);
-    cz2[i + rs] = std::sqrt(kA2[2] * std::sqrt(kPi / kB2[2])) * std::exp(-kPi * kPi * (i / ppd) * (i / ppd) / kB2[2]);
+    y[i + rs] = gaussian(kB1[0], i);
+    cx[i + rs] = gaussian(kB1[1], i);
+    cz1[i + rs] = amp1 * gaussian(kB1[2], i);
+    cz2[i + rs] = amp2 * gaussian(kB2[2], i);
     sy += y[i + rs];
     scx += cx[i + rs];
     s1 += cz1[i + rs];
     s2 += cz2[i + rs];
   }
-  // The 2D filters are normalized to sum to 1 (Andersson et al. 2020, Sec. 3.1). For Y and Cx
-  // that is each 1D factor summing to 1; Cz's 2D sum is s1^2 + s2^2, so both factors are divided
+  // The 2D filters are normalized to sum to 1 (Andersson et al. 2020, colour pipeline). For Y and
+  // Cx that is each 1D factor summing to 1; Cz's 2D sum is s1^2 + s2^2, so both factors are divided
   // by its square root.
   const double sz = std::sqrt(s1 * s1 + s2 * s2);
   for (int i = 0; i < ns; ++i) {
@@ -116,7 +119,7 @@ Kernels makeKernels(double ppd) {
     k.cz2.push_back(float(cz2[i] / sz));
   }
 
-  // Feature detectors, Andersson et al. 2020, Sec. 3.2: Gaussian derivatives with standard
+  // Feature detectors, Andersson et al. 2020, feature pipeline: Gaussian derivatives with standard
   // deviation sigma = w/2 degrees (w = 0.082), out to 3 sigma; the positive and the negative
   // weights of each derivative filter sum to +1 and -1 (the Gaussian sums to 1). In 2D the edge
   // filter is dG(x) G(y) and the point filter ddG(x) G(y) (and transposed); the 2D weights' sums
@@ -208,7 +211,7 @@ float labF(float t) {
   return t > d * d * d ? std::cbrt(t) : t / (3.0f * d * d) + 4.0f / 29.0f;
 }
 
-// Linear RGB -> CIELAB -> Hunt-adjusted (Andersson et al. 2020, Sec. 3.1: a and b scaled by
+// Linear RGB -> CIELAB -> Hunt-adjusted (Andersson et al. 2020, colour pipeline: a and b scaled by
 // 0.01 L, so that dark colours' chroma counts less).
 void huntLab(const float rgb[3], float lab[3]) {
   float xyz[3];
@@ -221,14 +224,15 @@ void huntLab(const float rgb[3], float lab[3]) {
   lab[2] = 0.01f * L * 200.0f * (fy - fz);
 }
 
-// HyAB distance (Abasi et al. 2020, used by Andersson et al. 2020, Sec. 3.1): city-block in L,
-// Euclidean in (a, b).
+// HyAB distance (Abasi et al. 2020, used by Andersson et al. 2020, colour pipeline): city-block in
+// L, Euclidean in (a, b).
 float hyab(const float p[3], const float q[3]) {
-  return std::fabs(p[0] - q[0]) + std::sqrt((p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+  return std::fabs(p[0] - q[0]) +
+         std::sqrt((p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
 }
 
-// c_max of Andersson et al. 2020, Sec. 3.1: the largest colour difference in the gamut, between
-// pure green and pure blue, raised to q_c.
+// c_max of Andersson et al. 2020, colour pipeline: the largest colour difference in the gamut,
+// between pure green and pure blue, raised to q_c.
 float maxColorDistance() {
   const float green[3] = {0, 1, 0}, blue[3] = {0, 0, 1};
   float g[3], b[3];
@@ -267,9 +271,10 @@ void perceive(const Plane* rgb, double scale, int w, int h, const Band& band, co
   const int rowsIn = band.yb - band.ya;
   const std::size_t nIn = std::size_t(w) * rowsIn, n = std::size_t(w) * (band.y1 - band.y0);
   const std::size_t first = std::size_t(band.ya) * w;
-  // Linear RGB -> YyCxCz opponent space (Andersson et al. 2020, Sec. 3.1; Zhang and Wandell's
-  // linearized CIELAB): Y = 116 y - 16, Cx = 500 (x - y), Cz = 200 (y - z) for white-normalized XYZ.
-  // In float, an exposure past 2^128 saturates rather than turning 0 * inf into NaN.
+  // Linear RGB -> YyCxCz opponent space (Andersson et al. 2020, colour pipeline; Zhang and
+  // Wandell's linearized CIELAB): Y = 116 y - 16, Cx = 500 (x - y), Cz = 200 (y - z) for
+  // white-normalized XYZ. In float, an exposure past 2^128 saturates rather than turning 0 * inf
+  // into NaN.
   const float fscale = float(std::min(scale, double(std::numeric_limits<float>::max())));
   for (int c = 0; c < 3; ++c) s.opp[c].resize(nIn);
   for (std::size_t i = 0; i < nIn; ++i) {
@@ -314,20 +319,22 @@ void perceive(const Plane* rgb, double scale, int w, int h, const Band& band, co
     out.B[i] = lab[2];
   }
 
-  // Feature pipeline (Andersson et al. 2020, Sec. 3.2) on the unfiltered achromatic channel
+  // Feature pipeline (Andersson et al. 2020, feature pipeline) on the unfiltered achromatic channel
   // normalized to [0,1], (Y + 16) / 116 (the paper's erratum: 116, not 100).
   for (std::size_t i = 0; i < nIn; ++i) s.opp[1][i] = (s.opp[0][i] + 16.0f) / 116.0f;
   convolveRows(s.opp[1], s.t0, w, rowsIn, k.g, s.pad);    // G along x
   convolveRows(s.opp[1], s.t1, w, rowsIn, k.dg, s.pad);   // dG along x
   convolveRows(s.opp[1], s.t2, w, rowsIn, k.ddg, s.pad);  // ddG along x
-  convolveColumns(s.t1, s.t3, w, h, band, k.g);            // edge, x component
-  convolveColumns(s.t0, s.t4, w, h, band, k.dg);           // edge, y component
+  convolveColumns(s.t1, s.t3, w, h, band, k.g);           // edge, x component
+  convolveColumns(s.t0, s.t4, w, h, band, k.dg);          // edge, y component
   out.edge.resize(n);
-  for (std::size_t i = 0; i < n; ++i) out.edge[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
+  for (std::size_t i = 0; i < n; ++i)
+    out.edge[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
   convolveColumns(s.t2, s.t3, w, h, band, k.g);    // point, x component
   convolveColumns(s.t0, s.t4, w, h, band, k.ddg);  // point, y component
   out.point.resize(n);
-  for (std::size_t i = 0; i < n; ++i) out.point[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
+  for (std::size_t i = 0; i < n; ++i)
+    out.point[i] = std::sqrt(s.t3[i] * s.t3[i] + s.t4[i] * s.t4[i]);
 }
 
 // LDR-FLIP of one band of two linear RGB images (as planes, brought to [0,1] as perceive() says),
@@ -341,28 +348,30 @@ void ldrFlip(const Plane* test, const Plane* ref, double scale, int w, int h, co
   const float pccmax = kPc * cmax;
   const float invSqrt2 = float(1.0 / std::sqrt(2.0));
   for (std::size_t i = 0; i < n; ++i) {
-    // Colour error (Andersson et al. 2020, Sec. 3.1): HyAB^q_c, then the piecewise-linear map
-    // that sends [0, p_c c_max) to [0, p_t) and [p_c c_max, c_max] to [p_t, 1], so small
+    // Colour error (Andersson et al. 2020, colour pipeline): HyAB^q_c, then the piecewise-linear
+    // map that sends [0, p_c c_max) to [0, p_t) and [p_c c_max, c_max] to [p_t, 1], so small
     // differences get most of the output range.
     const float a[3] = {pt.L[i], pt.A[i], pt.B[i]}, b[3] = {pr.L[i], pr.A[i], pr.B[i]};
     const float d = std::pow(hyab(a, b), kQc);
-    const float ec = d < pccmax ? (kPt / pccmax) * d
-                                : kPt + (d - pccmax) / (cmax - pccmax) * (1.0f - kPt);
-    // Feature error (Andersson et al. 2020, Sec. 3.2): the larger of the edge and point
+    const float ec =
+        d < pccmax ? (kPt / pccmax) * d : kPt + (d - pccmax) / (cmax - pccmax) * (1.0f - kPt);
+    // Feature error (Andersson et al. 2020, feature pipeline): the larger of the edge and point
     // magnitude differences, scaled by 1/sqrt(2) to [0,1], raised to q_f.
-    const float df = std::max(std::fabs(pr.edge[i] - pt.edge[i]), std::fabs(pr.point[i] - pt.point[i]));
+    const float df =
+        std::max(std::fabs(pr.edge[i] - pt.edge[i]), std::fabs(pr.point[i] - pt.point[i]));
     const float ef = std::pow(invSqrt2 * df, kQf);
-    // Final error (Andersson et al. 2020, Sec. 3.3): feature differences raise the colour error
+    // Final error (Andersson et al. 2020, final error): feature differences raise the colour error
     // towards 1, Delta E = Delta E_c ^ (1 - Delta E_f).
     bandErr[i] = std::max(bandErr[i], std::pow(ec, 1.0f - ef));
   }
 }
 
-// Andersson et al. 2021, Sec. 3: the input x at which the tone mapper outputs kToneTarget, the
+// Andersson et al. 2021, HDR-FLIP: the input x at which the tone mapper outputs kToneTarget, the
 // larger root of (k0 - t k3) x^2 + (k1 - t k4) x + (k2 - t k5) = 0.
 double toneMapInverseAtTarget() {
   const double t = kToneTarget;
-  const double a = kTone[0] - t * kTone[3], b = kTone[1] - t * kTone[4], c = kTone[2] - t * kTone[5];
+  const double a = kTone[0] - t * kTone[3], b = kTone[1] - t * kTone[4],
+               c = kTone[2] - t * kTone[5];
   return (-b + std::sqrt(b * b - 4.0 * a * c)) / (2.0 * a);
 }
 
@@ -380,27 +389,33 @@ void checkImage(const Image& im, const char* name) {
       for (int c = 0; c < 3; ++c)
         if (!std::isfinite(im.at(x, y, c)))
           badInput(std::string("flip: ") + name + " has a non-finite value at pixel (" +
-                   std::to_string(x) + ", " + std::to_string(y) + "), channel " + std::to_string(c));
+                   std::to_string(x) + ", " + std::to_string(y) + "), channel " +
+                   std::to_string(c));
 }
 
 }  // namespace
 
-FlipResult flip(const Image& test, const Image& reference, const FlipOptions& opt, const Image* mask) {
+FlipResult flip(const Image& test, const Image& reference, const FlipOptions& opt,
+                const Image* mask) {
   checkImage(test, "test");
   checkImage(reference, "reference");
   if (test.width != reference.width || test.height != reference.height)
     badInput("flip: test is " + sizeOf(test) + " but reference is " + sizeOf(reference));
   if (!std::isfinite(opt.pixelsPerDegree) || opt.pixelsPerDegree <= 0)
-    badInput("flip: pixelsPerDegree must be finite and > 0 (got " + std::to_string(opt.pixelsPerDegree) + ")");
+    badInput("flip: pixelsPerDegree must be finite and > 0 (got " +
+             std::to_string(opt.pixelsPerDegree) + ")");
   if (mask) {
     if (mask->width != reference.width || mask->height != reference.height || mask->channels < 1 ||
         mask->pixels.size() != std::size_t(mask->width) * mask->height * mask->channels)
       badInput("flip: mask is " + sizeOf(*mask) + " with " + std::to_string(mask->channels) +
-               " channel(s); it must match the reference's " + sizeOf(reference) + " with >= 1 channel");
+               " channel(s); it must match the reference's " + sizeOf(reference) +
+               " with >= 1 channel");
   }
   if (opt.hdr) {
-    for (const auto& [v, name] : {std::pair{opt.startExposure, "startExposure"}, std::pair{opt.stopExposure, "stopExposure"}})
-      if (std::isinf(v)) badInput(std::string("flip: ") + name + " must be finite or NaN (got infinity)");
+    for (const auto& [v, name] : {std::pair{opt.startExposure, "startExposure"},
+                                  std::pair{opt.stopExposure, "stopExposure"}})
+      if (std::isinf(v))
+        badInput(std::string("flip: ") + name + " must be finite or NaN (got infinity)");
   }
 
   const int w = reference.width, h = reference.height;
@@ -427,12 +442,13 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
   if (opt.hdr) {
     double start = opt.startExposure, stop = opt.stopExposure;
     if (std::isnan(start) || std::isnan(stop)) {
-      // Andersson et al. 2021, Sec. 3: start = log2(x / Y_max), stop = log2(x / Y_median), with x
+      // Andersson et al. 2021, HDR-FLIP: start = log2(x / Y_max), stop = log2(x / Y_median), with x
       // the tone mapper's input that maps to 0.85 and Y the reference's luminance.
       std::vector<double> lum(n);
       double yMax = 0, yMinPositive = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        lum[i] = kLumaWeights[0] * rIn[0][i] + kLumaWeights[1] * rIn[1][i] + kLumaWeights[2] * rIn[2][i];
+        lum[i] =
+            kLumaWeights[0] * rIn[0][i] + kLumaWeights[1] * rIn[1][i] + kLumaWeights[2] * rIn[2][i];
         yMax = std::max(yMax, lum[i]);
         if (lum[i] > 0 && (yMinPositive == 0 || lum[i] < yMinPositive)) yMinPositive = lum[i];
       }
@@ -448,7 +464,7 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
     if (start > stop)
       badInput("flip: startExposure (" + std::to_string(start) + ") exceeds stopExposure (" +
                std::to_string(stop) + ")");
-    // Andersson et al. 2021, Sec. 3: max(2, ceil(stop - start)) exposures, evenly spaced.
+    // Andersson et al. 2021, HDR-FLIP: max(2, ceil(stop - start)) exposures, evenly spaced.
     const int count = int(std::max(2.0, std::ceil(stop - start)));
     const double step = (stop - start) / (count - 1);
     res.startExposure = start;
@@ -459,7 +475,7 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
     for (int e = 0; e < count; ++e) scales.push_back(std::exp2(start + e * step));
   }
 
-  // One LDR-FLIP per exposure, the per-pixel maximum over all (Andersson et al. 2021, Sec. 3).
+  // One LDR-FLIP per exposure, the per-pixel maximum over all (Andersson et al. 2021, HDR-FLIP).
   // The image is processed in bands of rows, each with the rows its filters reach, so that the
   // working planes stay small (cache-resident, no fresh pages per call); threads take whole bands,
   // so each output row has one writer.
@@ -478,7 +494,8 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
       Scratch s;
       Percept pt, pr;
       for (std::size_t b = t; b < bands.size(); b += threads)
-        for (double scale : scales) ldrFlip(tIn, rIn, scale, w, h, bands[b], k, cmax, s, pt, pr, out);
+        for (double scale : scales)
+          ldrFlip(tIn, rIn, scale, w, h, bands[b], k, cmax, s, pt, pr, out);
     } catch (...) {
       failures[t] = std::current_exception();
     }
