@@ -23,6 +23,9 @@
 namespace penumbra {
 namespace {
 
+constexpr double kMaxExposureStops = 128;
+
+
 constexpr double kPi = 3.14159265358979323846;
 
 // Andersson et al. 2020, their chosen parameters: colour exponent q_c, feature exponent q_f, the
@@ -417,8 +420,10 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
   checkImage(reference, "reference");
   if (test.width != reference.width || test.height != reference.height)
     badInput("flip: test is " + sizeOf(test) + " but reference is " + sizeOf(reference));
-  if (!std::isfinite(opt.pixelsPerDegree) || opt.pixelsPerDegree <= 0)
-    badInput("flip: pixelsPerDegree must be finite and > 0 (got " +
+  // The filters' radii grow with pixelsPerDegree (3 standard deviations at ppd): 1000 (a 4K
+  // screen 10 m away) is already 15x the papers' setup.
+  if (!std::isfinite(opt.pixelsPerDegree) || opt.pixelsPerDegree <= 0 || opt.pixelsPerDegree > 1000)
+    badInput("flip: pixelsPerDegree must be in (0, 1000] (got " +
              std::to_string(opt.pixelsPerDegree) + ")");
   if (mask) {
     if (mask->width != reference.width || mask->height != reference.height || mask->channels < 1 ||
@@ -480,6 +485,12 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
     if (start > stop)
       badInput("flip: startExposure (" + std::to_string(start) + ") exceeds stopExposure (" +
                std::to_string(stop) + ")");
+    // One exposure per stop costs one LDR-FLIP each: a range wider than kMaxExposureStops (a
+    // reference whose median is 2^-128 of its maximum, or a caller's typo) would run for hours.
+    if (stop - start > kMaxExposureStops)
+      badInput("flip: the exposure range startExposure..stopExposure (" + std::to_string(start) +
+               ".." + std::to_string(stop) + ") spans more than " +
+               std::to_string(int(kMaxExposureStops)) + " stops");
     // Andersson et al. 2021, HDR-FLIP: max(2, ceil(stop - start)) exposures, evenly spaced.
     const int count = int(std::max(2.0, std::ceil(stop - start)));
     const double step = (stop - start) / (count - 1);
