@@ -687,20 +687,32 @@ class ProgressLine {
   int lastTenth_ = 0;
 };
 
+// --spp, --seed, --threads of the Embree truths (reference, evaluate); minSpp: the least --spp.
+std::vector<OptionSpec> samplingSpecs(const ReferenceOptions& R, int minSpp) {
+  return {
+      {"spp", true, "shadow-ray samples per pixel, " + std::to_string(minSpp) +
+                        " to 1048576 (default " + num(R.spp) + ")",
+       {"ReferenceOptions.spp"}},
+      {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
+      {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
+  };
+}
+void parseSampling(const Args& a, ReferenceOptions& ro, int minSpp) {
+  if (has(a, "spp")) ro.spp = int(parseInt("spp", get(a, "spp", ""), minSpp, 1 << 20));
+  if (has(a, "seed")) ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
+  if (has(a, "threads")) ro.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
+}
+
 std::vector<OptionSpec> referenceSpecs() {
   const ReferenceOptions R;
   std::vector<OptionSpec> scene = sceneOptions(R.width, R.height);
   for (OptionSpec& o : scene)
     if (o.name == "size") o.fields = {"ReferenceOptions.width", "ReferenceOptions.height"};
-  return with(with(scene, kExtractSpecs), {
-      kLightSetSpec,
-      {"spp", true, "shadow-ray samples per pixel, 1 to 1048576 (default " + num(R.spp) + ")",
-       {"ReferenceOptions.spp"}},
-      {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
-      {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
-      {"exposure", true, "PNG exposure multiplier (default: automatic)"},
-      {"out", true, "output image .exr (default reference.exr) or .png"},
-  });
+  std::vector<OptionSpec> more = {kLightSetSpec};
+  for (const OptionSpec& o : samplingSpecs(R, 1)) more.push_back(o);
+  more.push_back({"exposure", true, "PNG exposure multiplier (default: automatic)"});
+  more.push_back({"out", true, "output image .exr (default reference.exr) or .png"});
+  return with(with(scene, kExtractSpecs), more);
 }
 
 int cmdReference(int argc, char** argv) {
@@ -719,9 +731,7 @@ int cmdReference(int argc, char** argv) {
   checkOutput(out, {".png", ".exr"}, "out");
   ReferenceOptions ro;
   if (has(a, "size")) parseSize(get(a, "size", ""), ro.width, ro.height);
-  if (has(a, "spp")) ro.spp = int(parseInt("spp", get(a, "spp", ""), 1, 1 << 20));
-  if (has(a, "seed")) ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
-  if (has(a, "threads")) ro.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
+  parseSampling(a, ro, 1);
   float exposure = parseExposure(a);
   bool lightMode = has(a, "lights") || has(a, "extract") || has(a, "light-shape");
   ExtractOptions eo = parseExtractOptions(a);
@@ -798,17 +808,15 @@ std::vector<OptionSpec> evaluateSpecs() {
     if (o.name != "frames" && o.name != "frame-time" && o.name != "rotate-step" &&
         o.name != "out" && o.name != "report" && o.name != "exposure")
       specs.push_back(o);
-  return with(specs, {
-      {"spp", true, "truth samples per pixel, 2 to 1048576 (default " + num(E.truth.spp) + ")",
-       {"ReferenceOptions.spp"}},
-      {"seed", true, "truths' random seed (default " + std::to_string(E.truth.seed) + ")"},
-      {"threads", true, "CPU threads of the truths (default: all)", {"ReferenceOptions.threads"}},
+  std::vector<OptionSpec> more = samplingSpecs(E.truth, 2);
+  more.insert(more.end(), {
       {"truth", true, "cache directory of truths: read when present for the same scene, map, "
                       "size, camera, spp, seed and light set, written otherwise (default: none)",
        {"EvaluateOptions.cacheDir"}},
       {"out-dir", true, "write the frame (frame.exr) and the heat maps (PNG) here"},
       {"json", true, "write the budget as JSON to this file"},
   });
+  return with(specs, more);
 }
 
 int cmdEvaluate(int argc, char** argv) {
@@ -833,9 +841,8 @@ int cmdEvaluate(int argc, char** argv) {
   EvaluateOptions eo;
   eo.truth.width = ro.width;
   eo.truth.height = ro.height;
-  if (has(a, "spp")) eo.truth.spp = int(parseInt("spp", get(a, "spp", ""), 2, 1 << 20));
-  if (has(a, "seed")) eo.truth.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
-  if (has(a, "threads")) eo.truth.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
+  // At least 2 samples: one per half, for the noise estimate.
+  parseSampling(a, eo.truth, 2);
   eo.cacheDir = get(a, "truth", "");
   ExtractOptions ext = parseExtractOptions(a);
   LightSet userLights;

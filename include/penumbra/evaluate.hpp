@@ -9,7 +9,9 @@
 // environment truth's mean over them, so the parts add up exactly (technique therefore differs
 // from `compare F L`, which divides by L's mean, by the ratio of the two means).
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -70,6 +72,13 @@ struct BudgetLine {
   // (the frame is deterministic, so only the truths' halves differ), same normalisation.
   double noise = kNaN, noisePenumbra = kNaN;
   bool belowNoise() const { return relativeRmse < 2.0 * noise; }
+  // The figure with the truths' noise taken out: the noise is independent of the error it
+  // measures, so the expected squared figure is error^2 + noise^2; sqrt(max(0, rmse^2 - noise^2)).
+  double withoutNoise() const { return std::sqrt(std::max(0.0, relativeRmse * relativeRmse - noise * noise)); }
+  double withoutNoisePenumbra() const {
+    return std::sqrt(std::max(0.0, relativeRmsePenumbra * relativeRmsePenumbra -
+                                       noisePenumbra * noisePenumbra));
+  }
   bool belowNoisePenumbra() const { return relativeRmsePenumbra < 2.0 * noisePenumbra; }
 };
 
@@ -84,6 +93,7 @@ struct ErrorBudget {
   // than the truth): total against G, technique against L.
   std::array<double, 3> biasTotal{}, biasTechnique{};
   std::size_t geometryPixels = 0, penumbraPixels = 0;
+  double penumbraLow = 0, penumbraHigh = 0;  // EvaluateOptions' bounds, as used
   double truthMean = 0, truthMeanPenumbra = BudgetLine::kNaN;  // mean of G (RGB) over the pixels
   // Filled by the caller (the frame is rendered outside): warm render time, lights, technique.
   double frameMs = BudgetLine::kNaN;
@@ -102,7 +112,8 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
 
 // {"shadows" (the technique's name), "lights", "frame_ms", "spp", "seed", "pixels", "penumbra_pixels",
 //  "total" | "floor" | "technique" | "ambient": {"relative_rmse", "relative_rmse_penumbra", "flip",
-//  "flip_penumbra", "noise", "noise_penumbra", "below_noise", "below_noise_penumbra"},
+//  "flip_penumbra", "noise", "noise_penumbra", "relative_rmse_without_noise",
+//  "relative_rmse_penumbra_without_noise", "below_noise", "below_noise_penumbra"},
 //  "cross", "cross_penumbra", "sum_check": {"total_sq", "parts_sq"}, "truth_noise":
 //  {"environment", "lights", "lights_shadowed_ambient"}, "bias_total", "bias_technique"};
 // non-finite numbers as null.

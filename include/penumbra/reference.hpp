@@ -30,8 +30,9 @@ struct ReferenceOptions {
 
 // A reference with an estimate of its own Monte Carlo noise. Every pixel's samples are split by
 // sample index into two halves (even: A, odd: B), each an estimate of the same pixel on its own,
-// with image = (halfA + halfB) / 2 exactly (up to the clamp of a negative ambient sum, which is
-// applied to each image after the average). For independent halves, the noise of their mean is
+// with image = (halfA + halfB) / 2 up to float rounding and the clamp of a negative ambient sum
+// (applied to each of the three). The image is the one the plain functions return, sample for
+// sample (the halves only split the sums). For independent halves, the noise of their mean is
 // RMSE(A - B) / 2; relativeNoise divides it by the full image's mean over the same values, as
 // compareImages normalises (geometry pixels, RGB). NaN when spp < 2 (no second half).
 struct ReferenceImage {

@@ -30,8 +30,8 @@ class Digest {
     const auto* c = static_cast<const unsigned char*>(p);
     for (std::size_t i = 0; i < n; ++i) h_ = (h_ ^ c[i]) * 0x100000001B3ull;
   }
-  template <class T>
-  void value(const T& v) { bytes(&v, sizeof v); }
+  template <class... T>
+  void value(const T&... v) { (bytes(&v, sizeof v), ...); }
   template <class T>
   void vec(const std::vector<T>& v) {
     value(v.size());
@@ -134,17 +134,9 @@ std::string truthKey(const Scene& scene, const Camera& camera, const Environment
     d.vec(m.triangles);
     d.value(m.albedo);
   }
-  d.value(camera.eye);
-  d.value(camera.target);
-  d.value(camera.up);
-  d.value(camera.fovyDeg);
-  d.value(opt.width);
-  d.value(opt.height);
-  d.value(opt.spp);
-  d.value(opt.seed);
-  d.value(env.equirect.width);
-  d.value(env.equirect.height);
-  d.value(env.equirect.channels);
+  d.value(camera.eye, camera.target, camera.up, camera.fovyDeg);
+  d.value(opt.width, opt.height, opt.spp, opt.seed);
+  d.value(env.equirect.width, env.equirect.height, env.equirect.channels);
   d.vec(env.equirect.pixels);
   d.value(env.rotationYDeg);
   if (lights) {
@@ -304,6 +296,8 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
   flipLine(b.ambient, L, S, nullptr);
   b.spp = opt.truth.spp;
   b.seed = opt.truth.seed;
+  b.penumbraLow = opt.penumbraLow;
+  b.penumbraHigh = opt.penumbraHigh;
   return b;
 }
 
@@ -318,6 +312,8 @@ nlohmann::ordered_json lineJson(const BudgetLine& l) {
           {"flip_penumbra", number(l.flipPenumbra)},
           {"noise", number(l.noise)},
           {"noise_penumbra", number(l.noisePenumbra)},
+          {"relative_rmse_without_noise", number(l.withoutNoise())},
+          {"relative_rmse_penumbra_without_noise", number(l.withoutNoisePenumbra())},
           {"below_noise", l.belowNoise()},
           {"below_noise_penumbra", l.belowNoisePenumbra()}};
 }
@@ -337,6 +333,7 @@ std::string toJson(const ErrorBudget& b) {
   j["seed"] = b.seed;
   j["pixels"] = b.geometryPixels;
   j["penumbra_pixels"] = b.penumbraPixels;
+  j["penumbra_visibility"] = {b.penumbraLow, b.penumbraHigh};
   j["total"] = lineJson(b.total);
   j["floor"] = lineJson(b.floor);
   j["technique"] = lineJson(b.technique);
@@ -372,15 +369,19 @@ std::string toText(const ErrorBudget& b) {
                 b.shadows.c_str(), b.lights, b.frameMs);
   o << buf;
   std::snprintf(buf, sizeof buf,
-                "truths: %d spp, seed %llu; pixels: %zu geometry, %zu penumbra\n", b.spp,
-                static_cast<unsigned long long>(b.seed), b.geometryPixels, b.penumbraPixels);
+                "truths: %d spp, seed %llu; pixels: %zu geometry, %zu penumbra (%g%%..%g%% of the "
+                "lights' irradiance arrives)\n",
+                b.spp, static_cast<unsigned long long>(b.seed), b.geometryPixels, b.penumbraPixels,
+                100.0 * b.penumbraLow, 100.0 * b.penumbraHigh);
   o << buf;
-  o << "             rel. RMSE (noise)      penumbra (noise)      FLIP    FLIP penumbra\n";
+  o << "           whole frame: rel. RMSE (noise) w/o noise | penumbra: rel. RMSE (noise) w/o "
+       "noise | FLIP, penumbra\n";
   auto row = [&](const char* name, const BudgetLine& l) {
-    std::snprintf(buf, sizeof buf, "%-10s %s (%s)%s  %s (%s)%s  %s  %s\n", name,
+    std::snprintf(buf, sizeof buf, "%-10s %s (%s)%s %s | %s (%s)%s %s | %s %s\n", name,
                   pct(l.relativeRmse).c_str(), pct(l.noise).c_str(), l.belowNoise() ? "~" : " ",
-                  pct(l.relativeRmsePenumbra).c_str(), pct(l.noisePenumbra).c_str(),
-                  l.belowNoisePenumbra() ? "~" : " ", flipText(l.flip).c_str(),
+                  pct(l.withoutNoise()).c_str(), pct(l.relativeRmsePenumbra).c_str(),
+                  pct(l.noisePenumbra).c_str(), l.belowNoisePenumbra() ? "~" : " ",
+                  pct(l.withoutNoisePenumbra()).c_str(), flipText(l.flip).c_str(),
                   flipText(l.flipPenumbra).c_str());
     o << buf;
   };
