@@ -499,7 +499,7 @@ RenderOptions parseRenderOptions(const Args& a) {
 }
 
 // Renders frames as `render` does: through the GL interop with --gl, and with --accumulate N the
-// average of frames 0..N-1 of the bitmask's temporal jitter (seed 001 §4.3). Shared by render
+// average of frames 0..N-1 of the bitmask's temporal jitter (rotated light samples). Shared by render
 // and evaluate.
 class FrameRenderer {
  public:
@@ -750,6 +750,7 @@ int cmdReference(int argc, char** argv) {
     } else {
       ref = referenceEnvironmentWithNoise(s.scene, s.camera, s.env, ro);
     }
+    ro.progress = nullptr;  // it refers to `progress`
   }
   const Image& img = ref.image;
   writeImage(out, img, exposure > 0 ? exposure : autoExposure(img),
@@ -877,6 +878,7 @@ int cmdEvaluate(int argc, char** argv) {
     ProgressLine progress("evaluate: truths");
     eo.truth.progress = progress.callback();
     truths = evaluateTruths(s.scene, s.camera, lights, s.env, eo);
+    eo.truth.progress = nullptr;  // it refers to `progress`
   }
   ErrorBudget budget = errorBudget(frame.image, truths, eo);
   budget.frameMs = frameMs;
