@@ -5,6 +5,7 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/extraction.hpp"
+#include "penumbra/flip.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/lights.hpp"
 #include "penumbra/reference.hpp"
