@@ -284,16 +284,26 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
       }
     return c ? s / double(c) : kNaN;
   };
+  // FLIP filters across pixels, so the background (the map in the frame, black in the truths)
+  // would bleed into the geometry's edge: both images get the same black background.
+  auto onBlack = [&](const Image& im) {
+    Image out = im;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(geometryMask.pixels[i] > 0.5f))
+        for (int k = 0; k < 3; ++k) out.pixels[i * 4 + k] = 0.0f;
+    return out;
+  };
+  const Image frameB = onBlack(frame), GB = onBlack(G), LB = onBlack(L), SB = onBlack(S);
   auto flipLine = [&](BudgetLine& l, const Image& test, const Image& ref, Image* keep) {
     FlipResult f = flip(test, ref, opt.flip, &geometryMask);
     l.flip = f.mean;
     l.flipPenumbra = maskedMean(f.map, b.penumbraMask);
     if (keep) *keep = std::move(f.map);
   };
-  flipLine(b.total, frame, G, &b.flipTotalMap);
-  flipLine(b.floor, L, G, nullptr);
-  flipLine(b.technique, frame, L, &b.flipTechniqueMap);
-  flipLine(b.ambient, L, S, nullptr);
+  flipLine(b.total, frameB, GB, &b.flipTotalMap);
+  flipLine(b.floor, LB, GB, nullptr);
+  flipLine(b.technique, frameB, LB, &b.flipTechniqueMap);
+  flipLine(b.ambient, LB, SB, nullptr);
   b.spp = opt.truth.spp;
   b.seed = opt.truth.seed;
   b.penumbraLow = opt.penumbraLow;
