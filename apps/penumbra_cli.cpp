@@ -1,12 +1,14 @@
-// penumbra command-line interface: devices | render | reference | compare | lights.
+// penumbra command-line interface: devices | render | reference | compare | evaluate | lights.
 // A thin layer over the public API; every penumbra::Error becomes one line on stderr and exit 2.
 #include <penumbra/penumbra.hpp>
+#include <penumbra/evaluate.hpp>
 #ifdef PENUMBRA_HAS_GL
 #include <penumbra/gl/interop.hpp>
 #endif
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +18,7 @@
 #include <functional>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -46,6 +49,12 @@ std::string num(double v) {
   std::ostringstream o;
   o << v;
   return o.str();
+}
+// Shortest round-trip form, as the library's JSON writes numbers.
+std::string shortestNumber(double v) {
+  char buf[64];
+  auto res = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, res.ptr);
 }
 std::string sizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
@@ -447,31 +456,8 @@ std::vector<OptionSpec> renderSpecs() {
   });
 }
 
-int cmdRender(int argc, char** argv) {
-  const std::vector<OptionSpec> specs = renderSpecs();
-  Args a = parse(argc, argv, 2, specs, "render");
-  if (has(a, "help")) {
-    printHelp("penumbra render [options]",
-              "Renders a scene lit by an environment map: area lights extracted from the map "
-              "(--extract) or given (--light-set) plus the ambient residual, soft shadows (--shadows, "
-              "filtered or exact; see below), diffuse shading.\n\n"
-              "Animation (--frames N): frame i (from 0) is rendered at time i * frame-time (the "
-              "built-in scene's sphere bounces and its slab turns; a loaded mesh stands still), "
-              "with the map turned by env-rotate + i * rotate-step degrees, and with map "
-              "i mod K when --env lists K maps separated by commas (a.exr,b.exr,...). "
-              "rotate-step defaults to 1 degree per frame with one map and to 0 with a list. "
-              "Every frame is computed from scratch: lights extracted again on the device, "
-              "shadows and shading redone; the camera is framed once, on the scene at time 0. "
-              "Frame i is written to OUT's name with _iiii (4 digits, more past 9999 frames) "
-              "before the extension: --out anim/f.png gives anim/f_0000.png, anim/f_0001.png, "
-              "...; --report then writes a JSON array with one object per frame (frame, time_s, "
-              "environment, env_rotation_deg, out, lights, stage timings).",
-              specs);
-    return 0;
-  }
-  std::string out = get(a, "out", "penumbra.png");
-  checkOutput(out, {".png", ".exr"}, "out");
-  if (has(a, "report")) checkOutput(get(a, "report", ""), {".json"}, "report");
+// The RenderOptions of `render`'s options (renderSpecs), shared by render and evaluate.
+RenderOptions parseRenderOptions(const Args& a) {
   RenderOptions ro;
   if (has(a, "size")) parseSize(get(a, "size", ""), ro.width, ro.height);
   if (has(a, "shadows")) ro.shadows = parseShadowTechnique(get(a, "shadows", ""));
@@ -497,11 +483,6 @@ int cmdRender(int argc, char** argv) {
     ro.bitmask.lightSamples = int(parseInt("light-samples", get(a, "light-samples", ""), 32, 1024));
     if (ro.bitmask.lightSamples % 32) badInput("--light-samples must be a multiple of 32, got " + get(a, "light-samples", ""));
   }
-  // --accumulate N: frames 0..N-1 of the bitmask's temporal jitter (seed 001 §4.3), averaged.
-  const int accumulate =
-      has(a, "accumulate") ? int(parseInt("accumulate", get(a, "accumulate", ""), 1, 4096)) : 1;
-  if (accumulate > 1 && ro.shadows != ShadowTechnique::Bitmask)
-    badInput("--accumulate needs --shadows bitmask (the only technique with jittered samples)");
   ro.frontBackFaces = has(a, "front-back");
   ro.bentNormals = has(a, "bent-normals");
   if (has(a, "bent-normals-scale")) {
@@ -514,6 +495,88 @@ int cmdRender(int argc, char** argv) {
   if (has(a, "light-size-scale"))
     ro.shadow.lightSizeScale = parseFloat("light-size-scale", get(a, "light-size-scale", ""));
   if (has(a, "max-filter")) ro.shadow.maxFilterTexels = parseFloat("max-filter", get(a, "max-filter", ""));
+  return ro;
+}
+
+// Renders frames as `render` does: through the GL interop with --gl, and with --accumulate N the
+// average of frames 0..N-1 of the bitmask's temporal jitter (rotated light samples). Shared by render
+// and evaluate.
+class FrameRenderer {
+ public:
+  FrameRenderer(Context& ctx, const Args& a, const RenderOptions& ro) : renderer_(ctx) {
+    accumulate_ =
+        has(a, "accumulate") ? int(parseInt("accumulate", get(a, "accumulate", ""), 1, 4096)) : 1;
+    if (accumulate_ > 1 && ro.shadows != ShadowTechnique::Bitmask)
+      badInput("--accumulate needs --shadows bitmask (the only technique with jittered samples)");
+#ifdef PENUMBRA_HAS_GL
+    if (has(a, "gl")) {
+      if (accumulate_ > 1) badInput("--accumulate does not work with --gl");
+      glContext_ = std::make_unique<gl::HeadlessContext>(gl::parseBackend(get(a, "gl", "")));
+      glRenderer_ = std::make_unique<gl::GLRenderer>(ctx, glContext_->loader());
+      std::cout << "penumbra: GL " << glContext_->description() << "\n";
+    }
+#else
+    if (has(a, "gl")) badInput("--gl: this penumbra was built without GL (-DPENUMBRA_BUILD_GL=OFF)");
+#endif
+  }
+
+  Frame render(const Scene& scene, const Camera& camera, const LightSet& lights,
+               const Environment& env, const RenderOptions& ro) {
+#ifdef PENUMBRA_HAS_GL
+    if (glRenderer_) return glRenderer_->render(scene, camera, lights, env, ro);
+#endif
+    Frame f = renderer_.render(scene, camera, lights, env, ro);
+    if (accumulate_ > 1) {
+      double totalRender = f.timingsMs.back().second;
+      for (int k = 1; k < accumulate_; ++k) {
+        RenderOptions rk = ro;
+        rk.bitmask.jitter = k;
+        Frame g = renderer_.render(scene, camera, lights, env, rk);
+        for (std::size_t p = 0; p < f.image.pixels.size(); ++p) f.image.pixels[p] += g.image.pixels[p];
+        totalRender += g.timingsMs.back().second;
+        f.timingsMs = g.timingsMs;  // stage times add up since resetTimings()
+      }
+      for (float& v : f.image.pixels) v /= float(accumulate_);
+      f.timingsMs.back().second = totalRender;
+    }
+    return f;
+  }
+
+ private:
+  Renderer renderer_;
+  int accumulate_ = 1;
+#ifdef PENUMBRA_HAS_GL
+  std::unique_ptr<gl::HeadlessContext> glContext_;
+  std::unique_ptr<gl::GLRenderer> glRenderer_;
+#endif
+};
+
+int cmdRender(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = renderSpecs();
+  Args a = parse(argc, argv, 2, specs, "render");
+  if (has(a, "help")) {
+    printHelp("penumbra render [options]",
+              "Renders a scene lit by an environment map: area lights extracted from the map "
+              "(--extract) or given (--light-set) plus the ambient residual, soft shadows (--shadows, "
+              "filtered or exact; see below), diffuse shading.\n\n"
+              "Animation (--frames N): frame i (from 0) is rendered at time i * frame-time (the "
+              "built-in scene's sphere bounces and its slab turns; a loaded mesh stands still), "
+              "with the map turned by env-rotate + i * rotate-step degrees, and with map "
+              "i mod K when --env lists K maps separated by commas (a.exr,b.exr,...). "
+              "rotate-step defaults to 1 degree per frame with one map and to 0 with a list. "
+              "Every frame is computed from scratch: lights extracted again on the device, "
+              "shadows and shading redone; the camera is framed once, on the scene at time 0. "
+              "Frame i is written to OUT's name with _iiii (4 digits, more past 9999 frames) "
+              "before the extension: --out anim/f.png gives anim/f_0000.png, anim/f_0001.png, "
+              "...; --report then writes a JSON array with one object per frame (frame, time_s, "
+              "environment, env_rotation_deg, out, lights, stage timings).",
+              specs);
+    return 0;
+  }
+  std::string out = get(a, "out", "penumbra.png");
+  checkOutput(out, {".png", ".exr"}, "out");
+  if (has(a, "report")) checkOutput(get(a, "report", ""), {".json"}, "report");
+  const RenderOptions ro = parseRenderOptions(a);
   float exposure = parseExposure(a);
   ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
@@ -541,26 +604,7 @@ int cmdRender(int argc, char** argv) {
   for (auto& m : maps) envs.push_back(loadEnvironmentNoting(m));
 
   Context ctx(get(a, "device", ""));
-  Renderer renderer(ctx);
-  // --gl: the frame through the GL interop layer (include/penumbra/gl/interop.hpp).
-  std::function<Frame(const Scene&, const Camera&, const LightSet&, const Environment&,
-                      const RenderOptions&)> renderFrame =
-      [&](auto& sc, auto& cam, auto& ls, auto& en, auto& o) { return renderer.render(sc, cam, ls, en, o); };
-#ifdef PENUMBRA_HAS_GL
-  std::unique_ptr<gl::HeadlessContext> glContext;
-  std::unique_ptr<gl::GLRenderer> glRenderer;
-  if (has(a, "gl")) {
-    if (accumulate > 1) badInput("--accumulate does not work with --gl");
-    glContext = std::make_unique<gl::HeadlessContext>(gl::parseBackend(get(a, "gl", "")));
-    glRenderer = std::make_unique<gl::GLRenderer>(ctx, glContext->loader());
-    renderFrame = [&](auto& sc, auto& cam, auto& ls, auto& en, auto& o) {
-      return glRenderer->render(sc, cam, ls, en, o);
-    };
-    std::cout << "penumbra: GL " << glContext->description() << "\n";
-  }
-#else
-  if (has(a, "gl")) badInput("--gl: this penumbra was built without GL (-DPENUMBRA_BUILD_GL=OFF)");
-#endif
+  FrameRenderer frameRenderer(ctx, a, ro);
   std::string reports;
   double totalMs = 0;
   std::size_t lastLights = 0;
@@ -573,20 +617,7 @@ int cmdRender(int argc, char** argv) {
     ctx.resetTimings();
     auto t0 = std::chrono::steady_clock::now();
     LightSet lights = useLightSet ? userLights : extractLights(ctx, env, eo);
-    Frame f = renderFrame(s.scene, s.camera, lights, env, ro);
-    if (accumulate > 1) {
-      double totalRender = f.timingsMs.back().second;
-      for (int k = 1; k < accumulate; ++k) {
-        RenderOptions rk = ro;
-        rk.bitmask.jitter = k;
-        Frame g = renderer.render(s.scene, s.camera, lights, env, rk);
-        for (std::size_t p = 0; p < f.image.pixels.size(); ++p) f.image.pixels[p] += g.image.pixels[p];
-        totalRender += g.timingsMs.back().second;
-        f.timingsMs = g.timingsMs;  // stage times add up since resetTimings()
-      }
-      for (float& v : f.image.pixels) v /= float(accumulate);
-      f.timingsMs.back().second = totalRender;
-    }
+    Frame f = frameRenderer.render(s.scene, s.camera, lights, env, ro);
     const double frameMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const std::string path = animate ? framePath(out, i, frames) : out;
@@ -619,20 +650,69 @@ int cmdRender(int argc, char** argv) {
   return 0;
 }
 
+// A relative figure as a percentage, "n/a" when not finite (a noise estimate from 1 spp).
+std::string percentText(double v) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f%%", 100.0 * v);
+  return buf;
+}
+
+// Progress of a long CPU job on stderr: a terminal gets one line rewritten in place; a log (not a
+// terminal) gets a line per 10%, so a long run under a script still shows that it advances. The
+// 100% line is written when the object goes out of scope.
+class ProgressLine {
+ public:
+  explicit ProgressLine(std::string label) : label_(std::move(label)), tty_(isatty(2)) {}
+  ~ProgressLine() {
+    if (tty_) std::fprintf(stderr, "\r%s: 100%%\n", label_.c_str());
+    else if (lastTenth_ < 10) std::fprintf(stderr, "%s: 100%%\n", label_.c_str());
+  }
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+  std::function<void(double)> callback() {
+    return [this](double f) {
+      if (tty_) {
+        std::fprintf(stderr, "\r%s: %3d%%", label_.c_str(), int(f * 100));
+      } else if (int(f * 10) > lastTenth_) {
+        lastTenth_ = int(f * 10);
+        std::fprintf(stderr, "%s: %d%%\n", label_.c_str(), lastTenth_ * 10);
+      }
+    };
+  }
+
+ private:
+  std::string label_;
+  bool tty_;
+  int lastTenth_ = 0;
+};
+
+// --spp, --seed, --threads of the Embree truths (reference, evaluate); minSpp: the least --spp.
+std::vector<OptionSpec> samplingSpecs(const ReferenceOptions& R, int minSpp) {
+  return {
+      {"spp", true, "shadow-ray samples per pixel, " + std::to_string(minSpp) +
+                        " to 1048576 (default " + num(R.spp) + ")",
+       {"ReferenceOptions.spp"}},
+      {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
+      {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
+  };
+}
+void parseSampling(const Args& a, ReferenceOptions& ro, int minSpp) {
+  if (has(a, "spp")) ro.spp = int(parseInt("spp", get(a, "spp", ""), minSpp, 1 << 20));
+  if (has(a, "seed")) ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
+  if (has(a, "threads")) ro.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
+}
+
 std::vector<OptionSpec> referenceSpecs() {
   const ReferenceOptions R;
   std::vector<OptionSpec> scene = sceneOptions(R.width, R.height);
   for (OptionSpec& o : scene)
     if (o.name == "size") o.fields = {"ReferenceOptions.width", "ReferenceOptions.height"};
-  return with(with(scene, kExtractSpecs), {
-      kLightSetSpec,
-      {"spp", true, "shadow-ray samples per pixel, 1 to 1048576 (default " + num(R.spp) + ")",
-       {"ReferenceOptions.spp"}},
-      {"seed", true, "random seed (default " + std::to_string(R.seed) + ")"},
-      {"threads", true, "CPU threads (default: all)", {"ReferenceOptions.threads"}},
-      {"exposure", true, "PNG exposure multiplier (default: automatic)"},
-      {"out", true, "output image .exr (default reference.exr) or .png"},
-  });
+  std::vector<OptionSpec> more = {kLightSetSpec};
+  for (const OptionSpec& o : samplingSpecs(R, 1)) more.push_back(o);
+  more.push_back({"exposure", true, "PNG exposure multiplier (default: automatic)"});
+  more.push_back({"out", true, "output image .exr (default reference.exr) or .png"});
+  return with(with(scene, kExtractSpecs), more);
 }
 
 int cmdReference(int argc, char** argv) {
@@ -651,9 +731,7 @@ int cmdReference(int argc, char** argv) {
   checkOutput(out, {".png", ".exr"}, "out");
   ReferenceOptions ro;
   if (has(a, "size")) parseSize(get(a, "size", ""), ro.width, ro.height);
-  if (has(a, "spp")) ro.spp = int(parseInt("spp", get(a, "spp", ""), 1, 1 << 20));
-  if (has(a, "seed")) ro.seed = std::uint64_t(parseInt("seed", get(a, "seed", ""), 0, 1L << 62));
-  if (has(a, "threads")) ro.threads = int(parseInt("threads", get(a, "threads", ""), 0, 1024));
+  parseSampling(a, ro, 1);
   float exposure = parseExposure(a);
   bool lightMode = has(a, "lights") || has(a, "extract") || has(a, "light-shape");
   ExtractOptions eo = parseExtractOptions(a);
@@ -661,32 +739,26 @@ int cmdReference(int argc, char** argv) {
   const bool useLightSet = userLightSet(a, userLights);
   lightMode = lightMode || useLightSet;
   SceneSetup s = loadSetup(a, ro.width, ro.height);
-  // A terminal gets one line rewritten in place; a log (not a terminal) gets a line per 10%, so
-  // a long run under a script still shows that it advances.
-  bool tty = isatty(2);
-  int lastTenth = 0;
-  ro.progress = [tty, &lastTenth](double f) {
-    if (tty) {
-      std::fprintf(stderr, "\rreference: %3d%%", int(f * 100));
-    } else if (int(f * 10) > lastTenth) {
-      lastTenth = int(f * 10);
-      std::fprintf(stderr, "reference: %d%%\n", lastTenth * 10);
+  ReferenceImage ref;
+  {
+    ProgressLine progress("reference");
+    ro.progress = progress.callback();
+    if (lightMode) {
+      Context ctx(get(a, "device", ""));
+      LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, eo);
+      ref = referenceLightsWithNoise(s.scene, s.camera, lights, s.env, ro);
+    } else {
+      ref = referenceEnvironmentWithNoise(s.scene, s.camera, s.env, ro);
     }
-  };
-  Image img;
-  if (lightMode) {
-    Context ctx(get(a, "device", ""));
-    LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, eo);
-    img = referenceLights(s.scene, s.camera, lights, s.env, ro);
-  } else {
-    img = referenceEnvironment(s.scene, s.camera, s.env, ro);
+    ro.progress = nullptr;  // it refers to `progress`
   }
-  if (tty) std::fprintf(stderr, "\rreference: 100%%\n");
-  else if (lastTenth < 10) std::fprintf(stderr, "reference: 100%%\n");
-  writeImage(out, img, exposure > 0 ? exposure : autoExposure(img));
+  const Image& img = ref.image;
+  writeImage(out, img, exposure > 0 ? exposure : autoExposure(img),
+             {{kRelativeNoiseAttribute, ref.relativeNoise}});
   std::cout << "penumbra: wrote " << fs::absolute(out).string() << " (" << ro.width << "x"
             << ro.height << ", " << ro.spp << " spp, "
-            << (lightMode ? "light-set" : "environment") << " reference)\n";
+            << (lightMode ? "light-set" : "environment") << " reference, relative noise "
+            << percentText(ref.relativeNoise) << ")\n";
   return 0;
 }
 
@@ -697,7 +769,10 @@ int cmdCompare(int argc, char** argv) {
   if (has(a, "help")) {
     printHelp("penumbra compare A B [--out metrics.json]",
               "Compares image A with reference B over B's geometry pixels (alpha > 0.5): RMSE, "
-              "relative RMSE (RMSE / mean of B), PSNR, max abs error, as JSON.",
+              "relative RMSE (RMSE / mean of B), PSNR, max abs error, as JSON, and "
+              "\"reference_noise\": B's own relative noise when B is an EXR written by "
+              "`penumbra reference` (null otherwise). A relative RMSE below twice that noise is "
+              "noted on stderr.",
               specs);
     return 0;
   }
@@ -707,9 +782,126 @@ int cmdCompare(int argc, char** argv) {
   if (has(a, "out")) checkOutput(get(a, "out", ""), {".json"}, "out");
   Image A = readImage(a.positional[0]);
   Image B = readImage(a.positional[1]);
-  std::string json = toJson(compareImages(A, B)) + "\n";
+  const ImageMetrics m = compareImages(A, B);
+  // The reference's own noise, when `penumbra reference` stored it in B's header.
+  const ImageAttributes attributes = readImageAttributes(a.positional[1]);
+  const auto noise = attributes.find(kRelativeNoiseAttribute);
+  const bool haveNoise = noise != attributes.end() && std::isfinite(noise->second);
+  std::string json = toJson(m);
+  json.insert(json.rfind('}'), ", \"reference_noise\": " +
+                                   (haveNoise ? shortestNumber(noise->second) : std::string("null")));
+  json += "\n";
   std::cout << json;
+  if (haveNoise && m.relativeRmse < 2.0 * noise->second)
+    std::cerr << "penumbra: compare: relative RMSE " << percentText(m.relativeRmse)
+              << " is below twice the reference's own noise (" << percentText(noise->second)
+              << "): the difference is not resolved by this reference\n";
   if (has(a, "out")) writeTextAtomic(get(a, "out", ""), json);
+  return 0;
+}
+
+// `render`'s options that make sense for one evaluated frame (no animation, no output image or
+// report of render's own), plus the truths' and the budget's.
+std::vector<OptionSpec> evaluateSpecs() {
+  const EvaluateOptions E;
+  std::vector<OptionSpec> specs;
+  for (const OptionSpec& o : renderSpecs())
+    if (o.name != "frames" && o.name != "frame-time" && o.name != "rotate-step" &&
+        o.name != "out" && o.name != "report" && o.name != "exposure")
+      specs.push_back(o);
+  std::vector<OptionSpec> more = samplingSpecs(E.truth, 2);
+  more.insert(more.end(), {
+      {"truth", true, "cache directory of truths: read when present for the same scene, map, "
+                      "size, camera, spp, seed and light set, written otherwise (default: none)",
+       {"EvaluateOptions.cacheDir"}},
+      {"out-dir", true, "write the frame (frame.exr) and the heat maps (PNG) here"},
+      {"json", true, "write the budget as JSON to this file"},
+  });
+  return with(specs, more);
+}
+
+int cmdEvaluate(int argc, char** argv) {
+  const std::vector<OptionSpec> specs = evaluateSpecs();
+  Args a = parse(argc, argv, 2, specs, "evaluate");
+  if (has(a, "help")) {
+    printHelp("penumbra evaluate [render options] [--spp N] [--truth DIR] [--out-dir DIR] "
+              "[--json FILE]",
+              "The error budget of a rendered frame against Embree truths of the same scene "
+              "(README, \"Error budget\"): total (frame vs environment truth), floor (exact "
+              "visibility of the same lights vs environment truth), technique (frame vs that "
+              "light-set truth), ambient (light-set truth with the ambient residual unshadowed vs "
+              "shadowed), each as relative RMSE (divided by the environment truth's mean) and "
+              "mean HDR-FLIP, over all geometry pixels and over penumbra pixels (where 2%..98% of "
+              "the lights' irradiance arrives), with the noise of the truths it sits in; the "
+              "cross term that makes total^2 = floor^2 + technique^2 + 2 cross; the mean signed "
+              "error per RGB; the frame's warm render time.",
+              specs);
+    return 0;
+  }
+  const RenderOptions ro = parseRenderOptions(a);
+  EvaluateOptions eo;
+  eo.truth.width = ro.width;
+  eo.truth.height = ro.height;
+  // At least 2 samples: one per half, for the noise estimate.
+  parseSampling(a, eo.truth, 2);
+  eo.cacheDir = get(a, "truth", "");
+  ExtractOptions ext = parseExtractOptions(a);
+  LightSet userLights;
+  const bool useLightSet = userLightSet(a, userLights);
+  // The directories last among the checks, so that a refused option leaves none behind.
+  for (const char* dirOption : {"truth", "out-dir"}) {
+    if (!has(a, dirOption)) continue;
+    const std::string dir = get(a, dirOption, "");
+    std::error_code ec;
+    if (dir.empty()) badInput(std::string("--") + dirOption + " needs a directory");
+    fs::create_directories(dir, ec);
+    if (!fs::is_directory(dir))
+      badInput(std::string("--") + dirOption + " " + dir + ": cannot create the directory" +
+               (ec ? " (" + ec.message() + ")" : std::string()));
+  }
+  if (has(a, "json")) checkOutput(get(a, "json", ""), {".json"}, "json");
+  SceneSetup s = loadSetup(a, ro.width, ro.height);
+  if (has(a, "env-rotate")) s.env.rotationYDeg = parseFloat("env-rotate", get(a, "env-rotate", ""));
+
+  Context ctx(get(a, "device", ""));
+  FrameRenderer frameRenderer(ctx, a, ro);
+  const LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, ext);
+  // Warm: the first render builds the kernels and buffers; the second is timed.
+  frameRenderer.render(s.scene, s.camera, lights, s.env, ro);
+  const auto t0 = std::chrono::steady_clock::now();
+  const Frame frame = frameRenderer.render(s.scene, s.camera, lights, s.env, ro);
+  const double frameMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+  EvaluateTruths truths;
+  {
+    ProgressLine progress("evaluate: truths");
+    eo.truth.progress = progress.callback();
+    truths = evaluateTruths(s.scene, s.camera, lights, s.env, eo);
+    eo.truth.progress = nullptr;  // it refers to `progress`
+  }
+  ErrorBudget budget = errorBudget(frame.image, truths, eo);
+  budget.frameMs = frameMs;
+  budget.lights = lights.lights.size();
+  budget.shadows = toString(ro.shadows);
+  std::cout << toText(budget);
+  if (!eo.cacheDir.empty()) {
+    const char* names[3] = {"environment", "lights", "lights shadowed ambient"};
+    std::cout << "truths in " << fs::absolute(eo.cacheDir).string() << ":";
+    for (int i = 0; i < 3; ++i)
+      std::cout << (i ? "," : "") << " " << names[i] << (truths.fromCache[i] ? " read" : " computed");
+    std::cout << "\n";
+  }
+  if (has(a, "out-dir")) {
+    const std::string dir = get(a, "out-dir", "");
+    writeImage((fs::path(dir) / "frame.exr").string(), frame.image);
+    double scale = 0;
+    const std::vector<std::string> maps = writeHeatMaps(budget, frame.image, truths, dir, &scale);
+    std::cout << "heat maps (signed error scale +-" << percentText(scale) << " of the truth's mean):";
+    for (const std::string& m : maps) std::cout << " " << fs::path(m).filename().string();
+    std::cout << " and frame.exr in " << fs::absolute(dir).string() << "\n";
+  }
+  if (has(a, "json")) writeTextAtomic(get(a, "json", ""), toJson(budget));
   return 0;
 }
 
@@ -763,6 +955,7 @@ std::string withOptionNames(std::string message) {
   };
   std::vector<OptionSpec> specs = renderSpecs();
   for (const OptionSpec& o : referenceSpecs()) specs.push_back(o);
+  for (const OptionSpec& o : evaluateSpecs()) specs.push_back(o);
   for (const OptionSpec& o : specs)
     for (const std::string& field : o.fields)
       for (std::size_t at = message.find(field); at != std::string::npos;
@@ -797,6 +990,7 @@ void usage(std::ostream& out) {
             << toString(RenderOptions{}.shadows) << " soft shadows)\n"
                "  reference   ray-traced ground truth with Embree\n"
                "  compare     error metrics of an image against a reference\n"
+               "  evaluate    the error budget of a frame against Embree truths\n"
                "  lights      extract area lights from an environment map\n";
 }
 
@@ -821,6 +1015,7 @@ int main(int argc, char** argv) {
     if (cmd == "render") return cmdRender(argc, argv);
     if (cmd == "reference") return cmdReference(argc, argv);
     if (cmd == "compare") return cmdCompare(argc, argv);
+    if (cmd == "evaluate") return cmdEvaluate(argc, argv);
     if (cmd == "lights") return cmdLights(argc, argv);
     std::cerr << "penumbra: unknown command '" << oneLine(cmd) << "' (see penumbra --help)\n";
     return 2;

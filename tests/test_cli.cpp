@@ -29,8 +29,11 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/reference.hpp"
 #include "penumbra/lights.hpp"
 
 extern char** environ;
@@ -422,7 +425,9 @@ TEST_F(CliHelp, EveryCommand) {
       {"render", {"usage: penumbra render", "--shadows", "--lights", "--out", "--report", "--size",
                   "--env", "--scene", "--shadow-map-size", "--camera"}},
       {"reference", {"usage: penumbra reference", "--spp", "--lights", "--out", "--size"}},
-      {"compare", {"usage: penumbra compare", "--out"}},
+      {"compare", {"usage: penumbra compare", "--out", "reference_noise"}},
+      {"evaluate", {"usage: penumbra evaluate", "--spp", "--truth", "--out-dir", "--json",
+                    "--shadows", "--lights", "--size", "--camera"}},
       {"lights", {"usage: penumbra lights", "--lights", "--env", "--overlay", "--out", "--extract",
                   "center-surround", "--threshold", "--rect", "--stop", "--sizes", "--no-ambient"}},
   };
@@ -439,7 +444,7 @@ TEST_F(CliHelp, EveryCommand) {
 TEST_F(CliHelp, TopLevel) {
   Result r = run({"--help"});
   EXPECT_EQ(r.code, 0) << describe(r);
-  for (const char* c : {"devices", "render", "reference", "compare", "lights"})
+  for (const char* c : {"devices", "render", "reference", "compare", "evaluate", "lights"})
     EXPECT_NE(r.out.find(c), std::string::npos) << c;
   Result v = run({"--version"});
   EXPECT_EQ(v.code, 0);
@@ -864,3 +869,111 @@ TEST_F(CliOutputs, IdenticalRunsWriteIdenticalBytes) {
     EXPECT_TRUE(bytesA == bytesB) << a << " and " << b << " differ";
   }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The references' noise in compare; evaluate.
+
+namespace {
+
+// `penumbra reference` stores its relative noise in the EXR; compare reports it beside the
+// metrics (null for an image without it) and notes on stderr a difference below twice it.
+TEST_F(CliCompare, ReferenceNoiseFromTheHeader) {
+  Result ref = run({"reference", "--size", "32x18", "--spp", "16", "--out", "r.exr"});
+  ASSERT_EQ(ref.code, 0) << describe(ref);
+  EXPECT_NE(ref.out.find("relative noise"), std::string::npos) << describe(ref);
+  const auto attributes = readImageAttributes(path("r.exr"));
+  ASSERT_EQ(attributes.count(kRelativeNoiseAttribute), 1u);
+  const double noise = attributes.at(kRelativeNoiseAttribute);
+  EXPECT_GT(noise, 0.0);
+  Result same = run({"compare", "r.exr", "r.exr"});
+  ASSERT_EQ(same.code, 0) << describe(same);
+  EXPECT_DOUBLE_EQ(jsonNumber(same.out, "reference_noise"), noise) << describe(same);
+  EXPECT_NE(same.err.find("below twice the reference's own noise"), std::string::npos)
+      << describe(same);
+  // A far-off image is not below the noise: no note.
+  Image off = readImage(path("r.exr"));
+  for (std::size_t i = 0; i < off.pixels.size(); ++i)
+    if (i % 4 != 3) off.pixels[i] *= 2.0f;
+  writeImage(path("off.exr"), off);
+  Result far = run({"compare", "off.exr", "r.exr"});
+  ASSERT_EQ(far.code, 0) << describe(far);
+  EXPECT_TRUE(far.err.empty()) << describe(far);
+  // No attribute in B: null.
+  Result plain = run({"compare", "r.exr", "off.exr"});
+  ASSERT_EQ(plain.code, 0) << describe(plain);
+  EXPECT_NE(plain.out.find("\"reference_noise\": null"), std::string::npos) << describe(plain);
+}
+
+class CliEvaluate : public CliFixture {};
+
+// The first cached truth file in `dir` whose name ends with `suffix`, as RGBA.
+Image cachedTruth(const fs::path& dir, const std::string& suffix) {
+  for (auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      const Image packed = readImage(e.path().string());
+      Image rgba(packed.width, packed.height, 4);
+      for (std::size_t i = 0; i < std::size_t(packed.width) * packed.height; ++i)
+        for (int k = 0; k < 4; ++k) rgba.pixels[i * 4 + k] = packed.pixels[i * packed.channels + k];
+      return rgba;
+    }
+  }
+  ADD_FAILURE() << "no *" << suffix << " in " << dir;
+  return {};
+}
+
+TEST_F(CliEvaluate, BudgetMapsAndJsonMatchTheWrittenImages) {
+  const std::vector<std::string> args = {"evaluate", "--size", "32x18", "--spp", "64", "--lights",
+                                         "8", "--face-size", "32", "--truth", "truth",
+                                         "--out-dir", "maps", "--json", "b.json"};
+  Result r = run(args);
+  ASSERT_EQ(r.code, 0) << describe(r);
+  for (const char* line : {"total", "floor", "technique", "ambient", "sum: total^2",
+                           "truth noise:", "bias", "8 lights", "environment computed"})
+    EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << describe(r);
+  for (const char* f : {"error-total.png", "error-floor.png", "error-technique.png",
+                        "flip-total.png", "flip-technique.png", "frame.exr"})
+    EXPECT_TRUE(fs::is_regular_file(dir_ / "maps" / f)) << f;
+  const nlohmann::json j = nlohmann::json::parse(readText(dir_ / "b.json"));
+  for (const char* line : {"total", "floor", "technique", "ambient"}) {
+    SCOPED_TRACE(line);
+    EXPECT_TRUE(j[line]["relative_rmse"].is_number());
+    EXPECT_TRUE(j[line]["noise"].is_number());
+    EXPECT_TRUE(j[line]["flip"].is_number());  // finite: non-finite numbers are written as null
+  }
+  EXPECT_EQ(j["lights"], 8);
+
+  // Recomputed from the written frame and the cached truths.
+  const Image frame = readImage((dir_ / "maps" / "frame.exr").string());
+  const Image G = cachedTruth(dir_ / "truth", "-environment.exr");
+  const Image L = cachedTruth(dir_ / "truth", "-lights.exr");
+  const double T = j["total"]["relative_rmse"], F = j["floor"]["relative_rmse"],
+               Q = j["technique"]["relative_rmse"], cross = j["cross"];
+  EXPECT_NEAR(T, compareImages(frame, G).relativeRmse, 1e-9 * T);
+  EXPECT_NEAR(F, compareImages(L, G).relativeRmse, 1e-9 * F);
+  const ImageMetrics mg = compareImages(frame, G);
+  EXPECT_NEAR(Q, compareImages(frame, L).rmse / (mg.rmse / mg.relativeRmse), 1e-9 * Q);
+  EXPECT_NEAR(T * T, F * F + Q * Q + 2 * cross, 1e-9 * T * T);
+
+  // Again: the truths come from the cache, the figures are the same.
+  Result again = run(args);
+  ASSERT_EQ(again.code, 0) << describe(again);
+  EXPECT_NE(again.out.find("environment read, lights read, lights shadowed ambient read"),
+            std::string::npos)
+      << describe(again);
+  const nlohmann::json j2 = nlohmann::json::parse(readText(dir_ / "b.json"));
+  EXPECT_EQ(j2["floor"]["relative_rmse"], j["floor"]["relative_rmse"]);
+}
+
+TEST_F(CliEvaluate, BadSppAndUncreatableTruthDirectory) {
+  expectFailure({"evaluate", "--size", "32x18", "--spp", "1"}, {"--spp"});
+  expectFailure({"evaluate", "--size", "32x18", "--spp", "many"}, {"--spp"});
+  // A directory below a plain file cannot be created.
+  const fs::path file = fs::path(testing::TempDir()) / ("penumbra_cli_file_" + std::to_string(getpid()));
+  { std::ofstream(file.string()) << "x"; }
+  expectFailure({"evaluate", "--size", "32x18", "--spp", "8", "--truth", (file / "t").string()},
+                {"--truth"});
+  fs::remove(file);
+}
+
+}  // namespace

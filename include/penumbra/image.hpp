@@ -1,6 +1,7 @@
 // Host images: linear float pixels, interleaved channels, row 0 at the top.
 #pragma once
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,15 @@ Image readImage(const std::string& path);
 // dropped) atomically: the image goes to a temporary file beside the target and is renamed into
 // place, so a failure never leaves a half-written file. Throws Error(BadInput) on an unknown
 // extension or an unwritable path.
-void writeImage(const std::string& path, const Image& image, float exposure = 1.0f);
+// exrAttributes: numbers stored in an EXR's header under their names (as doubles; a PNG drops
+// them), e.g. the reference's "penumbra:relative_noise".
+using ImageAttributes = std::map<std::string, double>;
+void writeImage(const std::string& path, const Image& image, float exposure = 1.0f,
+                const ImageAttributes& exrAttributes = {});
+
+// The numeric header attributes of an image whose names start with "penumbra:" (empty when it has
+// none). Throws Error(BadInput) as readImage does when the file cannot be opened.
+ImageAttributes readImageAttributes(const std::string& path);
 
 // Exposure that maps the log-average luminance of the image (of its alpha > 0.5 pixels when it has
 // alpha and any are set) to 0.25 before tone mapping (Reinhard et al. 2002's "key").

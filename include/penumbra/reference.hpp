@@ -21,19 +21,57 @@ struct ReferenceOptions {
   std::uint64_t seed = 1;        // same seed, same image (independent of thread count)
   int threads = 0;               // 0: all hardware threads
   bool environmentBackground = true;
+  // referenceLights only: shadow the ambient residual with traced visibility instead of adding it
+  // unshadowed (see referenceLights). Isolates the residual's missing shadows as an error source.
+  bool shadowAmbient = false;
   // Called now and then with the fraction done (0..1); may be empty.
   std::function<void(double)> progress;
 };
+
+// A reference with an estimate of its own Monte Carlo noise. Every pixel's samples are split by
+// sample index into two halves (even: A, odd: B), each an estimate of the same pixel on its own,
+// with image = (halfA + halfB) / 2 up to float rounding and the clamp of a negative ambient sum
+// (applied to each of the three). The image is the one the plain functions return, sample for
+// sample (the halves only split the sums). For independent halves, the noise of their mean is
+// RMSE(A - B) / 2; relativeNoise divides it by the full image's mean over the same values, as
+// compareImages normalises (geometry pixels, RGB). NaN when spp < 2 (no second half).
+struct ReferenceImage {
+  Image image;                      // RGBA, as referenceEnvironment / referenceLights return
+  Image halfA, halfB;               // RGBA, the even and odd sample halves (alpha as image)
+  double relativeNoise = 0;
+  // Light-set mode only (empty otherwise), 1 channel: the fraction of the lights' unshadowed
+  // irradiance (luminance) that reaches the point, estimated from the same light samples as the
+  // image (ratio of their shadowed to unshadowed sums: exactly 1 where no sample is blocked,
+  // exactly 0 where all are). Background and unlit pixels hold 1.
+  Image visibility;
+};
+
+// The relative noise of the mean of two independent half estimates over the pixels where full's
+// alpha > 0.5 (all if it has no alpha): RMSE(A - B) / 2 / mean(full), RGB. NaN if no pixel counts;
+// throws Error(BadInput) on mismatched sizes.
+double relativeNoiseOfHalves(const Image& halfA, const Image& halfB, const Image& full);
 
 // Lit by the environment map: multiple importance sampling of the map (luminance x texel solid
 // angle) and of the cosine lobe, balance heuristic. Output RGBA like Renderer (alpha = geometry).
 Image referenceEnvironment(const Scene& scene, const Camera& camera, const Environment& env,
                            const ReferenceOptions& opt);
+// The same image (identical pixels), with its halves and noise.
+ReferenceImage referenceEnvironmentWithNoise(const Scene& scene, const Camera& camera,
+                                             const Environment& env, const ReferenceOptions& opt);
 
 // Lit by the light set: a light picked in proportion to its unshadowed irradiance at the point,
 // then a uniform direction in its cap. The set's ambient residual (LightSet::ambientSH, when
 // hasAmbient) is added unshadowed, exactly as the renderer adds it, so both see the same light
-// set and differ only by visibility. `env` only supplies the background (it may be empty when
+// set and differ only by visibility.
+//
+// With opt.shadowAmbient the residual is shadowed instead: from the unshadowed ambient irradiance
+// E_amb(n) (exactly what the renderer adds) the estimator subtracts the part of the residual's SH9
+// radiance L_res(w) = sum_k ambientSH[k] Y_k(w) that traced rays find blocked,
+//   E = E_amb(n) - integral of L_res(w) (1 - V(w)) max(0, n.w) dw,
+// with opt.spp cosine-distributed directions (pdf cos / pi, so each blocked sample adds
+// pi L_res(w)), drawn after the light samples so the light samples stay those of the unshadowed
+// run. Unoccluded points get E_amb(n) exactly; with the SH9 ambient model (no irradiance map) E is
+// the SH9 radiance's shadowed irradiance. `env` only supplies the background (it may be empty when
 // opt.environmentBackground is false).
 //
 // Both throw Error(BadInput) naming the parameter for width/height outside 1..16384, spp < 1,
@@ -42,6 +80,14 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
 // matches the device rasterizer; no anti-aliasing.
 Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& lights,
                       const Environment& env, const ReferenceOptions& opt);
+// The same image (identical pixels), with its halves, noise and the lights' visibility.
+ReferenceImage referenceLightsWithNoise(const Scene& scene, const Camera& camera,
+                                        const LightSet& lights, const Environment& env,
+                                        const ReferenceOptions& opt);
+
+// The EXR header attribute in which `penumbra reference` stores ReferenceImage::relativeNoise
+// (writeImage's attributes; readImageAttributes reads it back).
+inline constexpr const char* kRelativeNoiseAttribute = "penumbra:relative_noise";
 
 struct ImageMetrics {
   double rmse = 0, relativeRmse = 0, psnr = 0, maxAbsError = 0;

@@ -47,6 +47,22 @@ Image readImage(const std::string& path) {
   return img;
 }
 
+ImageAttributes readImageAttributes(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) badInput(path + ": no such file");
+  auto in = ImageInput::open(path);
+  if (!in) badInput(path + ": cannot read image (" + OIIO::geterror() + ")");
+  ImageAttributes out;
+  for (const OIIO::ParamValue& p : in->spec().extra_attribs) {
+    const std::string name = p.name().string();
+    if (name.rfind("penumbra:", 0) != 0 || p.nvalues() != 1) continue;
+    if (p.type() == TypeDesc::DOUBLE) out[name] = *static_cast<const double*>(p.data());
+    else if (p.type() == TypeDesc::FLOAT) out[name] = *static_cast<const float*>(p.data());
+  }
+  in->close();
+  return out;
+}
+
 float toneMapChannel(float v) {
   if (!(v > 0.0f)) return 0.0f;
   float t = v / (1.0f + v);  // Reinhard
@@ -73,7 +89,8 @@ float autoExposure(const Image& img) {
   return float(0.25 / std::exp(logSum / double(n)));
 }
 
-void writeImage(const std::string& path, const Image& image, float exposure) {
+void writeImage(const std::string& path, const Image& image, float exposure,
+                const ImageAttributes& exrAttributes) {
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
   bool exr = ext == ".exr", png = ext == ".png";
@@ -95,6 +112,8 @@ void writeImage(const std::string& path, const Image& image, float exposure) {
     // OpenImageIO stamps the current time into the EXR header (capDate) unless the spec holds a
     // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
     spec.attribute("DateTime", "");
+    for (const auto& [name, value] : exrAttributes)
+      spec.attribute(name, TypeDesc::DOUBLE, &value);
     ok = out->open(tmp.string(), spec) &&
          out->write_image(TypeDesc::FLOAT, image.pixels.data()) && out->close();
   } else {

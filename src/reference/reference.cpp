@@ -416,12 +416,25 @@ void validateEnvironment(const Environment& env) {
              (env.source.empty() ? std::string() : " (" + env.source + ")"));
 }
 
-// shade(hit, rng, rgb) writes the lit colour of a geometry pixel.
+// What shade() writes for a geometry pixel: the full estimate, its two halves (ReferenceImage),
+// and in light-set mode the lights' visibility.
+struct PixelSample {
+  float full[3] = {0, 0, 0}, a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+  float visibility = 1.0f;
+};
+
+// shade(hit, rng, sample) fills the sample of a geometry pixel.
 template <class Shade>
-Image renderPixels(const Camera& camera, const Environment* background, const ReferenceOptions& opt,
-                   Shade&& shade, const EmbreeScene& es, const FlatScene& flat) {
+ReferenceImage renderPixels(const Camera& camera, const Environment* background,
+                            const ReferenceOptions& opt, bool withVisibility, Shade&& shade,
+                            const EmbreeScene& es, const FlatScene& flat) {
   const int W = opt.width, H = opt.height;
-  Image out(W, H, 4, 0.0f);
+  ReferenceImage result;
+  result.image = Image(W, H, 4, 0.0f);
+  result.halfA = Image(W, H, 4, 0.0f);
+  result.halfB = Image(W, H, 4, 0.0f);
+  if (withVisibility) result.visibility = Image(W, H, 1, 1.0f);
+  Image& out = result.image;
   const CameraBasis basis = cameraBasis(camera, W, H);
   const V3 eye = basis.eye;
 
@@ -437,19 +450,26 @@ Image renderPixels(const Camera& camera, const Environment* background, const Re
   auto renderRow = [&](int y) {
     for (int x = 0; x < W; ++x) {
       const V3 dir = cameraRayDirection(basis, W, H, float(x) + 0.5f, float(y) + 0.5f);
-      float* px = &out.pixels[(std::size_t(y) * W + x) * 4];
+      const std::size_t at = (std::size_t(y) * W + x) * 4;
+      float* px = &out.pixels[at];
+      float* pa = &result.halfA.pixels[at];
+      float* pb = &result.halfB.pixels[at];
       Hit hit;
       if (tracePrimary(es, flat, eye, dir, hit)) {
         Pcg32 rng(opt.seed, std::uint64_t(y) * std::uint64_t(W) + std::uint64_t(x));
-        float rgb[3] = {0, 0, 0};
-        shade(hit, rng, rgb);
-        px[0] = rgb[0];
-        px[1] = rgb[1];
-        px[2] = rgb[2];
-        px[3] = 1.0f;
+        PixelSample ps;
+        shade(hit, rng, ps);
+        for (int k = 0; k < 3; ++k) {
+          px[k] = ps.full[k];
+          pa[k] = ps.a[k];
+          pb[k] = ps.b[k];
+        }
+        px[3] = pa[3] = pb[3] = 1.0f;
+        if (withVisibility) result.visibility.pixels[std::size_t(y) * W + x] = ps.visibility;
       } else if (background) {
         background->lookup(dir[0], dir[1], dir[2], px);
         px[3] = 0.0f;
+        for (int k = 0; k < 4; ++k) pa[k] = pb[k] = px[k];
       }
     }
   };
@@ -525,13 +545,20 @@ Image renderPixels(const Camera& camera, const Environment* background, const Re
     if (failure) std::rethrow_exception(failure);
   }
   if (opt.progress) opt.progress(1.0);
-  return out;
+  result.relativeNoise = opt.spp >= 2 ? relativeNoiseOfHalves(result.halfA, result.halfB, out)
+                                      : std::numeric_limits<double>::quiet_NaN();
+  return result;
 }
 
 }  // namespace
 
 Image referenceEnvironment(const Scene& scene, const Camera& camera, const Environment& env,
                            const ReferenceOptions& opt) {
+  return referenceEnvironmentWithNoise(scene, camera, env, opt).image;
+}
+
+ReferenceImage referenceEnvironmentWithNoise(const Scene& scene, const Camera& camera,
+                                             const Environment& env, const ReferenceOptions& opt) {
   validateOptions(opt);
   validateEnvironment(env);
   const FlatScene flat = flatten(scene);
@@ -546,8 +573,12 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
   const int nCos = opt.spp - nEnv;
   const double invPi = 1.0 / kPi;
 
-  auto shade = [&](const Hit& h, Pcg32& rng, float out[3]) {
-    double sum[3] = {0, 0, 0};
+  auto shade = [&](const Hit& h, Pcg32& rng, PixelSample& out) {
+    // sum: every sample, as before the halves existed (so the image is unchanged); sumA: those of
+    // even iterations. Each sample's weight already divides by the total counts, so the full
+    // estimate is the sum and a half's estimate is twice its part.
+    double sum[3] = {0, 0, 0}, sumA[3] = {0, 0, 0};
+    bool even = true;
     // Adds the sample in direction d whose radiance comes from texel (c, r).
     auto add = [&](V3 d, int c, int r) {
       const float cosN = dot(h.n, d);
@@ -559,10 +590,14 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
       if (!(denom > 0.0)) return;
       if (!unoccluded(es, h.origin, d)) return;
       const double wgt = cosN / denom;
-      for (int k = 0; k < 3; ++k) sum[k] += L[k] * wgt;
+      for (int k = 0; k < 3; ++k) {
+        sum[k] += L[k] * wgt;
+        if (even) sumA[k] += L[k] * wgt;
+      }
     };
     const int iterations = std::max(nEnv, nCos);
     for (int i = 0; i < iterations; ++i) {
+      even = (i & 1) == 0;
       if (i < nEnv) {
         int c, r;
         const V3 d = envs.sample(rng, c, r);
@@ -578,14 +613,25 @@ Image referenceEnvironment(const Scene& scene, const Camera& camera, const Envir
       }
     }
     const auto& a = h.mesh->albedo;
-    for (int k = 0; k < 3; ++k) out[k] = float(a[k] * invPi * sum[k]);
+    for (int k = 0; k < 3; ++k) {
+      out.full[k] = float(a[k] * invPi * sum[k]);
+      out.a[k] = float(a[k] * invPi * 2.0 * sumA[k]);
+      out.b[k] = float(a[k] * invPi * 2.0 * (sum[k] - sumA[k]));
+    }
   };
 
-  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, shade, es, flat);
+  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, false, shade, es,
+                      flat);
 }
 
 Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& lights,
                       const Environment& env, const ReferenceOptions& opt) {
+  return referenceLightsWithNoise(scene, camera, lights, env, opt).image;
+}
+
+ReferenceImage referenceLightsWithNoise(const Scene& scene, const Camera& camera,
+                                        const LightSet& lights, const Environment& env,
+                                        const ReferenceOptions& opt) {
   validateOptions(opt);
   // The map is only the background here, so it is needed only when a background is drawn.
   if (opt.environmentBackground) validateEnvironment(env);
@@ -644,7 +690,8 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
   const EmbreeScene es(flat, opt.threads);
   const double invPi = 1.0 / kPi;
 
-  auto shade = [&](const Hit& h, Pcg32& rng, float out[3]) {
+  const bool shadowAmbient = opt.shadowAmbient && lights.hasAmbient;
+  auto shade = [&](const Hit& h, Pcg32& rng, PixelSample& out) {
     // Light selection in proportion to the unshadowed irradiance's luminance at this point: the
     // visibility-free part of each light's contribution, so the estimator is exact where nothing
     // is in the way (up to the cosine's variation inside the cap).
@@ -661,7 +708,10 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
       cdf[i + 1] = cdf[i] + lum;
     }
     const double total = cdf[caps.size()];
-    double sum[3] = {0, 0, 0};
+    // sum: every sample; sumA: the even ones (half A). lumShadowed / lumOpen: the luminance of
+    // the samples with and without their visibility, for ReferenceImage::visibility.
+    double sum[3] = {0, 0, 0}, sumA[3] = {0, 0, 0};
+    double lumShadowed = 0.0, lumOpen = 0.0;
     if (total > 0.0) {
       for (int s = 0; s < opt.spp; ++s) {
         const double x = double(rng.uniform()) * total;
@@ -678,29 +728,88 @@ Image referenceLights(const Scene& scene, const Camera& camera, const LightSet& 
         }
         const float cosN = dot(h.n, d);
         if (!(cosN > 0.0f)) continue;
-        if (!unoccluded(es, h.origin, d)) continue;
         // f / (prob * pdf) with pdf = 1 / solid angle; a textured light's radiance where d is
         const double wgt = cosN * c.solidAngle / prob;
         const std::array<float, 3> rad =
             c.src->texture.empty() ? std::array<float, 3>{c.radiance[0], c.radiance[1], c.radiance[2]}
                                    : c.src->radianceAt(d);
-        for (int k = 0; k < 3; ++k) sum[k] += std::max(0.0f, rad[k]) * wgt;
+        double f[3];
+        for (int k = 0; k < 3; ++k) f[k] = std::max(0.0f, rad[k]) * wgt;
+        const double lum = luminance(f[0], f[1], f[2]);
+        lumOpen += lum;
+        if (!unoccluded(es, h.origin, d)) continue;
+        lumShadowed += lum;
+        for (int k = 0; k < 3; ++k) {
+          sum[k] += f[k];
+          if ((s & 1) == 0) sumA[k] += f[k];
+        }
       }
     }
+    out.visibility = lumOpen > 0.0 ? float(lumShadowed / lumOpen) : 1.0f;
     // The ambient residual, unshadowed as the renderer applies it (kernels/render/shade.cl): the
     // same light set, so the only difference left between the two is the shadow technique. The sum
     // is clamped at 0 as there (a residual may be negative where a cap outshines its texels).
     const std::array<double, 3> amb = lights.ambientIrradiance(n);
+    // opt.shadowAmbient (reference.hpp): the residual's SH9 radiance in the blocked cosine-sampled
+    // directions, pi L_res(w) per sample, taken off the unshadowed irradiance.
+    double blocked[3] = {0, 0, 0}, blockedA[3] = {0, 0, 0};
+    if (shadowAmbient) {
+      for (int s = 0; s < opt.spp; ++s) {
+        const V3 d = sampleCosine(h.n, rng);
+        if (unoccluded(es, h.origin, d)) continue;
+        float y[9];
+        pb_sh9(d[0], d[1], d[2], y);
+        for (int k = 0; k < 3; ++k) {
+          double L = 0.0;
+          for (int j = 0; j < 9; ++j) L += double(lights.ambientSH[std::size_t(j)][std::size_t(k)]) * y[j];
+          blocked[k] += kPi * L;
+          if ((s & 1) == 0) blockedA[k] += kPi * L;
+        }
+      }
+    }
     const auto& a = h.mesh->albedo;
-    for (int k = 0; k < 3; ++k)
-      out[k] = float(a[k] * invPi * std::max(0.0, sum[k] / opt.spp + amb[k]));
+    const double perSample = 1.0 / opt.spp, perHalfSample = 2.0 / opt.spp;
+    for (int k = 0; k < 3; ++k) {
+      const double ambK = amb[k] - blocked[k] * perSample;
+      out.full[k] = float(a[k] * invPi * std::max(0.0, sum[k] / opt.spp + ambK));
+      out.a[k] = float(a[k] * invPi *
+                       std::max(0.0, sumA[k] * perHalfSample + amb[k] - blockedA[k] * perHalfSample));
+      out.b[k] = float(a[k] * invPi *
+                       std::max(0.0, (sum[k] - sumA[k]) * perHalfSample + amb[k] -
+                                         (blocked[k] - blockedA[k]) * perHalfSample));
+    }
   };
 
-  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, shade, es, flat);
+  return renderPixels(camera, opt.environmentBackground ? &env : nullptr, opt, true, shade, es,
+                      flat);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Metrics.
+
+double relativeNoiseOfHalves(const Image& halfA, const Image& halfB, const Image& full) {
+  if (halfA.width != full.width || halfA.height != full.height || halfB.width != full.width ||
+      halfB.height != full.height || halfA.channels < 3 || halfB.channels < 3 || full.channels < 3)
+    badInput("relativeNoiseOfHalves: the halves and the full image must be RGB(A) of one size");
+  const std::size_t n = std::size_t(full.width) * std::size_t(full.height);
+  double sumSq = 0.0, sumFull = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* pf = &full.pixels[i * full.channels];
+    if (full.channels >= 4 && !(pf[3] > 0.5f)) continue;
+    const float* pa = &halfA.pixels[i * halfA.channels];
+    const float* pb = &halfB.pixels[i * halfB.channels];
+    for (int k = 0; k < 3; ++k) {
+      const double d = double(pa[k]) - double(pb[k]);
+      sumSq += d * d;
+      sumFull += pf[k];
+    }
+    ++count;
+  }
+  if (count == 0 || !(sumFull > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  const double values = 3.0 * double(count);
+  return 0.5 * std::sqrt(sumSq / values) / (sumFull / values);
+}
 
 ImageMetrics compareImages(const Image& a, const Image& b) {
   if (a.width != b.width || a.height != b.height)

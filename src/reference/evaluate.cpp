@@ -1,0 +1,559 @@
+// The error budget (include/penumbra/evaluate.hpp): the three Embree truths (cached by a digest of
+// what they depend on), the budget's figures over geometry and penumbra pixels, its JSON and text,
+// and the heat maps (OpenImageIO's ImageBufAlgo colour maps, a scale bar under each image).
+#include "penumbra/evaluate.hpp"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "penumbra/environment.hpp"
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kNaN = BudgetLine::kNaN;
+
+// FNV-1a, 64 bits (Fowler, Noll and Vo): a digest for cache file names, not for security.
+class Digest {
+ public:
+  void bytes(const void* p, std::size_t n) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h_ = (h_ ^ c[i]) * 0x100000001B3ull;
+  }
+  template <class... T>
+  void value(const T&... v) { (bytes(&v, sizeof v), ...); }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    value(v.size());
+    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
+  }
+  void text(const std::string& s) {
+    value(s.size());
+    bytes(s.data(), s.size());
+  }
+  std::string hex() const {
+    char buf[17];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h_));
+    return buf;
+  }
+
+ private:
+  std::uint64_t h_ = 0xCBF29CE484222325ull;
+};
+
+// A truth in the cache: NAME.exr (the image, its noise in the header as `penumbra reference`
+// writes it), NAME-half-a.exr, NAME-half-b.exr and, in light-set mode, NAME-visibility.exr. The
+// noise is recomputed from the halves when read.
+std::vector<std::string> cacheFiles(const std::string& base, bool withVisibility) {
+  std::vector<std::string> f = {base + ".exr", base + "-half-a.exr", base + "-half-b.exr"};
+  if (withVisibility) f.push_back(base + "-visibility.exr");
+  return f;
+}
+
+void writeCached(const std::vector<std::string>& files, const ReferenceImage& r) {
+  // The image last: its presence is what marks a complete entry.
+  writeImage(files[1], r.halfA);
+  writeImage(files[2], r.halfB);
+  if (files.size() > 3) writeImage(files[3], r.visibility);
+  writeImage(files[0], r.image, 1.0f, {{kRelativeNoiseAttribute, r.relativeNoise}});
+}
+
+ReferenceImage readCached(const std::vector<std::string>& files) {
+  ReferenceImage r;
+  r.image = readImage(files[0]);
+  r.halfA = readImage(files[1]);
+  r.halfB = readImage(files[2]);
+  if (files.size() > 3) r.visibility = readImage(files[3]);
+  const Image& im = r.image;
+  for (const Image* h : {&r.halfA, &r.halfB})
+    if (im.channels != 4 || h->channels != 4 || h->width != im.width || h->height != im.height)
+      badInput("EvaluateOptions.cacheDir: " + files[0] + " and its halves are not a cached truth");
+  if (files.size() > 3 && (r.visibility.channels != 1 || r.visibility.width != im.width ||
+                           r.visibility.height != im.height))
+    badInput("EvaluateOptions.cacheDir: " + files[3] + " is not a cached visibility");
+  r.relativeNoise = relativeNoiseOfHalves(r.halfA, r.halfB, r.image);
+  return r;
+}
+
+// A truth from the cache, or computed (and then cached).
+template <class Compute>
+ReferenceImage cachedTruth(const std::string& dir, const std::string& name, bool withVisibility,
+                           bool& fromCache, Compute&& compute) {
+  const std::vector<std::string> files =
+      dir.empty() ? std::vector<std::string>() : cacheFiles((fs::path(dir) / name).string(), withVisibility);
+  std::error_code ec;
+  bool present = !files.empty();
+  for (const std::string& f : files) present = present && fs::is_regular_file(f, ec);
+  if (present) {
+    fromCache = true;
+    return readCached(files);
+  }
+  fromCache = false;
+  ReferenceImage r = compute();
+  if (!files.empty()) {
+    try {
+      writeCached(files, r);
+    } catch (const Error& e) {
+      badInput(std::string("EvaluateOptions.cacheDir: cannot write the truth: ") + e.what());
+    }
+  }
+  return r;
+}
+
+// An operand of an error image: the full image and its two halves (the frame's halves are itself).
+struct Operand {
+  const Image* full;
+  const Image* a;
+  const Image* b;
+};
+Operand operand(const ReferenceImage& r) { return {&r.image, &r.halfA, &r.halfB}; }
+Operand operand(const Image& frame) { return {&frame, &frame, &frame}; }
+
+double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+}  // namespace
+
+std::string truthKey(const Scene& scene, const Camera& camera, const Environment& env,
+                     const LightSet* lights, const ReferenceOptions& opt) {
+  Digest d;
+  d.text("penumbra truth 1");
+  d.value(scene.meshes.size());
+  for (const Mesh& m : scene.meshes) {
+    d.vec(m.positions);
+    d.vec(m.normals);
+    d.vec(m.triangles);
+    d.value(m.albedo);
+  }
+  d.value(camera.eye, camera.target, camera.up, camera.fovyDeg);
+  d.value(opt.width, opt.height, opt.spp, opt.seed);
+  d.value(env.equirect.width, env.equirect.height, env.equirect.channels);
+  d.vec(env.equirect.pixels);
+  d.value(env.rotationYDeg);
+  if (lights) {
+    d.text(lights->toJson());
+    d.value(opt.shadowAmbient);
+  }
+  return d.hex();
+}
+
+EvaluateTruths evaluateTruths(const Scene& scene, const Camera& camera, const LightSet& lights,
+                              const Environment& env, const EvaluateOptions& opt) {
+  if (!opt.cacheDir.empty()) {
+    std::error_code ec;
+    fs::create_directories(opt.cacheDir, ec);
+    if (!fs::is_directory(opt.cacheDir))
+      badInput("EvaluateOptions.cacheDir " + opt.cacheDir + ": cannot create the directory" +
+               (ec ? " (" + ec.message() + ")" : std::string()));
+  }
+  EvaluateTruths t;
+  ReferenceOptions ro = opt.truth;
+  ro.shadowAmbient = false;
+  // One progress from 0 to 1 over the three truths: a third each.
+  int stage = 0;
+  if (opt.truth.progress)
+    ro.progress = [&stage, &opt](double f) { opt.truth.progress((stage + f) / 3.0); };
+  t.environment = cachedTruth(opt.cacheDir, truthKey(scene, camera, env, nullptr, ro) + "-environment",
+                              false, t.fromCache[0],
+                              [&] { return referenceEnvironmentWithNoise(scene, camera, env, ro); });
+  stage = 1;
+  t.lights = cachedTruth(opt.cacheDir, truthKey(scene, camera, env, &lights, ro) + "-lights", true,
+                         t.fromCache[1],
+                         [&] { return referenceLightsWithNoise(scene, camera, lights, env, ro); });
+  ro.shadowAmbient = true;
+  stage = 2;
+  t.lightsShadowedAmbient = cachedTruth(
+      opt.cacheDir, truthKey(scene, camera, env, &lights, ro) + "-lights-shadowed-ambient", true,
+      t.fromCache[2], [&] { return referenceLightsWithNoise(scene, camera, lights, env, ro); });
+  return t;
+}
+
+ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
+                        const EvaluateOptions& opt) {
+  const Image& G = truths.environment.image;
+  const Image& L = truths.lights.image;
+  const Image& S = truths.lightsShadowedAmbient.image;
+  for (const Image* im : {&frame, &L, &S, &G})
+    if (im->width != G.width || im->height != G.height || im->channels != 4)
+      badInput("errorBudget: the frame and the truths must be RGBA images of one size (frame " +
+               std::to_string(frame.width) + "x" + std::to_string(frame.height) + ", truth " +
+               std::to_string(G.width) + "x" + std::to_string(G.height) + ")");
+  const std::size_t n = std::size_t(G.width) * std::size_t(G.height);
+  const Image& vis = truths.lights.visibility;
+
+  ErrorBudget b;
+  b.noiseEnvironment = truths.environment.relativeNoise;
+  b.noiseLights = truths.lights.relativeNoise;
+  b.noiseShadowedAmbient = truths.lightsShadowedAmbient.relativeNoise;
+  b.penumbraMask = Image(G.width, G.height, 1, 0.0f);
+  Image geometryMask(G.width, G.height, 1, 0.0f);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(G.pixels[i * G.channels + 3] > 0.5f)) continue;
+    geometryMask.pixels[i] = 1.0f;
+    ++b.geometryPixels;
+    const float v = vis.empty() ? 1.0f : vis.pixels[i];
+    if (v > opt.penumbraLow && v < opt.penumbraHigh) {
+      b.penumbraMask.pixels[i] = 1.0f;
+      ++b.penumbraPixels;
+    }
+  }
+  if (b.geometryPixels == 0) badInput("errorBudget: no geometry pixels in the environment truth");
+
+  // One region (whole frame or penumbra) at a time.
+  auto region = [&](const Image& mask, bool penumbra) {
+    double sumG = 0;
+    std::size_t values = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(mask.pixels[i] > 0.5f)) continue;
+      for (int k = 0; k < 3; ++k) sumG += G.pixels[i * G.channels + k];
+      values += 3;
+    }
+    const double mean = values ? sumG / double(values) : kNaN;
+    // The relative RMSE of X - Y and the noise of that error from the halves.
+    auto line = [&](Operand x, Operand y, double& rel, double& noise) {
+      double sq = 0, halfSq = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!(mask.pixels[i] > 0.5f)) continue;
+        for (int k = 0; k < 3; ++k) {
+          const std::size_t at = i * 4 + k;
+          const double e = double(x.full->pixels[at]) - double(y.full->pixels[at]);
+          const double h = (double(x.a->pixels[at]) - double(y.a->pixels[at])) -
+                           (double(x.b->pixels[at]) - double(y.b->pixels[at]));
+          sq += e * e;
+          halfSq += h * h;
+        }
+      }
+      rel = values ? std::sqrt(sq / double(values)) / mean : kNaN;
+      noise = values ? 0.5 * std::sqrt(halfSq / double(values)) / mean : kNaN;
+    };
+    auto pick = [&](BudgetLine& l, Operand x, Operand y) {
+      line(x, y, penumbra ? l.relativeRmsePenumbra : l.relativeRmse,
+           penumbra ? l.noisePenumbra : l.noise);
+    };
+    pick(b.total, operand(frame), operand(truths.environment));
+    pick(b.floor, operand(truths.lights), operand(truths.environment));
+    pick(b.technique, operand(frame), operand(truths.lights));
+    pick(b.ambient, operand(truths.lights), operand(truths.lightsShadowedAmbient));
+    double cross = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(mask.pixels[i] > 0.5f)) continue;
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t at = i * 4 + k;
+        cross += (double(L.pixels[at]) - double(G.pixels[i * G.channels + k])) *
+                 (double(frame.pixels[at]) - double(L.pixels[at]));
+      }
+    }
+    (penumbra ? b.crossPenumbra : b.cross) = values ? cross / double(values) / (mean * mean) : kNaN;
+    (penumbra ? b.truthMeanPenumbra : b.truthMean) = mean;
+  };
+  region(geometryMask, false);
+  region(b.penumbraMask, true);
+
+  // Signed bias per channel over the geometry pixels.
+  for (int k = 0; k < 3; ++k) {
+    double dT = 0, dQ = 0, sG = 0, sL = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(geometryMask.pixels[i] > 0.5f)) continue;
+      const std::size_t at = i * 4 + k;
+      dT += double(frame.pixels[at]) - double(G.pixels[at]);
+      dQ += double(frame.pixels[at]) - double(L.pixels[at]);
+      sG += G.pixels[at];
+      sL += L.pixels[at];
+    }
+    b.biasTotal[std::size_t(k)] = sG > 0 ? dT / sG : kNaN;
+    b.biasTechnique[std::size_t(k)] = sL > 0 ? dQ / sL : kNaN;
+  }
+
+  // Mean HDR-FLIP of each line, over the geometry pixels (flip's own mean) and the penumbra.
+  auto maskedMean = [&](const Image& map, const Image& mask) {
+    double s = 0;
+    std::size_t c = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (mask.pixels[i] > 0.5f) {
+        s += map.pixels[i * map.channels];
+        ++c;
+      }
+    return c ? s / double(c) : kNaN;
+  };
+  // FLIP filters across pixels, so the background (the map in the frame, black in the truths)
+  // would bleed into the geometry's edge: both images get the same black background.
+  auto onBlack = [&](const Image& im) {
+    Image out = im;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(geometryMask.pixels[i] > 0.5f))
+        for (int k = 0; k < 3; ++k) out.pixels[i * 4 + k] = 0.0f;
+    return out;
+  };
+  const Image frameB = onBlack(frame), GB = onBlack(G), LB = onBlack(L), SB = onBlack(S);
+  auto flipLine = [&](BudgetLine& l, const Image& test, const Image& ref, Image* keep) {
+    FlipResult f = flip(test, ref, opt.flip, &geometryMask);
+    l.flip = f.mean;
+    l.flipPenumbra = maskedMean(f.map, b.penumbraMask);
+    if (keep) *keep = std::move(f.map);
+  };
+  flipLine(b.total, frameB, GB, &b.flipTotalMap);
+  flipLine(b.floor, LB, GB, nullptr);
+  flipLine(b.technique, frameB, LB, &b.flipTechniqueMap);
+  flipLine(b.ambient, LB, SB, nullptr);
+  b.spp = opt.truth.spp;
+  b.seed = opt.truth.seed;
+  b.penumbraLow = opt.penumbraLow;
+  b.penumbraHigh = opt.penumbraHigh;
+  return b;
+}
+
+namespace {
+
+nlohmann::ordered_json number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
+
+nlohmann::ordered_json lineJson(const BudgetLine& l) {
+  return {{"relative_rmse", number(l.relativeRmse)},
+          {"relative_rmse_penumbra", number(l.relativeRmsePenumbra)},
+          {"flip", number(l.flip)},
+          {"flip_penumbra", number(l.flipPenumbra)},
+          {"noise", number(l.noise)},
+          {"noise_penumbra", number(l.noisePenumbra)},
+          {"relative_rmse_without_noise", number(l.withoutNoise())},
+          {"relative_rmse_penumbra_without_noise", number(l.withoutNoisePenumbra())},
+          {"below_noise", l.belowNoise()},
+          {"below_noise_penumbra", l.belowNoisePenumbra()}};
+}
+
+nlohmann::ordered_json rgb(const std::array<double, 3>& v) {
+  return nlohmann::ordered_json::array({number(v[0]), number(v[1]), number(v[2])});
+}
+
+}  // namespace
+
+std::string toJson(const ErrorBudget& b) {
+  nlohmann::ordered_json j;
+  j["shadows"] = b.shadows;
+  j["lights"] = b.lights;
+  j["frame_ms"] = number(b.frameMs);
+  j["spp"] = b.spp;
+  j["seed"] = b.seed;
+  j["pixels"] = b.geometryPixels;
+  j["penumbra_pixels"] = b.penumbraPixels;
+  j["penumbra_visibility"] = {b.penumbraLow, b.penumbraHigh};
+  j["total"] = lineJson(b.total);
+  j["floor"] = lineJson(b.floor);
+  j["technique"] = lineJson(b.technique);
+  j["ambient"] = lineJson(b.ambient);
+  j["cross"] = number(b.cross);
+  j["cross_penumbra"] = number(b.crossPenumbra);
+  const double t = b.total.relativeRmse, f = b.floor.relativeRmse, q = b.technique.relativeRmse;
+  j["sum_check"] = {{"total_sq", number(t * t)}, {"parts_sq", number(f * f + q * q + 2 * b.cross)}};
+  j["truth_noise"] = {{"environment", number(b.noiseEnvironment)},
+                      {"lights", number(b.noiseLights)},
+                      {"lights_shadowed_ambient", number(b.noiseShadowedAmbient)}};
+  j["bias_total"] = rgb(b.biasTotal);
+  j["bias_technique"] = rgb(b.biasTechnique);
+  return j.dump(2) + "\n";
+}
+
+std::string toText(const ErrorBudget& b) {
+  std::ostringstream o;
+  char buf[256];
+  auto pct = [](double v) {
+    char s[32];
+    if (!std::isfinite(v)) return std::string("    -  ");
+    std::snprintf(s, sizeof s, "%6.2f%%", 100.0 * v);
+    return std::string(s);
+  };
+  auto flipText = [](double v) {
+    char s[32];
+    if (!std::isfinite(v)) return std::string("   -  ");
+    std::snprintf(s, sizeof s, "%6.4f", v);
+    return std::string(s);
+  };
+  std::snprintf(buf, sizeof buf, "frame: %s, %zu lights, %.2f ms (render, warm)\n",
+                b.shadows.c_str(), b.lights, b.frameMs);
+  o << buf;
+  std::snprintf(buf, sizeof buf,
+                "truths: %d spp, seed %llu; pixels: %zu geometry, %zu penumbra (%g%%..%g%% of the "
+                "lights' irradiance arrives)\n",
+                b.spp, static_cast<unsigned long long>(b.seed), b.geometryPixels, b.penumbraPixels,
+                100.0 * b.penumbraLow, 100.0 * b.penumbraHigh);
+  o << buf;
+  o << "           whole frame: rel. RMSE (noise) w/o noise | penumbra: rel. RMSE (noise) w/o "
+       "noise | FLIP, penumbra\n";
+  auto row = [&](const char* name, const BudgetLine& l) {
+    std::snprintf(buf, sizeof buf, "%-10s %s (%s)%s %s | %s (%s)%s %s | %s %s\n", name,
+                  pct(l.relativeRmse).c_str(), pct(l.noise).c_str(), l.belowNoise() ? "~" : " ",
+                  pct(l.withoutNoise()).c_str(), pct(l.relativeRmsePenumbra).c_str(),
+                  pct(l.noisePenumbra).c_str(), l.belowNoisePenumbra() ? "~" : " ",
+                  pct(l.withoutNoisePenumbra()).c_str(), flipText(l.flip).c_str(),
+                  flipText(l.flipPenumbra).c_str());
+    o << buf;
+  };
+  row("total", b.total);
+  row("floor", b.floor);
+  row("technique", b.technique);
+  row("ambient", b.ambient);
+  o << "(~: below twice the noise it sits in, not resolved by these truths)\n";
+  const double t = b.total.relativeRmse, f = b.floor.relativeRmse, q = b.technique.relativeRmse;
+  std::snprintf(buf, sizeof buf,
+                "sum: total^2 %.6g = floor^2 + technique^2 + 2 cross = %.6g + %.6g + 2 x %.6g = "
+                "%.6g\n",
+                t * t, f * f, q * q, b.cross, f * f + q * q + 2 * b.cross);
+  o << buf;
+  std::snprintf(buf, sizeof buf,
+                "truth noise: environment %s, lights %s, lights shadowed ambient %s\n",
+                pct(b.noiseEnvironment).c_str(), pct(b.noiseLights).c_str(),
+                pct(b.noiseShadowedAmbient).c_str());
+  o << buf;
+  std::snprintf(buf, sizeof buf, "bias (mean signed error / truth mean, RGB): total %+.4f %+.4f %+.4f, "
+                "technique %+.4f %+.4f %+.4f\n",
+                b.biasTotal[0], b.biasTotal[1], b.biasTotal[2], b.biasTechnique[0],
+                b.biasTechnique[1], b.biasTechnique[2]);
+  o << buf;
+  return o.str();
+}
+
+namespace {
+
+// `img` (RGB float, W x H) over a scale bar: a gradient strip from the colour map's low end to its
+// high end, ticks at both ends and the middle, labels when OpenImageIO finds a font.
+OIIO::ImageBuf withScaleBar(const OIIO::ImageBuf& img, const float* knots, int nknots,
+                            const std::string& low, const std::string& mid,
+                            const std::string& high) {
+  namespace IBA = OIIO::ImageBufAlgo;
+  const int W = img.spec().width, H = img.spec().height;
+  const int bar = std::max(6, H / 16), labels = 16, pad = 2;
+  OIIO::ImageBuf ramp(OIIO::ImageSpec(W, 1, 1, OIIO::TypeDesc::FLOAT));
+  for (int x = 0; x < W; ++x) {
+    const float v = W > 1 ? float(x) / float(W - 1) : 0.5f;
+    ramp.setpixel(x, 0, &v);
+  }
+  OIIO::ImageBuf rampRgb = IBA::color_map(ramp, 0, nknots, 3, OIIO::cspan<float>(knots, long(nknots) * 3));
+  OIIO::ImageBuf out(OIIO::ImageSpec(W, H + pad + bar + labels, 3, OIIO::TypeDesc::FLOAT));
+  const float black[3] = {0, 0, 0};
+  IBA::fill(out, {black, 3});
+  IBA::paste(out, 0, 0, 0, 0, img);
+  float px[3];
+  for (int y = 0; y < bar; ++y)
+    for (int x = 0; x < W; ++x) {
+      rampRgb.getpixel(x, 0, px);
+      out.setpixel(x, H + pad + y, px);
+    }
+  const float white[3] = {1, 1, 1};
+  for (int x : {0, W / 2, W - 1})
+    for (int y = H + pad + bar; y < H + pad + bar + 3; ++y) out.setpixel(x, y, white);
+  const int ty = H + pad + bar + labels - 2;
+  // Labels only where a font is installed (fonts-dejavu-core); the ticks carry the scale without.
+  if (W >= 120 && IBA::render_text(out, 1, ty, low, 11, "DejaVuSans", {white, 3})) {
+    IBA::render_text(out, W / 2, ty, mid, 11, "DejaVuSans", {white, 3},
+                     IBA::TextAlignX::Center);
+    IBA::render_text(out, W - 2, ty, high, 11, "DejaVuSans", {white, 3}, IBA::TextAlignX::Right);
+  }
+  return out;
+}
+
+void writePng(const OIIO::ImageBuf& buf, const std::string& path) {
+  // sRGB-encoded 8 bit: the colour maps' values are display values already.
+  OIIO::ImageBuf out = buf;
+  if (!out.write(path, OIIO::TypeDesc::UINT8))
+    badInput(path + ": cannot write (" + out.geterror() + ")");
+}
+
+std::string percentLabel(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%+g%%", 100.0 * v);
+  return s;
+}
+
+}  // namespace
+
+std::vector<std::string> writeHeatMaps(const ErrorBudget& b, const Image& frame,
+                                       const EvaluateTruths& truths, const std::string& dir,
+                                       double* scaleOut) {
+  namespace IBA = OIIO::ImageBufAlgo;
+  if (!fs::is_directory(dir)) badInput("writeHeatMaps: directory " + dir + " does not exist");
+  const Image& G = truths.environment.image;
+  const int W = G.width, H = G.height;
+  const std::size_t n = std::size_t(W) * std::size_t(H);
+  const double mean = b.truthMean;
+  // Signed luminance errors relative to the truth's mean; one scale for all three maps.
+  auto signedError = [&](const Image& x, const Image& y) {
+    std::vector<float> e(n, 0.0f);
+    for (std::size_t i = 0; i < n; ++i)
+      if (G.pixels[i * G.channels + 3] > 0.5f)
+        e[i] = float((luminance(&x.pixels[i * 4]) - luminance(&y.pixels[i * 4])) / mean);
+    return e;
+  };
+  const std::vector<float> eTotal = signedError(frame, G),
+                           eFloor = signedError(truths.lights.image, G),
+                           eTech = signedError(frame, truths.lights.image);
+  std::vector<float> mags;
+  for (std::size_t i = 0; i < n; ++i)
+    if (G.pixels[i * G.channels + 3] > 0.5f) mags.push_back(std::fabs(eTotal[i]));
+  double s = 0.01;
+  if (!mags.empty()) {
+    const std::size_t at = std::min(mags.size() - 1, std::size_t(0.99 * double(mags.size())));
+    std::nth_element(mags.begin(), mags.begin() + std::ptrdiff_t(at), mags.end());
+    const double p = std::max(1e-4, double(mags[at]));
+    const double decade = std::pow(10.0, std::floor(std::log10(p)));
+    s = p <= decade ? decade : p <= 2 * decade ? 2 * decade : p <= 5 * decade ? 5 * decade : 10 * decade;
+  }
+  if (scaleOut) *scaleOut = s;
+  // Blue (darker than the truth), white, red (brighter): knots of a diverging map over [0, 1].
+  const float diverging[] = {0.02f, 0.19f, 0.75f, 1, 1, 1, 0.85f, 0.05f, 0.05f};
+  const float grey[3] = {0.25f, 0.25f, 0.25f};
+  std::vector<std::string> written;
+  auto signedMap = [&](const std::vector<float>& e, const std::string& name) {
+    OIIO::ImageBuf v(OIIO::ImageSpec(W, H, 1, OIIO::TypeDesc::FLOAT));
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float t = float(std::clamp(0.5 + 0.5 * e[std::size_t(y) * W + x] / s, 0.0, 1.0));
+        v.setpixel(x, y, &t);
+      }
+    OIIO::ImageBuf rgbMap = IBA::color_map(v, 0, 3, 3, {diverging, 9});
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(G.pixels[i * G.channels + 3] > 0.5f)) rgbMap.setpixel(int(i % W), int(i / W), grey);
+    const std::string path = (fs::path(dir) / name).string();
+    writePng(withScaleBar(rgbMap, diverging, 3, percentLabel(-s), "0", percentLabel(s)), path);
+    written.push_back(path);
+  };
+  signedMap(eTotal, "error-total.png");
+  signedMap(eFloor, "error-floor.png");
+  signedMap(eTech, "error-technique.png");
+
+  // FLIP maps through magma; the bar's knots sample the same map.
+  OIIO::ImageBuf unit(OIIO::ImageSpec(16, 1, 1, OIIO::TypeDesc::FLOAT));
+  for (int x = 0; x < 16; ++x) {
+    const float v = float(x) / 15.0f;
+    unit.setpixel(x, 0, &v);
+  }
+  const OIIO::ImageBuf magma = IBA::color_map(unit, 0, "magma");
+  std::vector<float> magmaKnots(16 * 3);
+  for (int x = 0; x < 16; ++x) magma.getpixel(x, 0, &magmaKnots[std::size_t(x) * 3]);
+  auto flipMap = [&](const Image& map, const std::string& name) {
+    if (map.empty()) return;
+    OIIO::ImageBuf v(OIIO::ImageSpec(W, H, 1, OIIO::TypeDesc::FLOAT));
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float t = std::clamp(map.pixels[(std::size_t(y) * W + x) * map.channels], 0.0f, 1.0f);
+        v.setpixel(x, y, &t);
+      }
+    OIIO::ImageBuf rgbMap = IBA::color_map(v, 0, "magma");
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(G.pixels[i * G.channels + 3] > 0.5f)) rgbMap.setpixel(int(i % W), int(i / W), grey);
+    const std::string path = (fs::path(dir) / name).string();
+    writePng(withScaleBar(rgbMap, magmaKnots.data(), 16, "0", "FLIP 0.5", "1"), path);
+    written.push_back(path);
+  };
+  flipMap(b.flipTotalMap, "flip-total.png");
+  flipMap(b.flipTechniqueMap, "flip-technique.png");
+  return written;
+}
+
+}  // namespace penumbra
