@@ -426,8 +426,12 @@ std::vector<OptionSpec> renderSpecs() {
        {"RenderOptions.shadow.lightSizeScale"}},
       {"max-filter", true, "largest filter width in texels (default " + num(R.shadow.maxFilterTexels) + ")",
        {"RenderOptions.shadow.maxFilterTexels"}},
-      {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19)",
+      {"upper-bound", false, "MSSM4/MSSM6: upper-bound blocker depth (seed 003 eq. 19; the default)",
        {"RenderOptions.mssm.upperBoundBlocker"}},
+      {"no-upper-bound", false, "MSSM4/MSSM6: the average blocker depth of seed 003 eq. 7 everywhere",
+       {"RenderOptions.mssm.upperBoundBlocker"}},
+      {"upper-bound-tilt", true, "MSSM4/MSSM6: eq. 19 in proportion to the receiver's tilt, full from atan(1/K) on; 0: everywhere (default " + num(R.mssm.upperBoundTilt) + ")",
+       {"RenderOptions.mssm.upperBoundTilt"}},
       {"cssm-order", true, "CSSM Fourier order M (default " + num(R.cssm.order) + ")",
        {"RenderOptions.cssm.order"}},
       {"sharpen-a", true, "CSSM sharpening strength A (default " + num(R.cssm.sharpenA) + "; 0 disables)",
@@ -464,7 +468,12 @@ RenderOptions parseRenderOptions(const Args& a) {
   if (has(a, "shadow-map-size"))
     ro.shadowMapSize = int(parseInt("shadow-map-size", get(a, "shadow-map-size", ""), 1, 4096));
   if (has(a, "prefilter")) ro.prefilter = parsePrefilter(get(a, "prefilter", ""));
-  ro.mssm.upperBoundBlocker = has(a, "upper-bound");
+  if (has(a, "upper-bound") && has(a, "no-upper-bound"))
+    badInput("--upper-bound and --no-upper-bound contradict each other");
+  if (has(a, "no-upper-bound")) ro.mssm.upperBoundBlocker = false;
+  if (has(a, "upper-bound")) ro.mssm.upperBoundBlocker = true;
+  if (has(a, "upper-bound-tilt"))
+    ro.mssm.upperBoundTilt = parseFloat("upper-bound-tilt", get(a, "upper-bound-tilt", ""));
   if (has(a, "cssm-order")) ro.cssm.order = int(parseInt("cssm-order", get(a, "cssm-order", ""), 1, 32));
   if (has(a, "sharpen-a")) ro.cssm.sharpenA = parseFloat("sharpen-a", get(a, "sharpen-a", ""));
   if (has(a, "sharpen-b")) ro.cssm.sharpenB = parseFloat("sharpen-b", get(a, "sharpen-b", ""));

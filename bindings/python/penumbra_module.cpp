@@ -824,7 +824,11 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("delta1", &MSSMOptions::delta1,
                      withDefault("Lower clamp of eq. 19.", R.mssm.delta1).c_str())
       .def_readwrite("delta2", &MSSMOptions::delta2,
-                     withDefault("Upper clamp of eq. 19.", R.mssm.delta2).c_str());
+                     withDefault("Upper clamp of eq. 19.", R.mssm.delta2).c_str())
+      .def_readwrite("upper_bound_tilt", &MSSMOptions::upperBoundTilt,
+                     withDefault("Eq. 19's delta2 scaled by min(1, this * tan(receiver tilt)); 0: "
+                                 "eq. 19 on every receiver.",
+                                 R.mssm.upperBoundTilt).c_str());
 
   py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (seed 000).");
   initFromFields<CSSMOptions>(co);

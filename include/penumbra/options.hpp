@@ -63,11 +63,19 @@ struct MSSMOptions {
                                 // Default 1e-3
   // Upper-bound blocker depth (seed 003 §4.2.2, eq. 19), MSSM4 and MSSM6: the reconstruction's
   // atom at the receiver's depth counts as a blocker, its weight clamped to [delta1, delta2];
-  // shadows harden rather than soften under complex depth. Off by default (eq. 7). Measured
-  // relative RMSE vs Embree, built-in / Wuson-courtyard / spider-interior at 160x90: MSSM4
-  // 4.9/8.5/5.8% off, 4.2/7.1/5.3% on; MSSM6 5.5/9.8/6.1% off, 4.2/7.2/5.3% on. It sharpens the
-  // planar penumbra (max error vs analytic 0.03 -> 0.21 MSSM4, 0.09 MSSM6: tests/test_mssm6.cpp).
-  bool upperBoundBlocker = false;
+  // shadows harden rather than soften under complex depth. On by default, in proportion to the
+  // receiver's tilt (upperBoundTilt): a receiver tilted against the light darkens itself under
+  // eq. 7 (its own depths in front of it read as blockers), while on a receiver facing the light
+  // eq. 7 is exact and eq. 19 narrows the penumbra (kernels/shadows/moments.cl). Measured
+  // relative RMSE vs the two-seed Embree truth, 320x180, built-in / courtyard + Wuson / interior +
+  // spider / studio + Wuson: off 4.20/6.77/4.10/10.84%, published eq. 19 (tilt 0)
+  // 3.32/4.65/3.52/8.23%, tilt 2 3.25/4.64/3.44/8.08% (bench/results/accuracy.md).
+  bool upperBoundBlocker = true;
+  // Eq. 19's delta2 is scaled by min(1, upperBoundTilt * tan(theta)), theta between the
+  // receiver's geometric normal and the light: a receiver facing the light keeps eq. 7, one tilted
+  // by atan(1/upperBoundTilt) or more gets eq. 19 in full. 0: eq. 19 as published, on every
+  // receiver. Finite, >= 0; default 2 (27 degrees)
+  float upperBoundTilt = 2.0f;
   float delta1 = 1e-3f;         // lower clamp; >= blockerEpsilon keeps z_avg >= eq. 7's, and the
                                 // denominator of eq. 19 away from 0. Default 1e-3
   float delta2 = 0.5f;          // upper clamp. 0.5, not 0.1: frame errors above fall with it up to

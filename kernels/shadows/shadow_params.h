@@ -13,7 +13,9 @@ typedef struct {
   float moment_bias, depth_bias, slope_bias, light_size_scale;
   float max_filter, min_filter, blocker_eps;
   int upper_bound;  /* seed 003 eq. 19 instead of eq. 7 */
-  float delta1, delta2, pad0, pad1;
+  float delta1, delta2;
+  float upper_bound_tilt; /* > 0: eq. 19's delta2 scaled by min(1, this * receiver slope); 0: not */
+  float pad1;
 } mssm_params;
 
 /* CSSM (kernels/shadows/csm.cl): the ringing suppression derived from the order (src/shadows/cssm.cpp),
@@ -57,7 +59,7 @@ typedef struct {
 static_assert(sizeof(mssm_params) == 48, "mssm_params: 12 four-byte fields");
 PB_PARAM_ROW(mssm_params, 0, moment_bias, depth_bias, slope_bias, light_size_scale);
 PB_PARAM_ROW(mssm_params, 4, max_filter, min_filter, blocker_eps, upper_bound);
-PB_PARAM_ROW(mssm_params, 8, delta1, delta2, pad0, pad1);
+PB_PARAM_ROW(mssm_params, 8, delta1, delta2, upper_bound_tilt, pad1);
 static_assert(sizeof(cssm_params) == 64, "cssm_params: 16 four-byte fields");
 PB_PARAM_ROW(cssm_params, 0, scale, shift, tau0, kappa);
 PB_PARAM_ROW(cssm_params, 4, scale_z, shift_z, tau0_z, rise);

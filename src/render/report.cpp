@@ -30,6 +30,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ", \"slope_bias\": " << opt.mssm.slopeBias
     << ", \"blocker_epsilon\": " << opt.mssm.blockerEpsilon
     << ", \"upper_bound_blocker\": " << (opt.mssm.upperBoundBlocker ? "true" : "false")
+    << ", \"upper_bound_tilt\": " << opt.mssm.upperBoundTilt
     << "},\n  \"prefilter\": \"" << toString(opt.prefilter)
     << "\",\n  \"front_back_faces\": " << (opt.frontBackFaces ? "true" : "false")
     << ",\n  \"bent_normals\": " << (opt.bentNormals ? "true" : "false")

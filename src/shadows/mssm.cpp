@@ -2,6 +2,8 @@
 // of kernels/shadows/moments.cl, and the pass but for the moments' layout.
 #include "shadows/mssm.hpp"
 
+#include <cmath>
+
 #include "shadows/shadow_options.hpp"
 
 namespace penumbra::detail {
@@ -9,6 +11,8 @@ namespace penumbra::detail {
 void validate(const MSSMOptions& o) {
   if (!(o.momentBias >= 0 && o.momentBias < 1))
     badOption("RenderOptions.mssm.momentBias", "be in [0, 1)", o.momentBias);
+  if (!(o.upperBoundTilt >= 0 && std::isfinite(o.upperBoundTilt)))
+    badOption("RenderOptions.mssm.upperBoundTilt", "be finite and >= 0", o.upperBoundTilt);
 }
 
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
@@ -21,6 +25,7 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
   P.upper_bound = mo.upperBoundBlocker ? 1 : 0;
   P.delta1 = mo.delta1;
   P.delta2 = mo.delta2;
+  P.upper_bound_tilt = mo.upperBoundTilt;
   return P;
 }
 

@@ -63,7 +63,8 @@ def test_options():
     o.mssm = penumbra.MSSMOptions(upper_bound_blocker=True, moment_bias=1e-4)
     assert o.mssm.upper_bound_blocker and o.mssm.moment_bias == pytest.approx(1e-4)
     m = o.mssm
-    for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2"):
+    assert penumbra.MSSMOptions().upper_bound_blocker  # on by default, by tilt
+    for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
     for f in ("light_size_scale", "max_filter_texels", "min_filter_texels"):
         assert getattr(o.shadow, f) >= 0
