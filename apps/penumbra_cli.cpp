@@ -387,7 +387,7 @@ std::string techniqueChoices() {
   using T = ShadowTechnique;
   std::string list;
   for (T t : {T::Hard, T::PCSS, T::CSSM, T::MSSM4, T::MSSM6, T::Brute, T::Bitmask, T::BitmaskHard,
-              T::AreaApprox, T::None})
+              T::AreaApprox, T::Auto, T::None})
     list += std::string(list.empty() ? "" : " | ") + toString(t) +
             (t == RenderOptions{}.shadows ? " (default)" : "");
   return list;
@@ -447,6 +447,10 @@ std::vector<OptionSpec> renderSpecs() {
       {"light-samples", true, "bitmask: light samples per light, 128 | 256 | 512 | 1024 (default " + num(R.bitmask.lightSamples) + ")",
        {"RenderOptions.bitmask.lightSamples"}},
       {"accumulate", true, "bitmask: average N frames with rotated light samples (default 1)"},
+      {"auto-exact", true, "auto: the most lights given exact (bitmask) visibility, the brightest and softest first (default " + num(R.autoChoice.exactLights) + "; 0: none)",
+       {"RenderOptions.autoChoice.exactLights"}},
+      {"auto-pcss-texels", true, "auto: PCSS for filtered lights whose filter is at most this many texels wide, MSSM4 beyond (default " + num(R.autoChoice.pcssTexels) + ")",
+       {"RenderOptions.autoChoice.pcssTexels"}},
       {"area-samples", true, "area-approx: samples per polygon edge besides its vertices (default " + num(R.areaApprox.edgeSamples) + ")",
        {"RenderOptions.areaApprox.edgeSamples"}},
       {"area-cap-vertices", true, "area-approx: vertices of the polygon standing in for a cap (default " + num(R.areaApprox.capVertices) + ")",
@@ -492,6 +496,10 @@ RenderOptions parseRenderOptions(const Args& a) {
     ro.bitmask.lightSamples = int(parseInt("light-samples", get(a, "light-samples", ""), 32, 1024));
     if (ro.bitmask.lightSamples % 32) badInput("--light-samples must be a multiple of 32, got " + get(a, "light-samples", ""));
   }
+  if (has(a, "auto-exact"))
+    ro.autoChoice.exactLights = int(parseInt("auto-exact", get(a, "auto-exact", ""), 0, 4096));
+  if (has(a, "auto-pcss-texels"))
+    ro.autoChoice.pcssTexels = parseFloat("auto-pcss-texels", get(a, "auto-pcss-texels", ""));
   ro.frontBackFaces = has(a, "front-back");
   ro.bentNormals = has(a, "bent-normals");
   if (has(a, "bent-normals-scale")) {

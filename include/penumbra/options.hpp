@@ -21,9 +21,10 @@ enum class ShadowTechnique {
   Bitmask,      // sample-based visibility: view-sample lists + light-sample bitmasks (seed 001 §4)
   BitmaskHard,  // alias-free hard shadows from the light's centre (seed 001 §3)
   AreaApprox,   // polygon lights sampled along their edges, visible-area estimate (seed 002)
+  Auto,         // per light: hard, PCSS, MSSM4 or exact (bitmask) visibility (AutoOptions)
 };
 // "none" | "hard" | "pcss" | "cssm" | "mssm4" | "mssm6" | "brute" | "bitmask" | "bitmask-hard" |
-// "area-approx"
+// "area-approx" | "auto"
 ShadowTechnique parseShadowTechnique(const std::string& name);
 const char* toString(ShadowTechnique t);
 
@@ -190,6 +191,29 @@ struct AreaApproxOptions {
                                 // (whole lights per batch, at least one light)
 };
 
+// Per-light technique choice (`auto`, src/shadows/auto.cpp explains the rule). Each light's
+// penumbra width is estimated as 2 tan(alpha) times the median caster-receiver distance of the
+// pixels its map shadows, and compared with a camera pixel's footprint and a shadow-map texel's.
+// The brightest lights get exact sampled visibility (the bitmask technique, with
+// RenderOptions::bitmask), up to exactLights of them; of the rest, a penumbra under a pixel or
+// texel gets hard shadows, a filtered one PCSS (RenderOptions::pcss) or, past pcssTexels, MSSM4
+// (RenderOptions::mssm).
+struct AutoOptions {
+  int exactLights = 1;          // budget: the most lights given exact visibility, by far the most
+                                // costly technique (320x180, 2-core CPU: one light 0.3 to 7 s,
+                                // growing with its size; the default frame ~2 s). In [0, 4096];
+                                // 0: none. Default 1
+  float hardPixels = 1.0f;      // a penumbra narrower than this many camera pixels or shadow-map
+                                // texels (the coarser) gets hard shadows. Finite, >= 0; default 1
+  float pcssTexels = 27.0f;     // PCSS while the filter it would use (the penumbra in texels,
+                                // clamped to shadow.maxFilterTexels) is at most this wide (cost
+                                // ~ width^2 texel reads), MSSM4 beyond (constant cost per pixel).
+                                // Default 27: PCSS at the default clamp costs what MSSM4 does
+                                // (2.6 vs 2.5 s, 32 lights, 320x180, 2-core CPU), so every
+                                // filtered light gets PCSS; lower it on a device where the
+                                // moments are cheaper. Finite, >= 0
+};
+
 struct RenderOptions {
   int width = 640, height = 360;  // image size, pixels, each in [1, 16384]; default 640 x 360
   int shadowMapSize = 256;      // square shadow map per light, texels, in [1, 4096]; default 256
@@ -206,6 +230,7 @@ struct RenderOptions {
   BruteOptions brute;
   BitmaskOptions bitmask;
   AreaApproxOptions areaApprox;
+  AutoOptions autoChoice;       // `auto` (the name `auto` is a C++ keyword)
   bool environmentBackground = true;  // show the environment behind the geometry (alpha stays 0);
                                       // default on
   // Bent normals at light silhouettes (seed 001 §4.3; kernels/render/bent.cl,

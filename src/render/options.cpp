@@ -22,6 +22,7 @@ const std::pair<ShadowTechnique, const char*> kTechniques[] = {
     {ShadowTechnique::Brute, "brute"},  {ShadowTechnique::Bitmask, "bitmask"},
     {ShadowTechnique::BitmaskHard, "bitmask-hard"},
     {ShadowTechnique::AreaApprox, "area-approx"},
+    {ShadowTechnique::Auto, "auto"},
 };
 }  // namespace
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "penumbra/environment.hpp"
 #include "penumbra/renderer.hpp"
@@ -39,14 +41,33 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     << ", \"sharpen_b\": " << opt.cssm.sharpenB << "},\n  \"pcss\": {\"blocker_taps\": "
     << opt.pcss.blockerTaps << ", \"filter_taps\": " << opt.pcss.filterTaps
     << "},\n  \"brute\": {\"samples\": " << opt.brute.samples << "},\n  \"bitmask\": {\"light_samples\": "
-    << opt.bitmask.lightSamples << ", \"list_size\": " << opt.bitmask.listSize << "},\n  \"stats\": {";
-  for (std::size_t i = 0; i < f.stats.size(); ++i)
-  {
-    const double v = f.stats[i].second;  // counts as integers, not in 6-digit scientific form
-    o << (i ? ", " : "") << "\"" << f.stats[i].first << "\": ";
+    << opt.bitmask.lightSamples << ", \"list_size\": " << opt.bitmask.listSize
+    << "},\n  \"auto\": {\"exact_lights\": " << opt.autoChoice.exactLights
+    << ", \"hard_pixels\": " << opt.autoChoice.hardPixels
+    << ", \"pcss_texels\": " << opt.autoChoice.pcssTexels << "},\n  \"stats\": {";
+  // `auto` reports each light's technique as the stat "auto/light_<i>" (a ShadowTechnique value,
+  // lights in order): listed by name in "auto_lights" instead.
+  const std::string perLight = "auto/light_";
+  std::vector<std::string> autoLights;
+  bool first = true;
+  for (const auto& [name, v] : f.stats) {
+    if (name.compare(0, perLight.size(), perLight) == 0) {
+      autoLights.push_back(toString(static_cast<ShadowTechnique>(int(v))));
+      continue;
+    }
+    o << (first ? "" : ", ") << "\"" << name << "\": ";
+    first = false;
+    // counts as integers, not in 6-digit scientific form
     if (v == std::floor(v) && std::fabs(v) < 9e15) o << static_cast<long long>(v); else o << v;
   }
-  o << "},\n  \"timings_ms\": {";
+  o << "}";
+  if (!autoLights.empty()) {
+    o << ",\n  \"auto_lights\": [";
+    for (std::size_t i = 0; i < autoLights.size(); ++i)
+      o << (i ? ", " : "") << "\"" << autoLights[i] << "\"";
+    o << "]";
+  }
+  o << ",\n  \"timings_ms\": {";
   for (std::size_t i = 0; i < f.timingsMs.size(); ++i)
     o << (i ? ", " : "") << "\"" << f.timingsMs[i].first << "\": " << f.timingsMs[i].second;
   o << "}\n}\n";

@@ -6,6 +6,7 @@
 namespace penumbra::detail {
 
 std::unique_ptr<ShadowPass> makeAreaApproxPass();  // src/shadows/area.cpp
+std::unique_ptr<ShadowPass> makeAutoPass();        // src/shadows/auto.cpp
 
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
   switch (t) {
@@ -18,6 +19,7 @@ std::unique_ptr<ShadowPass> makeShadowPass(ShadowTechnique t) {
     case ShadowTechnique::Bitmask: return makeBitmaskPass(false);
     case ShadowTechnique::BitmaskHard: return makeBitmaskPass(true);
     case ShadowTechnique::AreaApprox: return makeAreaApproxPass();
+    case ShadowTechnique::Auto: return makeAutoPass();
     // further techniques: one case each
     default: return nullptr;
   }
@@ -32,6 +34,7 @@ bool techniqueAvailable(ShadowTechnique t) {
     case ShadowTechnique::Bitmask:
     case ShadowTechnique::BitmaskHard:
     case ShadowTechnique::AreaApprox:
+    case ShadowTechnique::Auto:
     case ShadowTechnique::CSSM:
     case ShadowTechnique::MSSM6:
     case ShadowTechnique::MSSM4: return true;

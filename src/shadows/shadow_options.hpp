@@ -22,6 +22,7 @@ void validate(const PCSSOptions& o);                  // src/shadows/pcss.cpp
 void validate(const BruteOptions& o);                 // src/shadows/brute.cpp
 void validate(const BitmaskOptions& o, bool hard);    // src/shadows/bitmask.cpp
 void validate(const AreaApproxOptions& o);            // src/shadows/area.cpp
+void validate(const AutoOptions& o);                  // src/shadows/auto.cpp
 
 // The light-size scale and filter limits every filtered technique reads, into its kernel
 // parameter block (shadows/shadow_params.h: mssm_params, cssm_params, pcss_params).

@@ -1,0 +1,293 @@
+// `auto`: a shadow technique chosen per light (AutoOptions), and the pass that runs each chosen
+// technique's own pass on its subset of the lights and gathers their visibility rows.
+//
+// The rule, and why. Approximate techniques err inside penumbrae (PCSS's and MSSM's single planar
+// blocker, the filter's limit on wide penumbrae; hard shadows everywhere there), so a light's
+// share of the image's error grows with the irradiance it brings (its power) times the screen
+// area its penumbrae cover (their width). Exact sampled visibility (the bitmask technique, seed
+// 001 §4) removes that error at a cost that also grows with the penumbra: each caster triangle
+// walks the list texels of its influence region, which widens with the light's angular size. Gain
+// per cost is then about the power alone, so:
+//  1. the brightest lights get exact visibility, at most AutoOptions::exactLights of them (a
+//     count: the technique costs one to several default frames per light on a 2-core CPU);
+//  2. a light whose penumbra is narrower than a camera pixel or a shadow-map texel, whichever is
+//     coarser (times hardPixels), gets hard shadows: neither the screen nor the map resolves a
+//     narrower penumbra, so a filter adds cost and no accuracy;
+//  3. the rest are filtered: PCSS while the filter it pays for (the penumbra in texels, clamped to
+//     ShadowOptions::maxFilterTexels as the kernel clamps it) is at most pcssTexels wide (its
+//     explicit filter reads every texel of the box: a cost growing with the width squared),
+//     MSSM4 beyond (a constant reconstruction per pixel after a prefilter whose cost does not
+//     depend on the width).
+// The penumbra width is 2 tan(alpha) times the median caster-receiver distance of the light's
+// shadowed pixels (casterDistance). The rule reads light properties (power, cap size, that
+// distance, the map's texel) and the camera's pixel footprint, never a technique's measured
+// error, so it holds as the techniques improve.
+#include "shadows/auto.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <string>
+
+#include "shadows/shadow_options.hpp"
+#include "shadows/shadow_pass.hpp"
+
+namespace penumbra::detail {
+
+void validate(const AutoOptions& o) {
+  checkRange("RenderOptions.autoChoice.exactLights", o.exactLights, 0, 4096);
+  if (!(o.hardPixels >= 0) || !std::isfinite(o.hardPixels))
+    badOption("RenderOptions.autoChoice.hardPixels", "be finite and >= 0", o.hardPixels);
+  if (!(o.pcssTexels >= 0) || !std::isfinite(o.pcssTexels))
+    badOption("RenderOptions.autoChoice.pcssTexels", "be finite and >= 0", o.pcssTexels);
+}
+
+AutoLight autoLight(const pb_light& L, const AreaLight* light, int mapSize, double distance) {
+  const double c = std::clamp(double(L.dir[3]), -1.0, 1.0), s = std::sqrt(1 - c * c);
+  AutoLight a;
+  a.tanAlpha = c > 1e-6 ? s / c : 1e6;  // a cap past a hemisphere: as wide as the rule can see
+  auto luminance = [](double r, double g, double b) {
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+  };
+  if (light) {  // radiance (the mean, on a textured light) times the exact solid angle: the power
+    const double omega = light->solidAngle();
+    a.power = omega * luminance(light->radiance[0], light->radiance[1], light->radiance[2]);
+  } else {
+    const double omega = 2 * 3.14159265358979323846 * (1 - c);
+    a.power = omega * luminance(L.radiance[0], L.radiance[1], L.radiance[2]);
+  }
+  a.distance = distance;
+  a.texel = 2.0 * std::max(L.ex[3], L.ey[3]) / std::max(mapSize, 1);
+  return a;
+}
+
+double casterDistance(const pb_light& L, const cl_uint* map, int size,
+                      const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
+                      float depthBias, int step) {
+  // the map's projection, as kernels/shadows/pcss.cl's map_point_of
+  const double hx = L.ex[3], hy = L.ey[3], range = L.origin[3];
+  const double texel = 2.0 * std::max(hx, hy) / std::max(size, 1);
+  std::vector<double> gaps;
+  for (std::size_t px = 0; px < gpos.size(); px += std::size_t(std::max(step, 1))) {
+    const cl_float4 &p = gpos[px], &n = gnrm[px];
+    if (p.s[3] != 1.0f) continue;
+    if (n.s[0] * L.dir[0] + n.s[1] * L.dir[1] + n.s[2] * L.dir[2] <= 0) continue;  // unlit side
+    double r[3], x = 0, y = 0, d = 0;
+    for (int k = 0; k < 3; ++k) r[k] = double(p.s[k]) - L.origin[k];
+    for (int k = 0; k < 3; ++k) {
+      x += r[k] * L.ex[k];
+      y += r[k] * L.ey[k];
+      d -= r[k] * L.dir[k];
+    }
+    const int i = std::clamp(int((x / hx + 1) * 0.5 * size), 0, size - 1);
+    const int j = std::clamp(int((1 - y / hy) * 0.5 * size), 0, size - 1);
+    float z;
+    std::memcpy(&z, &map[std::size_t(j) * size + i], sizeof z);  // +inf where empty
+    const double gap = d - double(z);
+    if (gap > depthBias * range + 2 * texel) gaps.push_back(gap);
+  }
+  if (gaps.empty()) return 0;
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  return gaps[gaps.size() / 2];
+}
+
+double autoPenumbraWidth(const AutoLight& l) { return 2 * l.tanAlpha * l.distance; }
+
+double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height) {
+  std::vector<double> d;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x + 1 < width; ++x) {
+      const std::size_t i = std::size_t(y) * width + x;
+      const cl_float4 &a = gpos[i], &b = gpos[i + 1];
+      if (a.s[3] != 1.0f || b.s[3] != 1.0f) continue;
+      const double dx = a.s[0] - b.s[0], dy = a.s[1] - b.s[1], dz = a.s[2] - b.s[2];
+      d.push_back(std::sqrt(dx * dx + dy * dy + dz * dz));
+    }
+  if (d.empty()) return 0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>& lights,
+                                                    double pixel, const AutoOptions& o,
+                                                    float maxFilterTexels, bool exactAllowed) {
+  validate(o);
+  const std::size_t n = lights.size();
+  // 1. exact: the brightest first; ties keep the lights' order
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return lights[a].power > lights[b].power;
+  });
+  std::vector<ShadowTechnique> out(n, ShadowTechnique::MSSM4);
+  const std::size_t budget = exactAllowed ? std::size_t(o.exactLights) : 0;
+  for (std::size_t k = 0; k < n && k < budget; ++k) out[order[k]] = ShadowTechnique::Bitmask;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (out[i] == ShadowTechnique::Bitmask) continue;
+    const double width = autoPenumbraWidth(lights[i]);
+    const double texels = lights[i].texel > 0 ? width / lights[i].texel : 0;
+    // 2. unresolved penumbra: hard
+    if (width < o.hardPixels * std::max(pixel, lights[i].texel)) out[i] = ShadowTechnique::Hard;
+    // 3. filtered, by the filter's cost
+    else if (std::min(texels, double(maxFilterTexels)) <= o.pcssTexels)
+      out[i] = ShadowTechnique::PCSS;
+  }
+  return out;
+}
+
+namespace {
+
+constexpr ShadowTechnique kChoices[] = {ShadowTechnique::Hard, ShadowTechnique::PCSS,
+                                        ShadowTechnique::MSSM4, ShadowTechnique::Bitmask};
+
+// The stat name of a choice's light count.
+std::string countName(ShadowTechnique t) {
+  return t == ShadowTechnique::Bitmask ? "auto/lights_exact"
+                                       : std::string("auto/lights_") + toString(t);
+}
+
+// Copies row from[i] of src to row to[i] of dst, rows `bytes` long; a run of indices consecutive
+// in both lists is one copy.
+void copyRows(Context& ctx, const cl::Buffer& src, const std::vector<int>& from, cl::Buffer& dst,
+              const std::vector<int>& to, std::size_t bytes) {
+  for (std::size_t i = 0; i < from.size();) {
+    std::size_t j = i + 1;
+    while (j < from.size() && from[j] == from[j - 1] + 1 && to[j] == to[j - 1] + 1) ++j;
+    ctx.queue().enqueueCopyBuffer(src, dst, std::size_t(from[i]) * bytes,
+                                  std::size_t(to[i]) * bytes, (j - i) * bytes);
+    i = j;
+  }
+}
+
+class AutoPass : public ShadowPass {
+ public:
+  void computeVisibility(ShadowFrame& f) override {
+    validate(f.opt.autoChoice);
+    const int nl = int(f.lights.size()), S = f.mapSize;
+    // The camera's pixel footprint and each light's caster distance, from the G-buffer and the
+    // light's depth map read back (every 4th pixel is plenty for a median).
+    const std::vector<cl_float4> gpos =
+        f.ctx.download<cl_float4>(f.gpos, std::size_t(f.pixels), "auto positions");
+    const std::vector<cl_float4> gnrm =
+        f.ctx.download<cl_float4>(f.gnrm, std::size_t(f.pixels), "auto normals");
+    const std::vector<cl_uint> maps =
+        f.ctx.download<cl_uint>(f.depth, std::size_t(S) * S * nl, "auto shadow maps");
+    const double pixel = pixelFootprint(gpos, f.width, f.height);
+    std::vector<AutoLight> info(nl);
+    const bool known = f.areaLights && int(f.areaLights->size()) == nl;
+    for (int l = 0; l < nl; ++l) {
+      const double d = casterDistance(f.lights[l], maps.data() + std::size_t(S) * S * l, S, gpos,
+                                      gnrm, f.opt.shadow.depthBias, 4);
+      info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, d);
+    }
+    // The bitmask technique needs the scene's triangles; a frame without them (the GL interop)
+    // gets no exact lights.
+    choice_ = chooseShadowTechniques(info, pixel, f.opt.autoChoice, f.opt.shadow.maxFilterTexels,
+                                     f.triangleCount > 0);
+    pixel_ = pixel;
+    bytes_ = 0;
+    subStats_.clear();
+    for (ShadowTechnique t : kChoices) {
+      std::vector<int> subset, rows;
+      for (int l = 0; l < nl; ++l)
+        if (choice_[l] == t) {
+          rows.push_back(int(rows.size()));
+          subset.push_back(l);
+        }
+      if (subset.empty()) continue;
+      std::unique_ptr<ShadowPass>& pass = passes_[t];
+      if (!pass) pass = makeShadowPass(t);
+      if (int(subset.size()) == nl) {
+        pass->computeVisibility(f);  // one technique for all: the frame as it is
+      } else {
+        run(f, t, *pass, subset, rows);
+      }
+      const std::size_t texels = std::size_t(S) * S * subset.size();
+      bytes_ += pass->frameBytes(f.opt, texels);
+      for (auto& [name, v] : pass->frameStats())
+        subStats_.emplace_back(std::string(toString(t)) + "/" + name, v);
+    }
+  }
+
+  std::size_t bytesPerTexel(const RenderOptions&) const override { return sizeof(cl_uint); }
+  std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return bytes_; }
+
+  // Per technique its light count ("auto/lights_hard", ..., "auto/lights_exact"), the pixel
+  // footprint the rule used, each light's choice as "auto/light_<i>" = its ShadowTechnique value
+  // (the report lists them by name), then the sub-passes' own statistics ("<technique>/<name>").
+  std::vector<std::pair<std::string, double>> frameStats() const override {
+    std::vector<std::pair<std::string, double>> s;
+    for (ShadowTechnique t : kChoices)
+      s.emplace_back(countName(t), double(std::count(choice_.begin(), choice_.end(), t)));
+    s.emplace_back("auto/pixel_footprint", pixel_);
+    for (std::size_t l = 0; l < choice_.size(); ++l)
+      s.emplace_back("auto/light_" + std::to_string(l), double(int(choice_[l])));
+    s.insert(s.end(), subStats_.begin(), subStats_.end());
+    return s;
+  }
+
+ private:
+  // The lights `subset` of f through `pass`: a frame of those lights alone (their frames uploaded,
+  // their depth maps copied out of f's), its visibility rows copied back into f.vis.
+  void run(ShadowFrame& f, ShadowTechnique t, ShadowPass& pass, const std::vector<int>& subset,
+           const std::vector<int>& rows) {
+    Sub& sub = subs_[t];
+    const std::string role = std::string("auto ") + toString(t);
+    const std::size_t k = subset.size(), S2 = std::size_t(f.mapSize) * f.mapSize;
+    sub.lights.clear();
+    sub.areaLights.clear();
+    for (int l : subset) {
+      sub.lights.push_back(f.lights[l]);
+      if (f.areaLights && f.areaLights->size() == f.lights.size())
+        sub.areaLights.push_back((*f.areaLights)[l]);
+    }
+    ShadowFrame s(f.ctx, f.pool, f.opt, sub.lights);
+    s.width = f.width;
+    s.height = f.height;
+    s.pixels = f.pixels;
+    s.mapSize = f.mapSize;
+    s.lightBuffer = f.pool.upload(role + " lights", sub.lights);
+    s.gpos = f.gpos;
+    s.gnrm = f.gnrm;
+    s.ggeo = f.ggeo;
+    s.rasterizer = f.rasterizer;
+    s.gids = f.gids;
+    s.positions = f.positions;
+    s.triangles = f.triangles;
+    s.triangleCount = f.triangleCount;
+    s.hostPositions = f.hostPositions;
+    s.hostTriangles = f.hostTriangles;
+    s.areaLights = sub.areaLights.empty() ? nullptr : &sub.areaLights;
+    if (pass.usesShadowMaps()) {
+      s.depth = f.pool.buffer(role + " shadow maps", S2 * k * sizeof(cl_uint));
+      copyRows(f.ctx, f.depth, subset, s.depth, rows, S2 * sizeof(cl_uint));
+      bytes_ += S2 * k * sizeof(cl_uint);
+    } else {
+      s.depth = f.depth;
+    }
+    const std::size_t rowBytes = std::size_t(f.pixels) * sizeof(cl_float);
+    s.vis = f.pool.buffer(role + " visibility", rowBytes * k);
+    pass.computeVisibility(s);
+    copyRows(f.ctx, s.vis, rows, f.vis, subset, rowBytes);
+    bytes_ += rowBytes * k;
+  }
+
+  // A technique's subset, kept between frames: the frame holds references to these.
+  struct Sub {
+    std::vector<pb_light> lights;
+    std::vector<AreaLight> areaLights;
+  };
+  std::map<ShadowTechnique, std::unique_ptr<ShadowPass>> passes_;  // kept between frames
+  std::map<ShadowTechnique, Sub> subs_;
+  std::vector<ShadowTechnique> choice_;
+  std::vector<std::pair<std::string, double>> subStats_;
+  double pixel_ = 0;
+  std::size_t bytes_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<ShadowPass> makeAutoPass() { return std::make_unique<AutoPass>(); }
+
+}  // namespace penumbra::detail

@@ -1,0 +1,56 @@
+// Internal: the per-light technique choice of `auto` (src/shadows/auto.cpp), apart from its pass so
+// that tests can pin the rule on hand-made lights.
+#pragma once
+#include <vector>
+
+#include "penumbra/context.hpp"  // cl_float4
+#include "penumbra/lights.hpp"
+#include "penumbra/options.hpp"
+#include "common/shared.h"
+
+namespace penumbra::detail {
+
+// What the rule reads of one light.
+struct AutoLight {
+  double power = 0;     // luminance of the light's power (irradiance at normal incidence)
+  double tanAlpha = 0;  // tan of its (bounding) cap's half-angle
+  double distance = 0;  // typical caster-receiver distance of its shadows on screen, world units
+                        // (casterDistance); 0: it shadows nothing the camera sees
+  double texel = 0;     // world size of one of its shadow-map texels
+};
+
+// A light as the rule sees it: its frame (ShadowFrame::lights), the light itself when known (its
+// power: radiance times its solid angle; else the frame's radiance times the cap's), the frame's
+// map size and the caster distance.
+AutoLight autoLight(const pb_light& L, const AreaLight* light, int mapSize, double distance);
+
+// The typical caster-receiver distance of light L's shadows on screen, world units: the median,
+// over the camera pixels its hard-shadow test finds shadowed (their depth behind the map's texel
+// by more than the bias and two texels, so no receiver counts as its own blocker), of that depth
+// gap: the blocker distance PCSS's search estimates per pixel (Fernando 2005). map: L's S x S
+// depth map (ShadowFrame::depth's encoding); gpos, gnrm: the G-buffer, `step`: every step-th
+// pixel is tested. 0 when no pixel is shadowed.
+double casterDistance(const pb_light& L, const cl_uint* map, int size,
+                      const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
+                      float depthBias, int step = 1);
+
+// The estimated penumbra width, world units: the cap's diameter 2 tan(alpha) at the caster
+// distance.
+double autoPenumbraWidth(const AutoLight& l);
+
+// A camera pixel's footprint on the scene, world units: the median distance between the
+// positions of horizontally adjacent pixels that both see geometry (gpos: float4 per pixel, w = 1
+// on geometry, row by row). 0 when no two such pixels exist.
+double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height);
+
+// Each light's technique: Bitmask (exact), Hard, PCSS or MSSM4, by the rule of AutoOptions
+// (include/penumbra/options.hpp, explained in src/shadows/auto.cpp). pixel: pixelFootprint's
+// value (0: unknown, texels alone decide); maxFilterTexels: ShadowOptions' clamp on the filter
+// width. exactAllowed false (a frame without triangles, which the bitmask technique needs): no
+// light is exact.
+std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>& lights,
+                                                    double pixel, const AutoOptions& o,
+                                                    float maxFilterTexels = 27.0f,
+                                                    bool exactAllowed = true);
+
+}  // namespace penumbra::detail
