@@ -783,7 +783,9 @@ PYBIND11_MODULE(penumbra, m) {
       .value("BITMASK", ShadowTechnique::Bitmask, "Sample-based visibility (seed 001).")
       .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (seed 001).")
       .value("AREA_APPROX", ShadowTechnique::AreaApprox,
-             "Polygon lights sampled along their edges, visible-area estimate (seed 002).");
+             "Polygon lights sampled along their edges, visible-area estimate (seed 002).")
+      .value("AUTO", ShadowTechnique::Auto,
+             "Per-light choice of hard, PCSS, MSSM4 or exact (bitmask) visibility.");
   py::enum_<Prefilter>(m, "Prefilter", "Prefiltering of the filtered techniques.")
       .value("SAT", Prefilter::SAT, "Summed-area tables.")
       .value("MIP", Prefilter::Mip, "Mip pyramids.");
@@ -893,6 +895,18 @@ PYBIND11_MODULE(penumbra, m) {
                      bytesDefault("Device bytes of sample maps at once.",
                                   R.areaApprox.batchBytes).c_str());
 
+  py::class_<AutoOptions> au(m, "AutoOptions", "Per-light technique choice ('auto').");
+  initFromFields<AutoOptions>(au);
+  au.def_readwrite("exact_lights", &AutoOptions::exactLights,
+                   withDefault("The most lights given exact (bitmask) visibility, 0..4096.",
+                               R.autoChoice.exactLights).c_str())
+      .def_readwrite("hard_pixels", &AutoOptions::hardPixels,
+                     withDefault("Hard shadows below this penumbra width (pixels or texels).",
+                                 R.autoChoice.hardPixels).c_str())
+      .def_readwrite("pcss_texels", &AutoOptions::pcssTexels,
+                     withDefault("PCSS up to this filter width (texels), MSSM4 beyond.",
+                                 R.autoChoice.pcssTexels).c_str());
+
   py::class_<RenderOptions> ro(m, "RenderOptions",
                                "Options of Renderer.render. Keywords set fields, e.g. "
                                "RenderOptions(width=64, height=32, technique='pcss'). Errors name "
@@ -926,6 +940,7 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("brute", &RenderOptions::brute, "BruteOptions.")
       .def_readwrite("bitmask", &RenderOptions::bitmask, "BitmaskOptions.")
       .def_readwrite("area_approx", &RenderOptions::areaApprox, "AreaApproxOptions.")
+      .def_readwrite("auto_choice", &RenderOptions::autoChoice, "AutoOptions.")
       .def_readwrite("environment_background", &RenderOptions::environmentBackground,
                      withDefault("Show the map behind the geometry.",
                                  R.environmentBackground).c_str())

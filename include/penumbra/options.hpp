@@ -205,13 +205,14 @@ struct AutoOptions {
                                 // 0: none. Default 1
   float hardPixels = 1.0f;      // a penumbra narrower than this many camera pixels or shadow-map
                                 // texels (the coarser) gets hard shadows. Finite, >= 0; default 1
-  float pcssTexels = 27.0f;     // PCSS while the filter it would use (the penumbra in texels,
+  float pcssTexels = 0.0f;      // PCSS while the filter it would use (the penumbra in texels,
                                 // clamped to shadow.maxFilterTexels) is at most this wide (cost
                                 // ~ width^2 texel reads), MSSM4 beyond (constant cost per pixel).
-                                // Default 27: PCSS at the default clamp costs what MSSM4 does
-                                // (2.6 vs 2.5 s, 32 lights, 320x180, 2-core CPU), so every
-                                // filtered light gets PCSS; lower it on a device where the
-                                // moments are cheaper. Finite, >= 0
+                                // Default 0: every filtered light gets MSSM4, which measures better
+                                // than PCSS since MSSM's eq. 19 by tilt (bench/results/accuracy.md:
+                                // auto 3.19/4.38/3.06/7.48% with MSSM4, 3.65/4.42/3.20/8.88% with
+                                // PCSS); PCSS costs about as much at the default clamp (2-core CPU).
+                                // Finite, >= 0
 };
 
 struct RenderOptions {

@@ -64,6 +64,9 @@ def test_options():
     assert o.mssm.upper_bound_blocker and o.mssm.moment_bias == pytest.approx(1e-4)
     m = o.mssm
     assert penumbra.MSSMOptions().upper_bound_blocker  # on by default, by tilt
+    assert penumbra.parse_shadow_technique("auto") == penumbra.ShadowTechnique.AUTO
+    o.auto_choice.exact_lights = 0
+    assert o.auto_choice.exact_lights == 0 and penumbra.AutoOptions().pcss_texels == 0
     for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
     for f in ("light_size_scale", "max_filter_texels", "min_filter_texels"):

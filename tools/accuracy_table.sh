@@ -1,0 +1,69 @@
+#!/bin/bash
+# The accuracy table of bench/results/accuracy.md: `penumbra evaluate` on the four scenes of
+# issue 13 at 320x180 for every configuration below, each against an Embree environment truth of
+# SPP samples per pixel (its own noise estimated from two half sample sets and printed beside
+# every figure), and the light-set floor (Embree, exact visibility of the same lights).
+# usage: tools/accuracy_table.sh PENUMBRA_CLI DATA_DIR OUT_DIR [SPP]
+#   DATA_DIR: the shared test data (envmaps/, meshes/good/); OUT_DIR gets truths/ (a cache that
+#   later runs reuse), one JSON per scene and configuration, and table.md.
+set -euo pipefail
+P=$1; D=$2; OUT=$3; SPP=${4:-4096}
+mkdir -p "$OUT/truths"
+declare -A SCENE=(
+  [builtin]=""
+  [courtyard]="--env $D/envmaps/courtyard.exr --scene $D/meshes/good/WusonOBJ.obj"
+  [interior]="--env $D/envmaps/interior.exr --scene $D/meshes/good/spider.obj"
+  [studio]="--env $D/envmaps/studio.exr --scene $D/meshes/good/WusonOBJ.obj")
+CONFIGS=(
+  "hard|--shadows hard"
+  "pcss|--shadows pcss"
+  "mssm4-eq7|--shadows mssm4 --no-upper-bound"
+  "mssm4|--shadows mssm4"
+  "auto-exact0|--shadows auto --auto-exact 0"
+  "auto|--shadows auto")
+for s in builtin courtyard interior studio; do
+  for c in "${CONFIGS[@]}"; do
+    name=${c%%|*}; args=${c#*|}
+    j="$OUT/$s.$name.json"
+    [ -f "$j" ] && continue
+    # shellcheck disable=SC2086
+    "$P" evaluate --size 320x180 --spp "$SPP" --seed 11 ${SCENE[$s]} $args \
+      --truth "$OUT/truths" --json "$j.tmp" > "$OUT/$s.$name.txt" 2>&1
+    mv "$j.tmp" "$j"
+    echo "$s $name done"
+  done
+done
+/usr/bin/python3 - "$OUT" <<'PY'
+import json, sys, os
+out = sys.argv[1]
+scenes = ["builtin", "courtyard", "interior", "studio"]
+configs = ["hard", "pcss", "mssm4-eq7", "mssm4", "auto-exact0", "auto"]
+def load(s, c):
+    with open(os.path.join(out, f"{s}.{c}.json")) as f: return json.load(f)
+rows = ["| scene | truth noise | floor (exact visibility, same lights) | " + " | ".join(configs) + " |",
+        "| --- | --- | --- | " + " | ".join("---" for _ in configs) + " |"]
+for s in scenes:
+    b = [load(s, c) for c in configs]
+    fl = b[0]["floor"]
+    cells = [f"{x['total']['relative_rmse']*100:.2f}% / {x['total']['flip']:.4f}" for x in b]
+    rows.append(f"| {s} | {b[0]['truth_noise']['environment']*100:.2f}% | {fl['relative_rmse']*100:.2f}% / {fl['flip']:.4f} | " + " | ".join(cells) + " |")
+rows.append("")
+rows.append("Technique error against the light-set truth (relative RMSE), and its ratio to the floor's total:")
+rows.append("")
+rows.append("| scene | " + " | ".join(configs) + " |")
+rows.append("| --- | " + " | ".join("---" for _ in configs) + " |")
+for s in scenes:
+    b = [load(s, c) for c in configs]
+    fl = b[0]["floor"]["relative_rmse"]
+    rows.append(f"| {s} | " + " | ".join(f"{x['technique']['relative_rmse']*100:.2f}% (total {x['total']['relative_rmse']/fl:.2f}x floor)" for x in b) + " |")
+rows.append("")
+rows.append("Frame time (ms, warm, as `evaluate` times it; 320x180; this machine's load varies):")
+rows.append("")
+rows.append("| scene | " + " | ".join(configs) + " |")
+rows.append("| --- | " + " | ".join("---" for _ in configs) + " |")
+for s in scenes:
+    b = [load(s, c) for c in configs]
+    rows.append(f"| {s} | " + " | ".join(f"{x['frame_ms']:.0f}" for x in b) + " |")
+with open(os.path.join(out, "table.md"), "w") as f: f.write("\n".join(rows) + "\n")
+print("\n".join(rows))
+PY
