@@ -384,8 +384,11 @@ TEST(Flip, ExtraChannelsAreIgnored) {
 
 TEST(Flip, BadInputNamesTheArgument) {
   const Image a = randomImage(8, 6, 15, 0, 1), b = randomImage(8, 6, 16, 0, 1);
+  // both sizes named, each with its argument (the message holds both words either way)
   expectBadInput([&] { flip(randomImage(7, 6, 1, 0, 1), b); }, "reference");
+  expectBadInput([&] { flip(randomImage(7, 6, 1, 0, 1), b); }, "test is 7x6 but reference is 8x6");
   expectBadInput([&] { flip(a, randomImage(8, 5, 1, 0, 1)); }, "test");
+  expectBadInput([&] { flip(a, randomImage(8, 5, 1, 0, 1)); }, "test is 8x6 but reference is 8x5");
   expectBadInput([&] { flip(Image(8, 6, 2), b); }, "test");
   expectBadInput([&] { flip(a, Image(8, 6, 1)); }, "reference");
   expectBadInput([&] { flip(Image(), b); }, "test");

@@ -16,6 +16,7 @@
 
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
+#include "common/shared.h"
 
 namespace penumbra {
 namespace {
@@ -119,7 +120,7 @@ struct Operand {
 Operand operand(const ReferenceImage& r) { return {&r.image, &r.halfA, &r.halfB}; }
 Operand operand(const Image& frame) { return {&frame, &frame, &frame}; }
 
-double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+double luminance(const float* p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2]; }
 
 }  // namespace
 
@@ -158,6 +159,10 @@ EvaluateTruths evaluateTruths(const Scene& scene, const Camera& camera, const Li
   EvaluateTruths t;
   ReferenceOptions ro = opt.truth;
   ro.shadowAmbient = false;
+  // The truths are compared over geometry pixels only, and FLIP filters across pixels: a truth
+  // without its map behind the geometry needs no blacking out, and its cache key (which does not
+  // hold the background) stays exact.
+  ro.environmentBackground = false;
   // One progress from 0 to 1 over the three truths: a third each.
   int stage = 0;
   if (opt.truth.progress)
@@ -284,16 +289,14 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
       }
     return c ? s / double(c) : kNaN;
   };
-  // FLIP filters across pixels, so the background (the map in the frame, black in the truths)
-  // would bleed into the geometry's edge: both images get the same black background.
-  auto onBlack = [&](const Image& im) {
-    Image out = im;
-    for (std::size_t i = 0; i < n; ++i)
-      if (!(geometryMask.pixels[i] > 0.5f))
-        for (int k = 0; k < 3; ++k) out.pixels[i * 4 + k] = 0.0f;
-    return out;
-  };
-  const Image frameB = onBlack(frame), GB = onBlack(G), LB = onBlack(L), SB = onBlack(S);
+  // FLIP filters across pixels, so the frame's background (the map) would bleed into the
+  // geometry's edge: the frame gets the truths' black background (evaluateTruths renders them
+  // without the map).
+  Image frameB = frame;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(geometryMask.pixels[i] > 0.5f))
+      for (int k = 0; k < 3; ++k) frameB.pixels[i * 4 + k] = 0.0f;
+  const Image &GB = G, &LB = L, &SB = S;
   auto flipLine = [&](BudgetLine& l, const Image& test, const Image& ref, Image* keep) {
     FlipResult f = flip(test, ref, opt.flip, &geometryMask);
     l.flip = f.mean;

@@ -42,11 +42,6 @@ pb_view cameraView(const Camera& c, int w, int h) {
 
 }  // namespace
 
-namespace {
-
-
-}  // namespace
-
 struct Renderer::Impl {
   Context& ctx;
   detail::BufferPool pool;

@@ -43,18 +43,27 @@ void validate(const AutoOptions& o) {
     badOption("RenderOptions.autoChoice.pcssTexels", "be finite and >= 0", o.pcssTexels);
 }
 
+namespace {
+// The upper median of v (reordered), 0 for none.
+double median(std::vector<double>& v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+}  // namespace
+
 AutoLight autoLight(const pb_light& L, const AreaLight* light, int mapSize, double distance) {
   const double c = std::clamp(double(L.dir[3]), -1.0, 1.0), s = std::sqrt(1 - c * c);
   AutoLight a;
   a.tanAlpha = c > 1e-6 ? s / c : 1e6;  // a cap past a hemisphere: as wide as the rule can see
   auto luminance = [](double r, double g, double b) {
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    return PB_LUM_R * r + PB_LUM_G * g + PB_LUM_B * b;
   };
   if (light) {  // radiance (the mean, on a textured light) times the exact solid angle: the power
     const double omega = light->solidAngle();
     a.power = omega * luminance(light->radiance[0], light->radiance[1], light->radiance[2]);
   } else {
-    const double omega = 2 * 3.14159265358979323846 * (1 - c);
+    const double omega = 2 * M_PI * (1 - c);
     a.power = omega * luminance(L.radiance[0], L.radiance[1], L.radiance[2]);
   }
   a.distance = distance;
@@ -87,9 +96,7 @@ double casterDistance(const pb_light& L, const cl_uint* map, int size,
     const double gap = d - double(z);
     if (gap > depthBias * range + 2 * texel) gaps.push_back(gap);
   }
-  if (gaps.empty()) return 0;
-  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
-  return gaps[gaps.size() / 2];
+  return median(gaps);
 }
 
 double autoPenumbraWidth(const AutoLight& l) { return 2 * l.tanAlpha * l.distance; }
@@ -104,9 +111,7 @@ double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height)
       const double dx = a.s[0] - b.s[0], dy = a.s[1] - b.s[1], dz = a.s[2] - b.s[2];
       d.push_back(std::sqrt(dx * dx + dy * dy + dz * dz));
     }
-  if (d.empty()) return 0;
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return d[d.size() / 2];
+  return median(d);
 }
 
 std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>& lights,
@@ -242,22 +247,8 @@ class AutoPass : public ShadowPass {
       if (f.areaLights && f.areaLights->size() == f.lights.size())
         sub.areaLights.push_back((*f.areaLights)[l]);
     }
-    ShadowFrame s(f.ctx, f.pool, f.opt, sub.lights);
-    s.width = f.width;
-    s.height = f.height;
-    s.pixels = f.pixels;
-    s.mapSize = f.mapSize;
+    ShadowFrame s(f, sub.lights);
     s.lightBuffer = f.pool.upload(role + " lights", sub.lights);
-    s.gpos = f.gpos;
-    s.gnrm = f.gnrm;
-    s.ggeo = f.ggeo;
-    s.rasterizer = f.rasterizer;
-    s.gids = f.gids;
-    s.positions = f.positions;
-    s.triangles = f.triangles;
-    s.triangleCount = f.triangleCount;
-    s.hostPositions = f.hostPositions;
-    s.hostTriangles = f.hostTriangles;
     s.areaLights = sub.areaLights.empty() ? nullptr : &sub.areaLights;
     if (pass.usesShadowMaps()) {
       s.depth = f.pool.buffer(role + " shadow maps", S2 * k * sizeof(cl_uint));

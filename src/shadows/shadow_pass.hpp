@@ -61,6 +61,26 @@ class DepthRasterizer {
 struct ShadowFrame {
   ShadowFrame(Context& c, BufferPool& p, const RenderOptions& o, const std::vector<pb_light>& l)
       : ctx(c), pool(p), opt(o), lights(l) {}
+  // Frame f for other lights `l` (a subset of f's, src/shadows/auto.cpp): every field but those
+  // that depend on the lights, which the caller sets (lightBuffer, depth, vis, areaLights). Kept
+  // beside the fields so that a new one is copied too.
+  ShadowFrame(const ShadowFrame& f, const std::vector<pb_light>& l)
+      : ShadowFrame(f.ctx, f.pool, f.opt, l) {
+    width = f.width;
+    height = f.height;
+    pixels = f.pixels;
+    mapSize = f.mapSize;
+    gpos = f.gpos;
+    gnrm = f.gnrm;
+    ggeo = f.ggeo;
+    rasterizer = f.rasterizer;
+    gids = f.gids;
+    positions = f.positions;
+    triangles = f.triangles;
+    triangleCount = f.triangleCount;
+    hostPositions = f.hostPositions;
+    hostTriangles = f.hostTriangles;
+  }
   Context& ctx;
   BufferPool& pool;
   const RenderOptions& opt;
