@@ -370,7 +370,8 @@ int cmdDevices(int argc, char** argv) {
   }
   for (auto& d : listDevices())
     std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << d.version << ", "
-              << (d.globalMemBytes >> 20) << " MiB, max work-group " << d.maxWorkGroupSize
+              << (d.globalMemBytes >> 20) << " MiB (" << (d.maxAllocBytes >> 20)
+              << " MiB per buffer), max work-group " << d.maxWorkGroupSize
               << (d.fp64 ? ", fp64" : "") << (d.int64Atomics ? ", int64 atomics" : "") << "\n";
   return 0;
 }
