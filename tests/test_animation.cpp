@@ -3,6 +3,7 @@
 // reference), the built-in scene's moving objects, temporal stability of the rendered frame under
 // a turning map, and the `render --frames` command line.
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -545,8 +546,11 @@ CliRun cli(const fs::path& dir, const std::vector<std::string>& args) {
   return r;
 }
 
+// Named by process too: two test runs at once (two checkouts, or CI beside a developer) must not
+// share a directory, or one run's stderr.txt is read by the other.
 fs::path freshDir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("penumbra_anim_" + name);
+  fs::path d = fs::path(::testing::TempDir()) /
+               ("penumbra_anim_" + std::to_string(::getpid()) + "_" + name);
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

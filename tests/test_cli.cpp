@@ -313,6 +313,16 @@ TEST_F(CliUntrustedMesh, GlbChunkBeyondTheFile) {
   for (int k = 12; k < 16; ++k) glb[k] = char(0xff);  // JSON chunk length 0xFFFFFFFF
   expectQuickRenderFailure(scratch("chunk.glb", glb), "4294967295 bytes");
 }
+// The documented maximum size aborted inside PoCL after 2.9 s (issue 14); now it is refused
+// before any device work, naming the size, the memory and the device's limit.
+TEST_F(CliUntrustedMesh, SizeBeyondTheDeviceIsRefusedUpFront) {
+  const auto t0 = std::chrono::steady_clock::now();
+  expectFailure({"render", "--size", "16384x16384", "--out", path("out.png"), "--report",
+                 path("r.json")},
+                {"16384x16384", "MiB", "out of device memory"});
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 20.0);
+}
+
 TEST_F(CliUntrustedMesh, LoadLimitsAreOptions) {
   expectFailure({"render", "--scene", kData + "/meshes/good/WusonOBJ.obj", "--load-timeout",
                  "0.001", "--size", "32x18", "--out", path("out.png")},

@@ -2,6 +2,7 @@
 // ambient residual (ReferenceOptions::shadowAmbient), and of the error budget (evaluate.hpp): its
 // parts add up, its figures match a recomputation, its truths come back from the cache unchanged.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -214,7 +215,7 @@ struct BudgetFixture : testing::Test {
   EvaluateOptions opt;
   void SetUp() override {
     opt.truth = options(64);
-    opt.cacheDir = (fs::path(testing::TempDir()) / "penumbra_evaluate_cache").string();
+    opt.cacheDir = (fs::path(testing::TempDir()) / ("penumbra_evaluate_cache_" + std::to_string(::getpid()))).string();
     fs::remove_all(opt.cacheDir);
   }
   // A stand-in frame: the light-set truth made 10% darker on every other row, so the technique
@@ -301,7 +302,7 @@ TEST_F(BudgetFixture, HeatMapsAreWritten) {
 }
 
 TEST_F(BudgetFixture, UncreatableCacheIsBadInputNamingTheField) {
-  const fs::path file = fs::path(testing::TempDir()) / "penumbra_evaluate_file";
+  const fs::path file = fs::path(testing::TempDir()) / ("penumbra_evaluate_file_" + std::to_string(::getpid()));
   { std::ofstream(file.string()) << "x"; }
   opt.cacheDir = (file / "sub").string();
   try {

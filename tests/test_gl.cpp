@@ -2,6 +2,7 @@
 // `render --gl` against the OpenCL-only path under Mesa llvmpipe (EGL and OSMesa), resizing, the
 // missing-GL error, and the interop's conversion kernels against a plain C++ reference.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <sys/wait.h>
 
@@ -368,7 +369,7 @@ std::string slurp(const fs::path& p) {
 }  // namespace
 
 TEST(GLCli, MissingGLIsAClearErrorAndOpenCLStillWorks) {
-  fs::path dir = fs::path(testing::TempDir()) / "penumbra_gl_cli";
+  fs::path dir = fs::path(testing::TempDir()) / ("penumbra_gl_cli_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string cli = PENUMBRA_CLI, cd = "cd '" + dir.string() + "' && ";
@@ -393,7 +394,7 @@ TEST(GLCli, MissingGLIsAClearErrorAndOpenCLStillWorks) {
 }
 
 TEST(GLCli, RenderGLWritesStageTimes) {
-  fs::path dir = fs::path(testing::TempDir()) / "penumbra_gl_cli_report";
+  fs::path dir = fs::path(testing::TempDir()) / ("penumbra_gl_cli_report_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string cli = PENUMBRA_CLI, cd = "cd '" + dir.string() + "' && ";

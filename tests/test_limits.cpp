@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <unistd.h>
 
 #include "common.hpp"
 
@@ -182,7 +183,7 @@ TEST(RenderInputs, LightsAreCheckedAsALightSetFileWouldBe) {
   }
   {
     SmallFrame f;
-    f.lights.lights[0].cosAlpha = 1.5f;
+    f.lights.lights[0].cosAlpha = std::numeric_limits<float>::quiet_NaN();
     expectError(ErrorKind::BadInput, [&] { f.render(); }, {"cosAlpha"});
   }
   {
@@ -214,7 +215,8 @@ TEST(RenderInputs, CameraAndEnvironmentAreChecked) {
 // An 8-bit image is accepted as an environment map by design, decoded from its sRGB encoding
 // (IEC 61966-2-1): a stored value s becomes ((s + 0.055) / 1.055)^2.4, e.g. 0.5 becomes 0.214.
 TEST(EnvironmentInput, LdrMapIsDecodedFromSrgb) {
-  const std::string png = testing::TempDir() + "/penumbra_ldr_map.png";
+  const std::string png =
+      testing::TempDir() + "/penumbra_ldr_map_" + std::to_string(::getpid()) + ".png";
   Image img(8, 4, 3);
   for (std::size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = 0.05f * float(i % 40);
   writeImage(png, img, 1.0f);  // tone-mapped and sRGB-encoded into 8 bits

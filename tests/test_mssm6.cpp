@@ -619,9 +619,11 @@ void expectFiniteVisibility(const Scene& scene, const Camera& cam, const LightSe
     }
 }
 
+// `dir` need not be unit: the renderer refuses a non-unit direction (validateLightSet).
 LightSet oneLight(Vec3 dir, float cosAlpha) {
   AreaLight l;
-  l.direction = dir;
+  const float n = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+  l.direction = {dir[0] / n, dir[1] / n, dir[2] / n};
   l.cosAlpha = cosAlpha;
   l.radiance = {1, 1, 1};
   LightSet set;

@@ -201,7 +201,7 @@ struct LightSet {
 
 // Checks a light set built in code as the light-set file reader checks a file. Throws
 // Error(BadInput) "LightSet: light 3: <problem>" for more than PB_MAX_LIGHTS lights, a direction
-// that is not a finite unit vector, cosAlpha outside (0, 1), radiance or power non-finite or
+// that is not a finite unit vector, cosAlpha outside [-1, 1], radiance or power non-finite or
 // negative, a polygon with a vertex count outside 3..PB_MAX_POLY_VERTS or a non-finite vertex, a
 // texture whose size and values disagree or are non-finite or negative; and for non-finite
 // ambient coefficients or an ambient map whose size and values disagree. Renderer::render calls it

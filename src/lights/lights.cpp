@@ -527,8 +527,10 @@ void validateLightSet(const LightSet& set) {
     const std::string at = "LightSet: light " + std::to_string(i) + ": ";
     if (!unit3(l.direction))
       badInput(at + "direction " + text3(l.direction) + " must be a finite unit vector");
-    if (!(l.cosAlpha > 0 && l.cosAlpha < 1))
-      badInput(at + "cosAlpha " + std::to_string(l.cosAlpha) + " must be in (0, 1)");
+    // Any cap from a direction (1: a hard light) to the whole sphere (-1) has a defined solid
+    // angle and finite shading (the kernels' degenerate-input tests); the file format is stricter.
+    if (!(l.cosAlpha >= -1 && l.cosAlpha <= 1))
+      badInput(at + "cosAlpha " + std::to_string(l.cosAlpha) + " must be in [-1, 1]");
     for (const auto* v : {&l.radiance, &l.power})
       for (float c : *v)
         if (!std::isfinite(c) || c < 0)
