@@ -7,10 +7,10 @@
 //
 // Thread safety: one Context may be shared by any number of threads: every member function, and
 // every library call that takes a Context (light extraction, cubeMapEnergy, addAmbientResidual,
-// summedAreaTable, Renderers: renderer.hpp), may be called concurrently with the same one. The program cache and the
-// event list are behind mutexes; a scratch buffer is leased to one caller at a time (scratch());
-// all threads enqueue on the one in-order queue, so the device runs their commands one after
-// another in enqueue order. Stage timings are the Context's, not a thread's: they add up every
+// summedAreaTable, Renderers: renderer.hpp), may be called concurrently with the same one. The
+// program cache and the event list are behind mutexes; a scratch buffer is leased to one caller
+// at a time (scratch()); all threads enqueue on the one in-order queue, so the device runs their
+// commands one after another in enqueue order. Stage timings are the Context's, not a thread's: they add up every
 // thread's launches, and resetTimings() clears them for all. What is not shared: a cl::Kernel
 // (its arguments are set per object: take one from kernel() per thread, as the library does) and
 // a cl::Buffer two threads write. The Context must outlive every call and object using it.
@@ -206,8 +206,8 @@ class Context {
   cl::Context context_;
   cl::Device device_;
   cl::CommandQueue queue_;
-  // Each mutex guards the members below it. Held while a program builds (a second thread asking for
-  // the same program waits for it rather than building it again).
+  // Each mutex guards the members below it. Held while a program builds (a second thread asking
+  // for the same program waits for it rather than building it again).
   std::mutex programsMutex_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
   // Held across enqueue and append in launch(), so that events_ is in queue order (the folding
