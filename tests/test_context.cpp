@@ -79,19 +79,28 @@ TEST(Context, NamedLaunchesBecomeStageTimes) {
   EXPECT_FLOAT_EQ(out.back(), 64.0f * 8.0f);
 }
 
-// Context::scratch: one buffer per role, handed out again while it is large enough (the same
-// cl_mem), replaced by a larger one when a call needs more, and kept apart from other roles.
+// Context::scratch: one buffer per role, handed out again once its lease is released while it is
+// large enough (the same cl_mem), replaced by a larger one when a call needs more, kept apart from
+// other roles, and never handed to a second holder while leased.
 TEST(Context, ScratchBuffersAreReusedPerRoleAndGrow) {
   Context& ctx = test::ctx();
-  cl::Buffer a = ctx.scratch("test scratch a", 256);
-  EXPECT_EQ(ctx.scratch("test scratch a", 100)(), a());
-  EXPECT_EQ(ctx.scratch("test scratch a", 256)(), a());
-  EXPECT_NE(ctx.scratch("test scratch b", 100)(), a());
-  cl::Buffer big = ctx.scratch("test scratch a", 4096);
-  EXPECT_GE(big.getInfo<CL_MEM_SIZE>(), 4096u);
-  EXPECT_EQ(ctx.scratch("test scratch a", 1000)(), big());
-  // what one user wrote is there for the next (the contents are the last user's)
+  cl_mem a = ctx.scratch("test scratch a", 256).buffer()();
+  EXPECT_EQ(ctx.scratch("test scratch a", 100).buffer()(), a);
+  EXPECT_EQ(ctx.scratch("test scratch a", 256).buffer()(), a);
+  EXPECT_NE(ctx.scratch("test scratch b", 100).buffer()(), a);
+  Context::ScratchLease big = ctx.scratch("test scratch a", 4096);
+  EXPECT_GE(big.buffer().getInfo<CL_MEM_SIZE>(), 4096u);
+  {
+    // while `big` is leased, the role's next holder gets another buffer
+    Context::ScratchLease other = ctx.scratch("test scratch a", 1000);
+    EXPECT_NE(other.buffer()(), big.buffer()());
+  }
   std::vector<int> v(1024, 7);
-  ctx.write(big, v.data(), v.size() * sizeof(int), "scratch");
-  EXPECT_EQ(ctx.download<int>(ctx.scratch("test scratch a", 64), 1024, "scratch"), v);
+  ctx.write(big.buffer(), v.data(), v.size() * sizeof(int), "scratch");
+  const cl_mem bigMem = big.buffer()();
+  big = Context::ScratchLease();  // released
+  // what one holder wrote is there for the next (the contents are the last holder's)
+  Context::ScratchLease again = ctx.scratch("test scratch a", 1000);
+  EXPECT_EQ(again.buffer()(), bigMem);
+  EXPECT_EQ(ctx.download<int>(again.buffer(), 1024, "scratch"), v);
 }

@@ -204,7 +204,12 @@ PYBIND11_MODULE(penumbra, m) {
       "    lights = penumbra.extract_lights(ctx, env, lights=32)\n"
       "    frame = penumbra.Renderer(ctx).render(scene, cam, lights, env,\n"
       "                                          penumbra.RenderOptions(width=320, height=180))\n"
-      "    penumbra.write_image('frame.exr', frame.image)\n";
+      "    penumbra.write_image('frame.exr', frame.image)\n\n"
+      "Threads: a Context and a Renderer may be shared by threads (see their docstrings); the "
+      "long calls (loading, extraction, rendering, the references, waiting for the device) "
+      "release the GIL, so threads run them at once. Objects passed to a call are used without "
+      "the GIL: do not modify them from another thread until it returns (add_ambient_residual "
+      "writes its light set: not the same one on two threads at once).\n";
   m.attr("__version__") = PENUMBRA_VERSION;
 
   // ---- errors -----------------------------------------------------------------------------
@@ -274,7 +279,13 @@ PYBIND11_MODULE(penumbra, m) {
   py::class_<Context>(m, "Context",
                       "An OpenCL device with its queue and kernel cache. Create one and pass it "
                       "to extraction, Renderer and cube_map_energy; it must outlive them (Renderer "
-                      "keeps it alive).")
+                      "keeps it alive).\n\n"
+                      "Thread safety: one Context may be shared by any number of threads; every "
+                      "function taking it (extraction, cube_map_energy, add_ambient_residual, "
+                      "Renderers) may run on several threads at once with the same Context and "
+                      "gives what it gives alone. Their device work runs one command at a time "
+                      "on the Context's queue. Stage times are the Context's: they sum every "
+                      "thread's work, and reset_timings() clears them for all.")
       .def(py::init<const std::string&>(), "device"_a = "",
            "device: '' uses $PENUMBRA_DEVICE if set, else device 0; otherwise an index into "
            "list_devices() (as a string) or a case-insensitive part of the device or platform "
@@ -283,11 +294,21 @@ PYBIND11_MODULE(penumbra, m) {
            "Device by its index in list_devices().")
       .def_property_readonly("info", &Context::info, py::return_value_policy::copy,
                              "The chosen device (DeviceInfo).")
-      .def("stage_times_ms", [](Context& c) { return timingsDict(c.stageTimesMs()); },
+      .def("stage_times_ms",
+           [](Context& c) {
+             std::vector<std::pair<std::string, double>> t;
+             {
+               py::gil_scoped_release release;  // waits for the queue
+               t = c.stageTimesMs();
+             }
+             return timingsDict(t);
+           },
            "Device milliseconds per named kernel stage since the last reset_timings(), as a "
            "dict in first-launch order. Waits for the queue.")
-      .def("reset_timings", &Context::resetTimings, "Clears the accumulated stage times.")
-      .def("finish", &Context::finish, "Waits until every queued command has completed.")
+      .def("reset_timings", &Context::resetTimings, py::call_guard<py::gil_scoped_release>(),
+           "Clears the accumulated stage times (every thread's).")
+      .def("finish", &Context::finish, py::call_guard<py::gil_scoped_release>(),
+           "Waits until every queued command has completed (every thread's).")
       .def("__repr__", [](const Context& c) { return "<penumbra.Context " + c.info().name + ">"; });
 
   // ---- images -----------------------------------------------------------------------------
@@ -968,7 +989,12 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<Renderer>(m, "Renderer",
                        "Renders frames on a Context. Keep one: device buffers are reused between "
-                       "frames of the same sizes.")
+                       "frames of the same sizes.\n\n"
+                       "Thread safety: a Renderer may be shared by threads: render() calls run "
+                       "one after another, each giving exactly the frame it gives alone, and "
+                       "last_visibility() is that of the last render by any thread. For frames "
+                       "that overlap, give each thread its own Renderer; any number may share "
+                       "one Context.")
       .def(py::init<Context&>(), "ctx"_a, py::keep_alive<1, 2>(), "A renderer on ctx.")
       .def("render", &Renderer::render, "scene"_a, "camera"_a, "lights"_a, "env"_a,
            "options"_a = RenderOptions{}, py::call_guard<py::gil_scoped_release>(),
@@ -977,7 +1003,11 @@ PYBIND11_MODULE(penumbra, m) {
       .def(
           "last_visibility",
           [](Renderer& r, int width, int height) {
-            std::vector<float> v = r.lastVisibility();
+            std::vector<float> v;
+            {
+              py::gil_scoped_release release;  // waits for a render on another thread
+              v = r.lastVisibility();
+            }
             const py::ssize_t per = py::ssize_t(width) * height;
             if (per <= 0 || py::ssize_t(v.size()) % per != 0)
               badInput("last_visibility: " + std::to_string(v.size()) +

@@ -4,6 +4,16 @@
 // Call order: construct a Context (it picks the device), then obtain kernels with kernel(file,
 // name, options) and launch them with launch(stage, ...). Timings accumulate per stage name until
 // resetTimings(); stageTimesMs() waits for the queue, so its numbers are complete when it returns.
+//
+// Thread safety: one Context may be shared by any number of threads: every member function, and
+// every library call that takes a Context (light extraction, cubeMapEnergy, addAmbientResidual,
+// summedAreaTable, Renderers: renderer.hpp), may be called concurrently with the same one. The
+// program cache and the event list are behind mutexes; a scratch buffer is leased to one caller
+// at a time (scratch()); all threads enqueue on the one in-order queue, so the device runs their
+// commands one after another in enqueue order. Stage timings are the Context's, not a thread's: they add up every
+// thread's launches, and resetTimings() clears them for all. What is not shared: a cl::Kernel
+// (its arguments are set per object: take one from kernel() per thread, as the library does) and
+// a cl::Buffer two threads write. The Context must outlive every call and object using it.
 #pragma once
 // penumbra targets OpenCL 1.2 through the Khronos C++ bindings with exceptions (DESIGN.md: target
 // 300 with minimum 120 does not compile against Debian's opencl.hpp).
@@ -19,8 +29,10 @@
 #include <CL/opencl.hpp>
 
 #include <cstdint>
+#include <list>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -62,7 +74,7 @@ class Context {
   // leave PoCL compiling or running kernels while the process tears its libraries down.
   ~Context();
   // One owner: the destructor drains the queue, and the program cache, stage timings and scratch
-  // buffers belong to this object alone. Share a Context by reference.
+  // buffers belong to this object alone. Share a Context by reference (between threads too).
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
 
@@ -137,15 +149,45 @@ class Context {
   void fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes, std::size_t bytes,
             const std::string& what);
   void finish();
+  // A lease on a scratch buffer (scratch()): the buffer is the holder's alone until the lease is
+  // destroyed or reassigned, then goes back to the context for the next caller with its role.
+  // Keep the lease, not a copy of buffer(), for as long as the buffer is used. Leases must not
+  // outlive their Context.
+  class ScratchLease {
+   public:
+    ScratchLease() = default;
+    ScratchLease(ScratchLease&& o) noexcept { *this = std::move(o); }
+    ScratchLease& operator=(ScratchLease&& o) noexcept;
+    ScratchLease(const ScratchLease&) = delete;
+    ScratchLease& operator=(const ScratchLease&) = delete;
+    ~ScratchLease() { release(); }
+    cl::Buffer& buffer() { return slot_->buffer; }
+    const cl::Buffer& buffer() const { return slot_->buffer; }
+
+   private:
+    friend class Context;
+    struct Slot {
+      cl::Buffer buffer;
+      std::size_t bytes = 0;
+      bool leased = false;
+    };
+    ScratchLease(Context* c, Slot* s) : ctx_(c), slot_(s) {}
+    void release() noexcept;
+    Context* ctx_ = nullptr;
+    Slot* slot_ = nullptr;
+  };
   // A buffer of at least `bytes` kept by the context under `role` and handed out again to later
   // calls with the same role, so that work repeated every frame (light extraction from an animated
   // map) neither allocates nor first-touches its buffers each time (first-touch page faults were
   // most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more, never shrunk:
   // the context holds the largest size each role has needed until it is destroyed. Its contents
-  // are the last user's: valid until the next scratch() call for the same role.
-  cl::Buffer scratch(const std::string& role, std::size_t bytes);
-  // The one rule behind scratch() and the renderer's per-frame buffer pool: the buffer kept in
-  // slots[role], reallocated (the smaller one released first) only when `bytes` exceeds it.
+  // are the previous holder's. While one lease on a role is held, another caller (another thread)
+  // gets another buffer for that role, so the context keeps as many per role as were ever leased
+  // at once; one thread alone always gets the same one.
+  ScratchLease scratch(const std::string& role, std::size_t bytes);
+  // The rule behind scratch() and the renderer's per-frame buffer pool: the buffer kept in
+  // slots[role], reallocated (the smaller one released first) only when `bytes` exceeds it. The
+  // slots are the caller's: it keeps them to one thread at a time.
   using BufferSlots = std::map<std::string, std::pair<cl::Buffer, std::size_t>>;
   cl::Buffer& reuse(BufferSlots& slots, const std::string& role, std::size_t bytes);
 
@@ -157,19 +199,26 @@ class Context {
   // finished), so a long run's memory does not grow with its launches; stageTimesMs() adds the
   // same durations in the same order either way.
   static constexpr std::size_t kEventBound = 4096;
-  std::size_t heldEvents() const { return events_.size(); }
+  std::size_t heldEvents() const;
 
  private:
   DeviceInfo info_;
   cl::Context context_;
   cl::Device device_;
   cl::CommandQueue queue_;
+  // Each mutex guards the members below it. Held while a program builds (a second thread asking
+  // for the same program waits for it rather than building it again).
+  std::mutex programsMutex_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
-  // Folds events_[0, count) into folded_ and drops them.
-  void foldEvents(std::size_t count);
+  // Held across enqueue and append in launch(), so that events_ is in queue order (the folding
+  // relies on it); never held by a thread waiting on something other than the queue.
+  mutable std::mutex eventsMutex_;
   std::vector<std::pair<std::string, cl::Event>> events_;
   std::vector<std::pair<std::string, double>> folded_;  // per-stage totals of dropped events
-  BufferSlots scratch_;  // role -> (buffer, bytes)
+  // Folds events_[0, count) into folded_ and drops them (eventsMutex_ held).
+  void foldEvents(std::size_t count);
+  std::mutex scratchMutex_;
+  std::map<std::string, std::list<ScratchLease::Slot>> scratch_;  // role -> its buffers
   // Live and peak bytes of this context's buffers. Shared with each buffer's release callback,
   // which may run after the Context is gone (a buffer the caller still holds).
   std::shared_ptr<detail::BufferLedger> ledger_;

@@ -5,6 +5,15 @@
 // light set (extract the lights with extractMedianCut, or pass your own). Buffers are reused
 // between frames of the same sizes; the scene and the environment map stay on the device and are
 // uploaded again only when they change. The returned Frame is complete when render() returns.
+//
+// Thread safety: a Renderer may be shared by threads: render() and lastVisibility() take a mutex,
+// so concurrent calls run one after another and each returns exactly what it would alone (a
+// Renderer's buffers, kernels and last visibility are one frame's state, and the device runs one
+// command at a time on the Context's queue anyway, so a lock costs no device parallelism).
+// lastVisibility() is that of the last render() by any thread. For frames whose host work (scene
+// upload, light frames) overlaps, give each thread its own Renderer: any number of Renderers may
+// share one Context (context.hpp, "Thread safety"). The Scene, LightSet and Environment passed to
+// render() are only read, and may be shared by threads that do not modify them meanwhile.
 #pragma once
 #include <array>
 #include <memory>

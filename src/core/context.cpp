@@ -1,4 +1,5 @@
-// OpenCL context, device selection, program cache and named, profiled launches.
+// OpenCL context, device selection, program cache and named, profiled launches; shared between
+// threads (context.hpp, "Thread safety").
 #include "penumbra/context.hpp"
 
 #include <algorithm>
@@ -187,6 +188,7 @@ Context::Context(const std::string& selectorIn) : ledger_(std::make_shared<detai
 cl::Kernel Context::kernel(const std::string& file, const std::string& name,
                            const std::string& options) {
   auto key = std::make_pair(file, options);
+  std::unique_lock<std::mutex> lock(programsMutex_);
   auto it = programs_.find(key);
   if (it == programs_.end()) {
     const auto& sources = detail::embeddedKernels();
@@ -215,8 +217,10 @@ cl::Kernel Context::kernel(const std::string& file, const std::string& name,
     }
     it = programs_.emplace(key, program).first;
   }
+  const cl::Program program = it->second;
+  lock.unlock();  // clCreateKernel is thread-safe; only the map needs the lock
   try {
-    return cl::Kernel(it->second, name.c_str());
+    return cl::Kernel(program, name.c_str());
   } catch (const cl::Error& e) {
     rethrowCl(e, "creating kernel " + name + " from kernels/" + file);
   }
@@ -268,6 +272,7 @@ void Context::launch(const std::string& stage, const cl::Kernel& k, const cl::ND
       l = cl::NDRange(wg, 1, 1);
     }
   }
+  std::lock_guard<std::mutex> lock(eventsMutex_);
   try {
     queue_.enqueueNDRangeKernel(k, cl::NullRange, g, l, nullptr, &ev);
   } catch (const cl::Error& e) {
@@ -368,8 +373,44 @@ cl::Buffer& Context::reuse(BufferSlots& slots, const std::string& role, std::siz
   return slot.first;
 }
 
-cl::Buffer Context::scratch(const std::string& role, std::size_t bytes) {
-  return reuse(scratch_, role, std::max<std::size_t>(1, bytes));
+Context::ScratchLease Context::scratch(const std::string& role, std::size_t bytes) {
+  bytes = std::max<std::size_t>(1, bytes);
+  std::lock_guard<std::mutex> lock(scratchMutex_);
+  auto& slots = scratch_[role];
+  // A free slot large enough, else any free one (grown below), else a new one.
+  ScratchLease::Slot* pick = nullptr;
+  for (auto& s : slots)
+    if (!s.leased && (!pick || (pick->bytes < bytes && s.bytes > pick->bytes))) pick = &s;
+  if (!pick) pick = &slots.emplace_back();
+  if (pick->bytes < bytes) {
+    pick->buffer = cl::Buffer();  // release the smaller one before allocating
+    pick->bytes = 0;
+    pick->buffer = buffer(bytes, role);
+    pick->bytes = bytes;
+  }
+  pick->leased = true;
+  return ScratchLease(this, pick);
+}
+
+Context::ScratchLease& Context::ScratchLease::operator=(ScratchLease&& o) noexcept {
+  if (this != &o) {
+    release();
+    ctx_ = o.ctx_;
+    slot_ = o.slot_;
+    o.ctx_ = nullptr;
+    o.slot_ = nullptr;
+  }
+  return *this;
+}
+
+// The holder's commands on the buffer may still be queued: the next holder's are enqueued after
+// them on the same in-order queue, so they never overlap.
+void Context::ScratchLease::release() noexcept {
+  if (!slot_) return;
+  std::lock_guard<std::mutex> lock(ctx_->scratchMutex_);
+  slot_->leased = false;
+  slot_ = nullptr;
+  ctx_ = nullptr;
 }
 
 void Context::write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what) {
@@ -409,14 +450,29 @@ void Context::finish() {
 
 std::vector<std::pair<std::string, double>> Context::stageTimesMs() {
   finish();
+  std::lock_guard<std::mutex> lock(eventsMutex_);
+  // Launches other threads made since finish() may still run: the queue is in order, so their
+  // last one's end is all of theirs. (Already complete when one thread uses the Context.)
+  if (!events_.empty()) {
+    try {
+      events_.back().second.wait();
+    } catch (const cl::Error&) {  // a failed command: its duration reads as 0 ms
+    }
+  }
   std::vector<std::pair<std::string, double>> out = folded_;
   for (auto& [stage, ev] : events_) addEvent(out, stage, ev);
   return out;
 }
 
 void Context::resetTimings() {
+  std::lock_guard<std::mutex> lock(eventsMutex_);
   events_.clear();
   folded_.clear();
+}
+
+std::size_t Context::heldEvents() const {
+  std::lock_guard<std::mutex> lock(eventsMutex_);
+  return events_.size();
 }
 
 }  // namespace penumbra

@@ -30,9 +30,12 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   // extracts every frame, and allocating and first-touching them each time cost more than the
   // kernels.
   const std::size_t bytes = 3ull * 6 * m * m * sizeof(cl_long);
-  cl::Buffer eqBuf = ctx.scratch("environment map", eq.pixels.size() * sizeof(float));
+  Context::ScratchLease eqLease =
+      ctx.scratch("environment map", eq.pixels.size() * sizeof(float));
+  cl::Buffer& eqBuf = eqLease.buffer();
   ctx.write(eqBuf, eq.pixels.data(), eq.pixels.size() * sizeof(float), "environment map");
-  cube.energy = ctx.scratch("cube-map energy", bytes);
+  cube.lease = ctx.scratch("cube-map energy", bytes);
+  cube.energy = cube.lease.buffer();
 
   // Splat when the map's texels are at least as fine as the cube's (equator texel 2 pi / W versus
   // face-centre texel (pi/2) / m), gather otherwise. Sub-samples per side: about two per
@@ -45,8 +48,9 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
     // Tables of the separable sub-texel directions (kernels/environment/envmap.cl
     // env_splat_rows/_columns).
     const std::size_t nr = std::size_t(eq.height) * ss, nc = std::size_t(eq.width) * ss;
-    cl::Buffer rows = ctx.scratch("splat row table", nr * sizeof(cl_float4));
-    cl::Buffer cols = ctx.scratch("splat column table", nc * sizeof(cl_float2));
+    Context::ScratchLease rowsLease = ctx.scratch("splat row table", nr * sizeof(cl_float4));
+    Context::ScratchLease colsLease = ctx.scratch("splat column table", nc * sizeof(cl_float2));
+    cl::Buffer &rows = rowsLease.buffer(), &cols = colsLease.buffer();
     cl::Kernel kr = ctx.kernel("envmap.cl", "env_splat_rows");
     ctx.launchWith("env/resample/rows", kr, cl::NDRange(nr), cl::NullRange, cl_int(eq.height),
                    cl_int(ss), cl_float(cube.scale), cl_int(eq.width), rows);
@@ -64,7 +68,8 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
     // The side faces' map columns (kernels/environment/envmap.cl env_gather_columns). Every cube
     // texel is written: no clearing.
     const std::size_t nc = 4ull * m * ss;
-    cl::Buffer cols = ctx.scratch("gather column table", nc * sizeof(cl_int));
+    Context::ScratchLease colsLease = ctx.scratch("gather column table", nc * sizeof(cl_int));
+    cl::Buffer& cols = colsLease.buffer();
     cl::Kernel kc = ctx.kernel("envmap.cl", "env_gather_columns");
     ctx.launchWith("env/resample/columns", kc, cl::NDRange(nc), cl::NullRange, cl_int(eq.width),
                    cl_float(env.rotationColumns()), cl_int(ss), cl_int(m), cols);

@@ -188,8 +188,10 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   // Colour as CIE XYZ (seed 003 §5): the luminance SAT's Y is shared, X and Z of two faces share
   // a long4 (kernels/environment/envmap.cl env_sat_inputs): 9 long4 images to scan instead of 12.
   // Context scratch buffers: kept across extractions (an animation runs one per frame).
-  cl::Buffer lum = ctx.scratch("luminance SAT", cubeTexels * sizeof(cl_long4));
-  cl::Buffer xz = ctx.scratch("colour (X, Z) SAT", cubeTexels / 2 * sizeof(cl_long4));
+  Context::ScratchLease lumLease = ctx.scratch("luminance SAT", cubeTexels * sizeof(cl_long4));
+  Context::ScratchLease xzLease =
+      ctx.scratch("colour (X, Z) SAT", cubeTexels / 2 * sizeof(cl_long4));
+  cl::Buffer &lum = lumLease.buffer(), &xz = xzLease.buffer();
   {
     cl::Kernel k = ctx.kernel("envmap.cl", "env_sat_inputs");
     ctx.launchWith("env/sat-inputs", k, cl::NDRange(m, m, 6), cl::NullRange, energy, cl_int(m),

@@ -1,5 +1,8 @@
 // `render --gl`: GL rasterizes the camera G-buffer and one shadow map per light from the scene's
 // triangles, Interop computes visibility in OpenCL and shades in GL (interop.hpp).
+// One thread only (interop.hpp, "Thread safety"): every GL call below acts on the context current
+// on the calling thread, so unlike Renderer there is no lock that could make sharing safe; the
+// OpenCL Context it renders on may be shared.
 #include <algorithm>
 #include <chrono>
 #include <cmath>

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
@@ -81,6 +82,9 @@ pb_view cameraView(const Camera& c, int w, int h) {
 }  // namespace
 
 struct Renderer::Impl {
+  // Serializes render() and lastVisibility() (renderer.hpp, "Thread safety"): the members below
+  // are one frame's state (kernels with their arguments set, the buffer pool, the last visibility).
+  std::mutex mutex;
   Context& ctx;
   detail::BufferPool pool;
   detail::DeviceScene scene;
@@ -134,8 +138,9 @@ Renderer::~Renderer() = default;
 
 Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet& lightSet,
                        const Environment& env, const RenderOptions& opt) {
-  auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
+  auto t0 = std::chrono::steady_clock::now();  // after the wait for other threads' frames
   detail::validateFrameInputs(scene, camera, lightSet, env, opt);
   const int W = opt.width, H = opt.height, nl = int(lightSet.lights.size());
   checkFrameFits(m.ctx, opt, nl);
@@ -168,6 +173,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   return frame;
 }
 
-std::vector<float> Renderer::lastVisibility() { return impl_->visibility.download(); }
+std::vector<float> Renderer::lastVisibility() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->visibility.download();
+}
 
 }  // namespace penumbra

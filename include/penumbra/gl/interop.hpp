@@ -21,6 +21,11 @@
 // context; penumbra's Context is not (and PoCL has no GL sharing), so every frame takes the
 // explicit host-copy path: glGetTexImage -> clEnqueueWriteBuffer in, clEnqueueReadBuffer ->
 // glTexSubImage3D out. Its cost is reported as the stages interop/upload and interop/download.
+//
+// Thread safety: an Interop or GLRenderer belongs to the thread whose GL context was current when
+// it was made: GL contexts are current on one thread at a time, and the GL names it holds live in
+// that context. Use it only from that thread, with that context current; never from two threads.
+// Its OpenCL Context may be shared with other threads and renderers (context.hpp).
 #pragma once
 #include <array>
 #include <cstdint>
