@@ -789,14 +789,31 @@ TEST(SceneUntrusted, TimeAndMemoryLimitsApply) {
   LoadOptions quick;
   quick.timeoutSeconds = 0.001;
   expectQuickRefusal([&] { loadScene(f, quick); }, {"WusonOBJ.obj", "longer than its limit"});
+  // The memory limit is address space added to what the child inherits, and free heap the
+  // parent already holds is reused without adding any: the file must need far more than this
+  // test process could have free. A 300 x 300 quad grid (180,000 triangles) needs well over
+  // 100 MiB in Assimp.
+  TempDir dir;
+  std::string grid;
+  const int n = 300;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) grid += "v " + std::to_string(i) + " 0 " + std::to_string(j) + "\n";
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i + 1;
+      grid += "f " + std::to_string(a) + " " + std::to_string(a + n + 1) + " " +
+              std::to_string(a + n + 2) + " " + std::to_string(a + 1) + "\n";
+    }
+  const std::string big = dir.write("grid.obj", grid);
   LoadOptions small;
   small.memoryLimitBytes = 1 << 20;
 #if defined(__SANITIZE_ADDRESS__)
   // AddressSanitizer's allocator aborts rather than throwing bad_alloc at the limit.
-  expectQuickRefusal([&] { loadScene(f, small); }, {"WusonOBJ.obj", "crashed"});
+  expectQuickRefusal([&] { loadScene(big, small); }, {"grid.obj", "crashed"});
 #else
-  expectQuickRefusal([&] { loadScene(f, small); }, {"WusonOBJ.obj", "memory", "limit of 1 MiB"});
+  expectQuickRefusal([&] { loadScene(big, small); }, {"grid.obj", "memory", "limit of 1 MiB"});
 #endif
+  EXPECT_EQ(loadScene(big, {false}).triangleCount(), std::size_t(2 * n * n));
   LoadOptions bad;
   bad.timeoutSeconds = -1;
   expectBadInput([&] { loadScene(f, bad); }, {"timeoutSeconds"});
