@@ -471,18 +471,38 @@ PYBIND11_MODULE(penumbra, m) {
   m.def("builtin_scene", &builtinScene, "time"_a = 0.0f,
         "The default scene (ground, box, sphere, floating slab, torus, lattice) at `time` "
         "seconds: the sphere bounces and the slab turns. Raises BadInput for a non-finite time.");
+  // LoadOptions from keywords: the importer's limits (0: automatic, as in C++).
+  const auto loadOptions = [](bool addGround, double timeoutSeconds, std::size_t memoryLimitBytes) {
+    LoadOptions o;
+    o.addGround = addGround;
+    o.timeoutSeconds = timeoutSeconds;
+    o.memoryLimitBytes = memoryLimitBytes;
+    return o;
+  };
   m.def(
       "load_scene",
-      [](const std::string& path, bool addGround) { return loadScene(path, LoadOptions{addGround}); },
-      "path"_a, "add_ground"_a = true, py::call_guard<py::gil_scoped_release>(),
+      [loadOptions](const std::string& path, bool addGround, double timeout, std::size_t memory) {
+        return loadScene(path, loadOptions(addGround, timeout, memory));
+      },
+      "path"_a, "add_ground"_a = true, "timeout_seconds"_a = 0.0, "memory_limit_bytes"_a = 0,
+      py::call_guard<py::gil_scoped_release>(),
       "Loads a mesh file through Assimp (OBJ, PLY, glTF/GLB, ...), with a ground plane under it "
-      "unless add_ground is False. Raises BadInput naming the file: unreadable, no triangles, "
-      "non-finite vertices, indices out of range.");
+      "unless add_ground is False. PLY/glTF/GLB sizes are checked against the file first, then "
+      "Assimp runs in a child process limited to timeout_seconds and memory_limit_bytes (0: "
+      "automatic, 20 s + 1 s per MB and 1 GiB + 64x the file), so a malformed file cannot crash "
+      "or hang Python. Raises BadInput naming the file: unreadable, no triangles, non-finite "
+      "vertices, indices out of range, sizes beyond the file, a crash or a limit passed.");
   m.def(
       "scene_from",
-      [](const std::string& path, bool addGround) { return sceneFrom(path, LoadOptions{addGround}); },
-      "path_or_builtin"_a, "add_ground"_a = true, py::call_guard<py::gil_scoped_release>(),
-      "'builtin' -> builtin_scene(), else load_scene(path).");
+      [loadOptions](const std::string& path, bool addGround, double timeout, std::size_t memory) {
+        return sceneFrom(path, loadOptions(addGround, timeout, memory));
+      },
+      "path_or_builtin"_a, "add_ground"_a = true, "timeout_seconds"_a = 0.0,
+      "memory_limit_bytes"_a = 0, py::call_guard<py::gil_scoped_release>(),
+      "'builtin' -> builtin_scene(), else load_scene(path, ...).");
+  m.def("validate_scene", &validateScene, "scene"_a,
+        "Raises BadInput naming the mesh and element for what Renderer.render would refuse: a "
+        "triangle index out of range, non-finite positions, bad normals, albedo outside [0, 1].");
   m.def("frame_camera", &frameCamera, "scene"_a, "aspect"_a,
         "A camera looking at the scene from above and to the side, fitting its bounds for the "
         "aspect ratio width / height.");
@@ -665,6 +685,10 @@ PYBIND11_MODULE(penumbra, m) {
   m.def("light_sample_directions", &lightSampleDirections, "light"_a, "n"_a, "rotation"_a = 0.0f,
         "n directions stratified and uniform in solid angle over the light, turned about its "
         "direction by `rotation` radians.");
+  m.def("validate_light_set", &validateLightSet, "light_set"_a,
+        "Raises BadInput 'LightSet: light i: ...' for what Renderer.render would refuse: a "
+        "direction that is not a finite unit vector, cos_alpha outside [-1, 1], non-finite or "
+        "negative radiance or power, bad polygon vertices, textures or ambient.");
   m.def("load_light_set", &loadLightSet, "path"_a,
         "Reads a light-set JSON file (caps, polygons, rects, ellipses, textures; the format of `penumbra render "
         "--light-set`). Raises BadInput naming the file and the light for bad input.");
