@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# One fuzz target's CTest run: replay every regression file of the target (each was once a crash,
+# a hang or a leak; all must now pass), then fuzz for SECONDS from the seed corpus. New inputs go to
+# WORK (a build directory), never into the source tree; a crash leaves crash-*/timeout-*/oom-*
+# files in WORK, to be minimized and added to tests/data/fuzz/crashes/<target>/.
+# Usage: run.sh FUZZER TARGET DATA_DIR WORK_DIR SECONDS
+set -euo pipefail
+fuzzer=$1 target=$2 data=$3 work=$4 seconds=$5
+mkdir -p "$work/corpus"
+# Limits every run shares: 10 s per input is a hang, 2 GB resident is a memory blow-up.
+common=(-timeout=10 -rss_limit_mb=2048)
+dict=()
+if [ -f "$(dirname "$0")/$target.dict" ]; then dict=(-dict="$(dirname "$0")/$target.dict"); fi
+shopt -s nullglob
+crashes=("$data/crashes/$target"/*)
+if [ ${#crashes[@]} -gt 0 ]; then
+  echo "replaying ${#crashes[@]} regression file(s) from $data/crashes/$target"
+  "$fuzzer" "${common[@]}" "${crashes[@]}"
+fi
+exec "$fuzzer" "${common[@]}" "${dict[@]}" -max_total_time="$seconds" -print_final_stats=1 \
+  -artifact_prefix="$work/" "$work/corpus" "$data/$target"
