@@ -198,6 +198,12 @@ std::vector<OptionSpec> sceneOptions(int width, int height) {
        {"RenderOptions.width", "RenderOptions.height"}},
       {"camera", true, "ex,ey,ez,tx,ty,tz[,fovy]: eye, target, vertical fov (default: framed)"},
       {"no-ground", false, "do not add a ground plane under a loaded mesh"},
+      {"load-timeout", true,
+       "seconds the mesh importer may take (default: 20 s + 1 s per MB of file)",
+       {"LoadOptions.timeoutSeconds"}},
+      {"load-memory", true,
+       "MiB the mesh importer may allocate (default: 1 GiB + 64x the file, <= 3/4 of RAM)",
+       {"LoadOptions.memoryLimitBytes"}},
       {"device", true, "OpenCL device: index or name substring (default $PENUMBRA_DEVICE or 0)"},
       {"help", false, "show this help"},
   };
@@ -233,6 +239,15 @@ SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv = true) 
   if (haveCamera) cam = parseCamera(get(a, "camera", ""));
   LoadOptions lo;
   lo.addGround = !has(a, "no-ground");
+  if (has(a, "load-timeout")) {
+    lo.timeoutSeconds = parseFloat("load-timeout", get(a, "load-timeout", ""));
+    if (!(lo.timeoutSeconds > 0)) badInput("--load-timeout must be > 0 seconds");
+  }
+  if (has(a, "load-memory")) {
+    const float m = parseFloat("load-memory", get(a, "load-memory", ""));
+    if (!(m >= 1 && m <= 1 << 24)) badInput("--load-memory must be 1..16777216 MiB");
+    lo.memoryLimitBytes = static_cast<std::size_t>(m) << 20;
+  }
   s.scene = sceneFrom(get(a, "scene", "builtin"), lo);
   if (loadEnv) s.env = loadEnvironmentNoting(get(a, "env", "builtin"));
   s.camera = haveCamera ? cam : frameCamera(s.scene, float(width) / float(height));
@@ -355,7 +370,8 @@ int cmdDevices(int argc, char** argv) {
   }
   for (auto& d : listDevices())
     std::cout << d.index << ": " << d.name << " [" << d.platform << "] " << d.version << ", "
-              << (d.globalMemBytes >> 20) << " MiB, max work-group " << d.maxWorkGroupSize
+              << (d.globalMemBytes >> 20) << " MiB (" << (d.maxAllocBytes >> 20)
+              << " MiB per buffer), max work-group " << d.maxWorkGroupSize
               << (d.fp64 ? ", fp64" : "") << (d.int64Atomics ? ", int64 atomics" : "") << "\n";
   return 0;
 }

@@ -265,13 +265,69 @@ TEST_F(CliBadInput, PointCloudMesh) {
 }
 TEST_F(CliBadInput, MissingMesh) { expectRenderFailure("--scene", path("missing.obj")); }
 
+// Meshes that took the process down before Assimp ran in a contained child (issue 14): an
+// assertion abort inside Assimp, a header that made it loop, counts that made it allocate
+// gigabytes. Each is one line, exit 2, nothing written, in seconds.
+class CliUntrustedMesh : public CliFixture {
+ protected:
+  void expectQuickRenderFailure(const std::string& file, const std::string& problem) {
+    const auto t0 = std::chrono::steady_clock::now();
+    expectFailure({"render", "--scene", file, "--size", "32x18", "--out", path("out.png"),
+                   "--report", path("r.json")},
+                  {file, problem});
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 20.0);
+  }
+  // Written outside the test directory, which must stay empty.
+  std::string scratch(const std::string& name, const std::string& bytes) {
+    const fs::path p = dir_.parent_path() / (dir_.filename().string() + "_" + name);
+    std::ofstream(p, std::ios::binary) << bytes;
+    made_.push_back(p);
+    return p.string();
+  }
+  void TearDown() override {
+    for (const auto& p : made_) fs::remove(p);
+    CliFixture::TearDown();
+  }
+  std::vector<fs::path> made_;
+};
+
+TEST_F(CliUntrustedMesh, PlyThatAbortsAssimp) {
+  expectQuickRenderFailure(kData + "/meshes/bad/triangulate_abort.ply", "crashed");
+}
+TEST_F(CliUntrustedMesh, PlyHeaderCutShort) {
+  expectQuickRenderFailure(scratch("cut.ply", "ply\nformat ascii 1.0\nelement vertex 8\nprop"),
+                           "cut short");
+}
+TEST_F(CliUntrustedMesh, PlyCountBeyondTheFile) {
+  expectQuickRenderFailure(
+      scratch("huge.ply",
+              "ply\nformat ascii 1.0\nelement vertex 99999999999999\nproperty float x\n"
+              "property float y\nproperty float z\nelement face 1\n"
+              "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+      "99999999999999 'vertex'");
+}
+TEST_F(CliUntrustedMesh, GlbChunkBeyondTheFile) {
+  std::ifstream in(kData + "/meshes/bad/BoxWithInfinites.glb", std::ios::binary);
+  std::string glb((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_GT(glb.size(), 20u);
+  for (int k = 12; k < 16; ++k) glb[k] = char(0xff);  // JSON chunk length 0xFFFFFFFF
+  expectQuickRenderFailure(scratch("chunk.glb", glb), "4294967295 bytes");
+}
+TEST_F(CliUntrustedMesh, LoadLimitsAreOptions) {
+  expectFailure({"render", "--scene", kData + "/meshes/good/WusonOBJ.obj", "--load-timeout",
+                 "0.001", "--size", "32x18", "--out", path("out.png")},
+                {"WusonOBJ.obj", "longer than its limit of 0.001 s"});
+  expectFailure({"render", "--load-timeout", "-1", "--out", path("out.png")}, {"--load-timeout"});
+  expectFailure({"render", "--load-memory", "0", "--out", path("out.png")}, {"--load-memory"});
+}
+
 // Every file in the bad-data folders that the brief lists is covered above; a new file there
 // should get a test too.
 TEST_F(CliBadInput, BadDataFoldersAreCovered) {
   std::vector<std::string> known = {"truncated.exr", "not_an_image.exr", "nan_inf_negative.exr",
                                     "one_pixel.exr", "BoxWithInfinites.glb",
                                     "IndexOutOfRange.gltf", "IndexOutOfRange.bin",
-                                    "point_cloud.obj"};
+                                    "point_cloud.obj", "triangulate_abort.ply"};
   for (const char* sub : {"/envmaps/bad", "/meshes/bad"})
     for (auto& e : fs::directory_iterator(kData + sub)) {
       std::string f = e.path().filename().string();

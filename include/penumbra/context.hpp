@@ -34,7 +34,8 @@ struct DeviceInfo {
   std::string platform;
   std::string name;
   std::string version;       // OpenCL C version the device compiles
-  std::uint64_t globalMemBytes = 0;
+  std::uint64_t globalMemBytes = 0;   // CL_DEVICE_GLOBAL_MEM_SIZE: all buffers together
+  std::uint64_t maxAllocBytes = 0;    // CL_DEVICE_MAX_MEM_ALLOC_SIZE: one buffer
   std::size_t maxWorkGroupSize = 0;
   bool fp64 = false;
   bool int64Atomics = false;
@@ -47,6 +48,10 @@ const char* clErrorName(cl_int code);
 // All OpenCL devices on all platforms, in a stable order. Throws Error(NoPlatform) with the
 // package that provides one if there is none.
 std::vector<DeviceInfo> listDevices();
+
+namespace detail {
+struct BufferLedger;  // src/core/context.cpp
+}
 
 class Context {
  public:
@@ -104,8 +109,17 @@ class Context {
   // Throws Error(Internal) naming the stage and both counts unless k takes exactly `count`.
   static void checkArgCount(const std::string& stage, const cl::Kernel& k, std::size_t count);
   // Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
+  // buffer() refuses, before asking the driver, a buffer larger than the device's
+  // CL_DEVICE_MAX_MEM_ALLOC_SIZE or one that would bring this context's live buffers past its
+  // CL_DEVICE_GLOBAL_MEM_SIZE (drivers such as PoCL accept such requests and fail later, at first
+  // use, with an assertion); the message gives the bytes asked, the bytes in use and the limit.
   cl::Buffer buffer(std::size_t bytes, const std::string& what,
                     cl_mem_flags flags = CL_MEM_READ_WRITE);
+  // Bytes of device buffers this context has allocated and not yet released, and the most it has
+  // held at once since construction or the last resetPeakDeviceBytes().
+  std::uint64_t deviceBytesInUse() const;
+  std::uint64_t peakDeviceBytes() const;
+  void resetPeakDeviceBytes();
   template <class T>
   cl::Buffer upload(const std::vector<T>& data, const std::string& what) {
     cl::Buffer b = buffer(std::max<std::size_t>(1, data.size()) * sizeof(T), what);
@@ -156,6 +170,9 @@ class Context {
   std::vector<std::pair<std::string, cl::Event>> events_;
   std::vector<std::pair<std::string, double>> folded_;  // per-stage totals of dropped events
   BufferSlots scratch_;  // role -> (buffer, bytes)
+  // Live and peak bytes of this context's buffers. Shared with each buffer's release callback,
+  // which may run after the Context is gone (a buffer the caller still holds).
+  std::shared_ptr<detail::BufferLedger> ledger_;
 };
 
 }  // namespace penumbra

@@ -43,7 +43,9 @@ struct Environment {
 };
 
 // Loads and sanitizes a map. Throws Error(BadInput) naming the file for unreadable, truncated,
-// non-image, or zero-sized input. One-pixel maps are legal (a constant environment).
+// non-image, or zero-sized input. One-pixel maps are legal (a constant environment). Float maps
+// (EXR, HDR, PFM) are linear radiance; an LDR image (PNG, JPEG) is accepted by design and decoded
+// from sRGB to linear (readImage's `linearize`), though its range ends at 1.
 Environment loadEnvironment(const std::string& path);
 
 // A procedural sky that needs no file: a sun of about 0.5 degrees, a blue sky gradient, a bright

@@ -22,8 +22,11 @@ struct Image {
 };
 
 // Reads any image OpenImageIO understands as float. Throws Error(BadInput) naming the file and the
-// problem (missing, unreadable, truncated, zero-sized).
-Image readImage(const std::string& path);
+// problem (missing, unreadable, truncated, zero-sized). With `linearize`, an integer image (PNG,
+// JPEG, 8/16-bit TIFF: display-encoded, OpenImageIO says sRGB unless the file says otherwise) is
+// decoded to linear values with the sRGB transfer function (IEC 61966-2-1); float images are
+// linear already and read as they are.
+Image readImage(const std::string& path, bool linearize = false);
 
 // Writes .exr (linear half/float, all channels) or .png (RGB, tone-mapped, sRGB-encoded; alpha
 // dropped) atomically: the image goes to a temporary file beside the target and is renamed into

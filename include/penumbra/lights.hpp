@@ -199,6 +199,15 @@ struct LightSet {
   std::string toJson() const;
 };
 
+// Checks a light set built in code as the light-set file reader checks a file. Throws
+// Error(BadInput) "LightSet: light 3: <problem>" for more than PB_MAX_LIGHTS lights, a direction
+// that is not a finite unit vector, cosAlpha outside (0, 1), radiance or power non-finite or
+// negative, a polygon with a vertex count outside 3..PB_MAX_POLY_VERTS or a non-finite vertex, a
+// texture whose size and values disagree or are non-finite or negative; and for non-finite
+// ambient coefficients or an ambient map whose size and values disagree. Renderer::render calls it
+// on every frame.
+void validateLightSet(const LightSet& set);
+
 // A light-set file (render/reference --light-set FILE): {"lights": [...], "ambient_sh": [...]
 // optional}. Each light is an object with "shape" (default "cap") and "radiance" or "power" (RGB,
 // finite, >= 0; with both, both are kept as given):

@@ -2,6 +2,7 @@
 // Assimp (OBJ, PLY, glTF/GLB and anything else Assimp reads), and camera framing.
 #pragma once
 #include <array>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,12 @@ struct Scene {
 
 struct LoadOptions {
   bool addGround = true;   // add a ground plane under the mesh (its lowest point touches it)
+  // The importer runs in a child process under these limits, so a malformed file that crashes
+  // it, loops or allocates without bound is refused instead of taking the caller down.
+  // 0 means automatic: 20 s plus 1 s per MB of file; 1 GiB plus 64 bytes per byte of file, at
+  // most three quarters of the machine's physical memory.
+  double timeoutSeconds = 0;
+  std::size_t memoryLimitBytes = 0;
 };
 
 // The default scene: a ground plane, a box and a sphere resting on it (contact shadows), a slab
@@ -52,8 +59,17 @@ Scene builtinScene(float timeSeconds = 0.0f);
 
 // Loads a mesh file through Assimp. Throws Error(BadInput) naming the file and the problem:
 // unreadable or unsupported, no triangles (points or lines only), non-finite vertex coordinates,
-// indices out of range.
+// indices out of range, PLY/glTF/GLB sizes declared beyond what the file holds (checked before
+// Assimp sees the file), or a file that crashes Assimp or passes the time or memory limit of
+// `opt` (Assimp runs in a forked child process; POSIX only). Safe to call from several threads.
 Scene loadScene(const std::string& path, const LoadOptions& opt = {});
+
+// Checks a scene built in code as loadScene checks a file. Throws Error(BadInput) naming the mesh
+// and element ("Scene.meshes[1] 'box': triangle 4 refers to vertex 9 of 4"): a triangle index
+// outside the mesh's vertices, a non-finite position, normals whose count differs from the
+// positions' (when present) or that are non-finite or zero, an albedo outside [0, 1], no
+// triangles at all. Renderer::render calls it on every frame.
+void validateScene(const Scene& scene);
 
 // "builtin" -> builtinScene(), else loadScene(path, opt).
 Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt = {});

@@ -2,6 +2,7 @@
 #include "penumbra/context.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cstdlib>
 #include <sstream>
@@ -94,6 +95,7 @@ std::vector<Found> enumerate() {
       f.info.name = d.getInfo<CL_DEVICE_NAME>();
       f.info.version = d.getInfo<CL_DEVICE_OPENCL_C_VERSION>();
       f.info.globalMemBytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+      f.info.maxAllocBytes = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
       f.info.maxWorkGroupSize = d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
       std::string ext = d.getInfo<CL_DEVICE_EXTENSIONS>();
       f.info.fp64 = ext.find("cl_khr_fp64") != std::string::npos;
@@ -122,7 +124,29 @@ Context::~Context() {
   }
 }
 
-Context::Context(const std::string& selectorIn) {
+namespace detail {
+struct BufferLedger {
+  std::atomic<std::uint64_t> live{0};
+  std::atomic<std::uint64_t> peak{0};
+};
+}  // namespace detail
+
+namespace {
+using detail::BufferLedger;
+// What a buffer's release callback needs: the ledger (kept alive by this copy) and its size.
+struct LedgerEntry {
+  std::shared_ptr<BufferLedger> ledger;
+  std::uint64_t bytes;
+};
+void CL_CALLBACK releaseEntry(cl_mem, void* user) {
+  auto* e = static_cast<LedgerEntry*>(user);
+  e->ledger->live.fetch_sub(e->bytes);
+  delete e;
+}
+std::string mibText(std::uint64_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20); }
+}  // namespace
+
+Context::Context(const std::string& selectorIn) : ledger_(std::make_shared<detail::BufferLedger>()) {
   std::string selector = selectorIn;
   if (selector.empty()) {
     const char* env = std::getenv("PENUMBRA_DEVICE");
@@ -297,17 +321,42 @@ void Context::foldEvents(std::size_t count) {
 }
 
 cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_flags flags) {
-  if (bytes > info_.globalMemBytes)
+  const std::string advice = " (out of device memory; reduce the size, map size or light count)";
+  if (info_.maxAllocBytes > 0 && bytes > info_.maxAllocBytes)
     throw Error(ErrorKind::OutOfMemory,
-                what + ": needs " + std::to_string(bytes >> 20) + " MiB but device " + info_.name +
-                    " has " + std::to_string(info_.globalMemBytes >> 20) +
-                    " MiB (out of device memory; reduce the size or light count)");
+                what + ": needs " + mibText(bytes) + " MiB in one buffer but device " +
+                    info_.name + " allows " + mibText(info_.maxAllocBytes) +
+                    " MiB per buffer" + advice);
+  // Reserve first, so that threads sharing the context cannot together pass the limit.
+  std::uint64_t live = ledger_->live.load();
+  do {
+    if (live + bytes > info_.globalMemBytes)
+      throw Error(ErrorKind::OutOfMemory,
+                  what + ": needs " + mibText(bytes) + " MiB more with " + mibText(live) +
+                      " MiB already in use, but device " + info_.name + " has " +
+                      mibText(info_.globalMemBytes) + " MiB" + advice);
+  } while (!ledger_->live.compare_exchange_weak(live, live + bytes));
+  std::uint64_t peak = ledger_->peak.load();
+  while (live + bytes > peak && !ledger_->peak.compare_exchange_weak(peak, live + bytes)) {
+  }
   try {
-    return cl::Buffer(context_, flags, bytes);
+    cl::Buffer b(context_, flags, bytes);
+    auto* entry = new LedgerEntry{ledger_, bytes};
+    const cl_int rc = clSetMemObjectDestructorCallback(b(), releaseEntry, entry);
+    if (rc != CL_SUCCESS) {
+      delete entry;
+      ledger_->live.fetch_sub(bytes);  // untracked from here on; the driver still counts it
+    }
+    return b;
   } catch (const cl::Error& e) {
+    ledger_->live.fetch_sub(bytes);
     rethrowCl(e, "allocating " + std::to_string(bytes) + " bytes for " + what);
   }
 }
+
+std::uint64_t Context::deviceBytesInUse() const { return ledger_->live.load(); }
+std::uint64_t Context::peakDeviceBytes() const { return ledger_->peak.load(); }
+void Context::resetPeakDeviceBytes() { ledger_->peak.store(ledger_->live.load()); }
 
 cl::Buffer& Context::reuse(BufferSlots& slots, const std::string& role, std::size_t bytes) {
   auto& slot = slots[role];

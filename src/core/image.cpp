@@ -19,7 +19,7 @@ using OIIO::ImageOutput;
 using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
-Image readImage(const std::string& path) {
+Image readImage(const std::string& path, bool linearize) {
   std::error_code ec;
   if (!fs::exists(path, ec)) badInput(path + ": no such file");
   if (fs::is_directory(path, ec)) badInput(path + ": is a directory, not an image");
@@ -42,6 +42,17 @@ Image readImage(const std::string& path) {
     std::string err = in->geterror();
     std::replace(err.begin(), err.end(), '\n', ' ');
     badInput(path + ": image data is corrupt or truncated (" + err + ")");
+  }
+  const std::string space = spec.get_string_attribute("oiio:ColorSpace");
+  const bool integer = !spec.format.is_floating_point();
+  if (linearize && integer && (space.empty() || space == "sRGB")) {
+    // The alpha channel (if any) is not colour: left as stored.
+    const int colour = std::min(spec.nchannels, spec.alpha_channel >= 0 ? spec.alpha_channel : 3);
+    for (std::size_t p = 0; p < img.pixels.size(); p += std::size_t(spec.nchannels))
+      for (int c = 0; c < colour; ++c) {
+        float& v = img.pixels[p + std::size_t(c)];
+        v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+      }
   }
   in->close();
   return img;

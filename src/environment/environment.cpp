@@ -41,7 +41,9 @@ Environment sanitize(Image raw, const std::string& source) {
 }  // namespace
 
 Environment loadEnvironment(const std::string& path) {
-  Image raw = readImage(path);
+  // An LDR image (PNG, JPEG) is accepted and decoded to linear radiance; it has no range above
+  // 1, so its brightest light is clipped and its shadows are weaker than the scene's real ones.
+  Image raw = readImage(path, true);
   if (raw.channels < 1) badInput(path + ": image has no channels");
   return sanitize(std::move(raw), path);
 }

@@ -118,7 +118,7 @@ Frame GLRenderer::render(const Scene& scene, const Camera& camera, const LightSe
   Impl& m = *impl_;
   auto& gl = m.gl;
   // The OpenCL renderer's checks, with the same field-named messages.
-  penumbra::detail::validateFrameInputs(scene, env, opt);
+  penumbra::detail::validateFrameInputs(scene, camera, lights, env, opt);
   const int W = opt.width, H = opt.height, S = opt.shadowMapSize;
   const int nl = int(lights.lights.size());
   std::vector<std::pair<std::string, double>> glTimes;

@@ -495,3 +495,81 @@ std::array<double, 3> LightSet::irradiance(const std::array<float, 3>& n) const 
 }
 
 }  // namespace penumbra
+
+namespace penumbra {
+
+namespace {
+
+bool finite3(const std::array<float, 3>& v) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+std::string text3(const std::array<float, 3>& v) {
+  return "(" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) +
+         ")";
+}
+
+// A unit vector within single-precision rounding of what normalizing gives.
+bool unit3(const std::array<float, 3>& v) {
+  if (!finite3(v)) return false;
+  const double l = std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+  return std::abs(l - 1.0) < 1e-3;
+}
+
+}  // namespace
+
+void validateLightSet(const LightSet& set) {
+  if (set.lights.size() > PB_MAX_LIGHTS)
+    badInput("LightSet: " + std::to_string(set.lights.size()) + " lights, at most " +
+             std::to_string(PB_MAX_LIGHTS));
+  for (std::size_t i = 0; i < set.lights.size(); ++i) {
+    const AreaLight& l = set.lights[i];
+    const std::string at = "LightSet: light " + std::to_string(i) + ": ";
+    if (!unit3(l.direction))
+      badInput(at + "direction " + text3(l.direction) + " must be a finite unit vector");
+    if (!(l.cosAlpha > 0 && l.cosAlpha < 1))
+      badInput(at + "cosAlpha " + std::to_string(l.cosAlpha) + " must be in (0, 1)");
+    for (const auto* v : {&l.radiance, &l.power})
+      for (float c : *v)
+        if (!std::isfinite(c) || c < 0)
+          badInput(at + (v == &l.radiance ? "radiance " : "power ") + text3(*v) +
+                   " must be finite and >= 0");
+    if (l.shape == LightShape::Polygon) {
+      if (l.vertices.size() < 3 || l.vertices.size() > PB_MAX_POLY_VERTS)
+        badInput(at + "a polygon needs 3.." + std::to_string(PB_MAX_POLY_VERTS) +
+                 " vertices, got " + std::to_string(l.vertices.size()));
+      for (std::size_t k = 0; k < l.vertices.size(); ++k)
+        if (!unit3(l.vertices[k]))
+          badInput(at + "polygon vertex " + std::to_string(k) + " " + text3(l.vertices[k]) +
+                   " must be a finite unit vector");
+    }
+    if (!finite3(l.axisU) || !std::isfinite(l.tanHalf[0]) || !std::isfinite(l.tanHalf[1]) ||
+        l.tanHalf[0] < 0 || l.tanHalf[1] < 0)
+      badInput(at + "its frame (axisU, tanHalf) must be finite, tanHalf >= 0");
+    if (!l.texture.empty()) {
+      const std::size_t want = std::size_t(3) * std::size_t(l.texture.width) * l.texture.height;
+      if (l.texture.radiance.size() != want)
+        badInput(at + "texture of " + std::to_string(l.texture.width) + " x " +
+                 std::to_string(l.texture.height) + " needs " + std::to_string(want) +
+                 " values, has " + std::to_string(l.texture.radiance.size()));
+      for (std::size_t k = 0; k < want; ++k)
+        if (!std::isfinite(l.texture.radiance[k]) || l.texture.radiance[k] < 0)
+          badInput(at + "texture radiance value " + std::to_string(k) +
+                   " must be finite and >= 0");
+    }
+  }
+  for (const auto& c : set.ambientSH)
+    if (!finite3(c)) badInput("LightSet: ambientSH holds a non-finite coefficient");
+  if (!set.ambientMap.empty()) {
+    const AmbientMap& m = set.ambientMap;
+    const std::size_t want = std::size_t(3) * std::size_t(m.width) * m.height;
+    if (m.rgb.size() != want)
+      badInput("LightSet: ambientMap of " + std::to_string(m.width) + " x " +
+               std::to_string(m.height) + " needs " + std::to_string(want) + " values, has " +
+               std::to_string(m.rgb.size()));
+    for (float v : m.rgb)
+      if (!std::isfinite(v)) badInput("LightSet: ambientMap holds a non-finite value");
+  }
+}
+
+}  // namespace penumbra

@@ -3,6 +3,7 @@
 // techniques. Errors name the field (RenderOptions.width); the technique's own struct is checked
 // by its pass (src/shadows/shadow_options.hpp).
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -52,11 +53,21 @@ const char* toString(Prefilter p) { return p == Prefilter::SAT ? "sat" : "mip"; 
 
 namespace detail {
 
-void validateFrameInputs(const Scene& scene, const Environment& env, const RenderOptions& opt) {
+void validateFrameInputs(const Scene& scene, const Camera& camera, const LightSet& lights,
+                         const Environment& env, const RenderOptions& opt) {
   checkRange("RenderOptions.width", opt.width, 1, 16384);
   checkRange("RenderOptions.height", opt.height, 1, 16384);
   checkRange("RenderOptions.shadowMapSize", opt.shadowMapSize, 1, 4096);
-  if (scene.triangleCount() == 0) badInput("scene has no triangles");
+  validateScene(scene);
+  cameraBasis(camera, opt.width, opt.height);
+  validateLightSet(lights);
+  if (!std::isfinite(env.rotationYDeg))
+    badInput("Environment.rotationYDeg must be finite, got " + std::to_string(env.rotationYDeg));
+  for (float v : env.equirect.pixels)
+    if (!(v >= 0 && v <= std::numeric_limits<float>::max()))
+      badInput("environment map " + env.source +
+               " holds a non-finite or negative value (loadEnvironment replaces them; a map "
+               "built in code must not hold any)");
   if (!(opt.bentNormalsScale > 0) || !std::isfinite(opt.bentNormalsScale))
     badOption("RenderOptions.bentNormalsScale", "be finite and > 0", opt.bentNormalsScale);
   if (env.equirect.empty()) badInput("environment map is empty");

@@ -23,6 +23,38 @@ namespace penumbra {
 
 namespace {
 
+std::string mib(std::uint64_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20); }
+
+// Refuses, before any device work, a frame whose own buffers cannot fit the device: camera depth
+// and triangle ids (4 + 4 bytes a pixel), the four G-buffer planes and the shaded frame (16 each),
+// the visibility buffer (4 bytes a pixel per light) and one 32-bit depth map per light, the sizes
+// the stages allocate (rasterizer.cpp, shading.cpp, visibility.cpp). A technique's maps and lists
+// come on top and are refused as they are allocated (Context::buffer).
+void checkFrameFits(const Context& ctx, const RenderOptions& opt, int lights) {
+  const std::uint64_t px = std::uint64_t(opt.width) * std::uint64_t(opt.height);
+  const std::uint64_t texels = std::uint64_t(opt.shadowMapSize) * std::uint64_t(opt.shadowMapSize);
+  const std::uint64_t frame = px * (4 + 4 + 4 * 16 + 16);
+  const std::uint64_t vis = px * std::max(lights, 1) * 4;
+  const std::uint64_t maps = texels * std::max(lights, 1) * 4;
+  const std::uint64_t largest = std::max({px * 16, vis, maps});
+  const DeviceInfo& d = ctx.info();
+  const std::string what = "RenderOptions " + std::to_string(opt.width) + "x" +
+                           std::to_string(opt.height) + " with " + std::to_string(lights) +
+                           " lights and " + std::to_string(opt.shadowMapSize) + "^2 maps";
+  if (d.maxAllocBytes > 0 && largest > d.maxAllocBytes)
+    throw Error(ErrorKind::OutOfMemory,
+                what + " needs a " + mib(largest) + " MiB buffer but device " + d.name +
+                    " allows " + mib(d.maxAllocBytes) +
+                    " MiB per buffer (out of device memory; reduce the size or light count)");
+  // Against the whole device: this renderer's buffers from the last frame are reused, not added.
+  if (frame + vis + maps > d.globalMemBytes)
+    throw Error(ErrorKind::OutOfMemory,
+                what + " needs at least " + mib(frame + vis + maps) + " MiB (frame " + mib(frame) +
+                    ", visibility " + mib(vis) + ", shadow maps " + mib(maps) + ") but device " +
+                    d.name + " has " + mib(d.globalMemBytes) +
+                    " MiB (out of device memory; reduce the size or light count)");
+}
+
 pb_view cameraView(const Camera& c, int w, int h) {
   CameraBasis b = cameraBasis(c, w, h);
   pb_view v{};
@@ -98,8 +130,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
                        const Environment& env, const RenderOptions& opt) {
   auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
-  detail::validateFrameInputs(scene, env, opt);
+  detail::validateFrameInputs(scene, camera, lightSet, env, opt);
   const int W = opt.width, H = opt.height, nl = int(lightSet.lights.size());
+  checkFrameFits(m.ctx, opt, nl);
 
   // scene, camera and lights on the device
   m.scene.update(scene);

@@ -3,6 +3,7 @@
 
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <assimp/DefaultLogger.hpp>
@@ -10,13 +11,17 @@
 #include <assimp/LogStream.hpp>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
-#include <mutex>
+#include <new>
 #include <sstream>
 
 #include "penumbra/error.hpp"
+#include "core/contained.hpp"
 #include "core/vec3.hpp"
+#include "scene/mesh_declarations.hpp"
 
 namespace penumbra {
 namespace {
@@ -210,12 +215,6 @@ class WarningCollector : public Assimp::LogStream {
   void write(const char* message) override { messages.emplace_back(message ? message : ""); }
   std::vector<std::string> messages;
 };
-
-// Assimp's logger is a process-wide singleton: serialize the imports that attach to it.
-std::mutex& loggerMutex() {
-  static std::mutex m;
-  return m;
-}
 
 class ScopedWarningCapture {
  public:
@@ -476,7 +475,12 @@ Scene builtinScene(float t) {
 // Loading.
 // ---------------------------------------------------------------------------------------------
 
-Scene loadScene(const std::string& path, const LoadOptions& opt) {
+namespace {
+
+// The meshes as Assimp reads them (without the ground). Runs inside the contained child: Assimp
+// is the code that may crash, loop or allocate without bound on a malformed file. Its logger is
+// a process-wide singleton; the child is alone in its process, so no lock is needed.
+std::vector<Mesh> importMeshes(const std::string& path) {
   const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                          aiProcess_GenSmoothNormals | aiProcess_PreTransformVertices |
                          aiProcess_SortByPType | aiProcess_ValidateDataStructure;
@@ -485,11 +489,13 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
   // (a box's) stay hard instead of being rounded off.
   importer.SetPropertyFloat(AI_CONFIG_PP_GSN_MAX_SMOOTHING_ANGLE, 80.0f);
 
-  std::lock_guard<std::mutex> lock(loggerMutex());
   ScopedWarningCapture warnings;
   const aiScene* ai = importer.ReadFile(path, flags);
   if (!ai) {
     const std::string why = oneLine(importer.GetErrorString());
+    // Assimp catches an allocation failure (the child's memory limit) and reports it as text;
+    // rethrown, it is reported as the limit it is (runContained).
+    if (why.find("bad_alloc") != std::string::npos) throw std::bad_alloc();
     // Assimp's validation reports e.g. a point cloud only as "Mesh contains no faces". Re-read
     // without validation or post-processing to name the actual problem where we can.
     Assimp::Importer raw;
@@ -510,14 +516,136 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
     badInput(path + ": the file holds no complete scene (Assimp marked it incomplete)");
   checkAiScene(path, ai);
 
-  Scene scene;
+  std::vector<Mesh> meshes;
   for (unsigned mi = 0; mi < ai->mNumMeshes; ++mi) {
     const aiMesh* mesh = ai->mMeshes[mi];
     // SortByPType split mixed meshes; what has no triangles here is points or lines: dropped.
     if (!mesh || !(mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
     Mesh m = convertMesh(ai, mesh, mi);
-    if (!m.triangles.empty()) scene.meshes.push_back(std::move(m));
+    if (!m.triangles.empty()) meshes.push_back(std::move(m));
   }
+  return meshes;
+}
+
+// The child's meshes travel to the parent as a flat byte string: per mesh its name, albedo,
+// positions, normals and triangles, each array preceded by its length.
+template <class T>
+void put(std::string& out, const T& v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+template <class T>
+void putArray(std::string& out, const std::vector<T>& v) {
+  put(out, static_cast<std::uint64_t>(v.size()));
+  out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+std::string packMeshes(const std::vector<Mesh>& meshes) {
+  std::string out;
+  put(out, static_cast<std::uint64_t>(meshes.size()));
+  for (const Mesh& m : meshes) {
+    put(out, static_cast<std::uint64_t>(m.name.size()));
+    out += m.name;
+    put(out, m.albedo);
+    putArray(out, m.positions);
+    putArray(out, m.normals);
+    putArray(out, m.triangles);
+  }
+  return out;
+}
+
+// Reads packMeshes' output; the sizes are checked even though our own child wrote them.
+class Unpacker {
+ public:
+  Unpacker(const std::string& data, const std::string& path) : data_(data), path_(path) {}
+  template <class T>
+  T get() {
+    T v;
+    take(&v, sizeof v);
+    return v;
+  }
+  template <class T>
+  std::vector<T> getArray() {
+    const auto n = get<std::uint64_t>();
+    if (n > (data_.size() - at_) / sizeof(T)) broken();
+    std::vector<T> v(static_cast<std::size_t>(n));
+    take(v.data(), v.size() * sizeof(T));
+    return v;
+  }
+  std::string getString() {
+    const std::vector<char> c = getArray<char>();
+    return std::string(c.begin(), c.end());
+  }
+  bool done() const { return at_ == data_.size(); }
+  [[noreturn]] void broken() const {
+    throw Error(ErrorKind::Internal, path_ + ": the mesh reader process sent malformed meshes");
+  }
+
+ private:
+  void take(void* dst, std::size_t n) {
+    if (n > data_.size() - at_) broken();
+    if (n) std::memcpy(dst, data_.data() + at_, n);
+    at_ += n;
+  }
+  const std::string& data_;
+  const std::string& path_;
+  std::size_t at_ = 0;
+};
+
+std::vector<Mesh> unpackMeshes(const std::string& data, const std::string& path) {
+  Unpacker in(data, path);
+  const auto n = in.get<std::uint64_t>();
+  std::vector<Mesh> meshes;
+  for (std::uint64_t i = 0; i < n; ++i) {
+    Mesh m;
+    m.name = in.getString();
+    m.albedo = in.get<Vec3>();
+    m.positions = in.getArray<Vec3>();
+    m.normals = in.getArray<Vec3>();
+    m.triangles = in.getArray<std::array<int, 3>>();
+    for (const auto& t : m.triangles)
+      for (int v : t)
+        if (v < 0 || static_cast<std::size_t>(v) >= m.positions.size()) in.broken();
+    meshes.push_back(std::move(m));
+  }
+  if (!in.done()) in.broken();
+  return meshes;
+}
+
+std::size_t physicalMemory() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page)
+                               : std::size_t{4} << 30;
+}
+
+detail::ContainLimits meshLoadLimits(const LoadOptions& opt, std::uintmax_t fileBytes) {
+  detail::ContainLimits limits;
+  const double mb = static_cast<double>(fileBytes) / (1 << 20);
+  limits.seconds = opt.timeoutSeconds > 0 ? opt.timeoutSeconds : 20.0 + mb;
+  if (opt.memoryLimitBytes > 0) {
+    limits.memoryBytes = opt.memoryLimitBytes;
+  } else {
+    const std::size_t wanted = (std::size_t{1} << 30) + 64 * static_cast<std::size_t>(fileBytes);
+    limits.memoryBytes = std::min(wanted, physicalMemory() / 4 * 3);
+  }
+  return limits;
+}
+
+void checkLoadOptions(const LoadOptions& opt) {
+  if (!(opt.timeoutSeconds >= 0) || !std::isfinite(opt.timeoutSeconds))
+    badInput("LoadOptions::timeoutSeconds must be a finite number of seconds >= 0 (0: automatic), "
+             "got " + std::to_string(opt.timeoutSeconds));
+}
+
+}  // namespace
+
+Scene loadScene(const std::string& path, const LoadOptions& opt) {
+  checkLoadOptions(opt);
+  const std::uintmax_t fileBytes = detail::checkMeshDeclarations(path);
+  const std::string packed = detail::runContained(path, meshLoadLimits(opt, fileBytes),
+                                                  [&] { return packMeshes(importMeshes(path)); });
+  Scene scene;
+  scene.meshes = unpackMeshes(packed, path);
   if (scene.meshes.empty())
     badInput(path + ": no triangles (every triangle in the file is degenerate)");
 
@@ -536,6 +664,39 @@ Scene loadScene(const std::string& path, const LoadOptions& opt) {
         makeGround("ground", c[0], b.lo[1], c[2], 4 * horizontal, 8, {0.7f, 0.7f, 0.7f}));
   }
   return scene;
+}
+
+void validateScene(const Scene& scene) {
+  std::size_t triangles = 0;
+  for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const Mesh& m = scene.meshes[mi];
+    const std::string label = "Scene.meshes[" + std::to_string(mi) + "]" +
+                              (m.name.empty() ? "" : " '" + oneLine(m.name) + "'") + ": ";
+    for (std::size_t v = 0; v < m.positions.size(); ++v)
+      if (!isFinite(m.positions[v]))
+        badInput(label + "non-finite vertex position " + std::to_string(v) + " = " +
+                 vecText(m.positions[v]));
+    if (!m.normals.empty()) {
+      if (m.normals.size() != m.positions.size())
+        badInput(label + std::to_string(m.normals.size()) + " normals for " +
+                 std::to_string(m.positions.size()) + " positions (give one per vertex or none)");
+      for (std::size_t v = 0; v < m.normals.size(); ++v)
+        if (!isFinite(m.normals[v]) || !(length(m.normals[v]) > kMinLength))
+          badInput(label + "normal " + std::to_string(v) + " = " + vecText(m.normals[v]) +
+                   " is not a finite non-zero vector");
+    }
+    const std::size_t nv = m.positions.size();
+    for (std::size_t t = 0; t < m.triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k)
+        if (m.triangles[t][k] < 0 || static_cast<std::size_t>(m.triangles[t][k]) >= nv)
+          badInput(label + "triangle " + std::to_string(t) + " refers to vertex " +
+                   std::to_string(m.triangles[t][k]) + " of " + std::to_string(nv));
+    for (float a : m.albedo)
+      if (!(a >= 0 && a <= 1))
+        badInput(label + "albedo " + vecText(m.albedo) + " must lie in [0, 1]");
+    triangles += m.triangles.size();
+  }
+  if (triangles == 0) badInput("scene has no triangles");
 }
 
 Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt) {
