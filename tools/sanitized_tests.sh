@@ -27,10 +27,11 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 if [ -x /usr/lib/llvm-14/bin/llvm-symbolizer ]; then
   export ASAN_SYMBOLIZER_PATH=/usr/lib/llvm-14/bin/llvm-symbolizer
 fi
-# The tests' scratch files (gtest's TempDir, the fuzz targets' mkdtemp) go to a directory of this build,
-# apart from any other run of the suite on the machine.
-export TEST_TMPDIR=$PWD/$build/tmp TMPDIR=$PWD/$build/tmp
-mkdir -p "$TMPDIR"
+# The tests' scratch files (gtest's TempDir, the fuzz targets' mkdtemp) go to a directory of this
+# build, apart from any other run of the suite on the machine.
+mkdir -p "$build/tmp"
+TEST_TMPDIR=$(cd "$build/tmp" && pwd)
+export TEST_TMPDIR TMPDIR=$TEST_TMPDIR
 # Labels left out: oclgrind (the simulator runs in the normal build), install and gl (programs
 # built outside this configuration's instrumentation).
 ctest --test-dir "$build" --output-on-failure -j2 -LE 'oclgrind|install|gl'

@@ -35,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   return refusalIsFine([&] {
     penumbra::LoadOptions opt;
     opt.addGround = (data[0] / 8) % 2 == 0;  // both with and without the CLI's ground plane
-    // The contained reader's own deadline, well inside libFuzzer's -timeout=10 (run.sh), so that a
+    // The contained reader's own deadline, well inside libFuzzer's -timeout=30 (run.sh), so that a
     // reader that hangs is refused by loadScene (correct) rather than reported as a timeout.
     opt.timeoutSeconds = 4;
     (void)penumbra::loadScene(path, opt);
