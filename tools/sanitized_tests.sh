@@ -18,8 +18,8 @@ cmake --build "$build" -j2 --target penumbra_cli penumbra_tests fuzz_envmap fuzz
   fuzz_lightset fuzz_compare
 
 # halt_on_error: the first report ends the process, so the test that hit it fails.
-# detect_leaks: LeakSanitizer at exit; tools/lsan.supp names the only leaks let through (in the
-# OpenCL driver stack, none in penumbra's own code).
+# detect_leaks: LeakSanitizer at exit; tools/lsan.supp names the only leaks let through (in
+# third-party code, none in penumbra's own).
 export ASAN_OPTIONS=halt_on_error=1:detect_leaks=1
 export LSAN_OPTIONS=suppressions=$PWD/tools/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
