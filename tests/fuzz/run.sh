@@ -13,6 +13,9 @@ mkdir -p "$work/corpus"
 common=(-timeout=30 -rss_limit_mb=2048)
 # Leaks inside third-party readers that penumbra cannot fix (tools/lsan.supp says which and why).
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$(cd "$(dirname "$0")/../.." && pwd)/tools/lsan.supp}
+# Full stacks for allocations: the fast unwinder stops at the first library built without frame
+# pointers (libstdc++, OpenImageIO), and a suppression can only match frames it sees.
+export ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0
 dict=()
 if [ -f "$(dirname "$0")/$target.dict" ]; then dict=(-dict="$(dirname "$0")/$target.dict"); fi
 shopt -s nullglob
