@@ -3,6 +3,7 @@
 // optionally textured. A small JSON reader of our own (the library has no JSON dependency),
 // strict about what it accepts: every problem is an Error(BadInput) naming the file, the light's
 // index and the field.
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -302,7 +303,13 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
       for (auto& reg : g->items) {
         if (reg.kind != Json::Array || reg.items.size() != 5) r.fail("\"regions\" entries must be 5 integers");
         std::array<int, 5> q;
-        for (int k = 0; k < 5; ++k) q[k] = int(reg.items[k].num);
+        for (int k = 0; k < 5; ++k) {
+          // Checked before the conversion: a double outside int's range converts undefinedly.
+          const Json& v = reg.items[k];
+          if (v.kind != Json::Number || !(v.num >= 0 && v.num <= INT_MAX) || v.num != std::floor(v.num))
+            r.fail("\"regions\" entries must be 5 integers in 0.." + std::to_string(INT_MAX));
+          q[k] = int(v.num);
+        }
         l.regions.push_back(q);
       }
     set.lights.push_back(l);

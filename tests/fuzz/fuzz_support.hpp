@@ -1,0 +1,76 @@
+// What the libFuzzer targets in tests/fuzz share: a per-process scratch directory that the
+// loaders taking a path read the fuzz input from, and the rule that a refusal (penumbra::Error)
+// is a correct outcome while anything else (a crash, a sanitizer report, another exception, a
+// hang or a memory blow-up caught by libFuzzer) is a finding.
+#pragma once
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra::fuzz {
+
+// A directory of this process's own (mkdtemp under $TMPDIR), removed with everything in it when
+// the process exits normally. libFuzzer's -fork/-jobs workers are separate processes, so they never
+// share a file.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const char* tmp = std::getenv("TMPDIR");
+    std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/penumbra-fuzz-XXXXXX";
+    if (!mkdtemp(pattern.data())) std::abort();  // no scratch space: nothing can be tested
+    path_ = pattern;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+
+  // Writes bytes to <dir>/<name> (replacing the previous input of that name) and returns the path.
+  std::string write(const std::string& name, const std::uint8_t* data, std::size_t size) const {
+    const std::string p = path_ + "/" + name;
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data), std::streamsize(size));
+    if (!out) std::abort();
+    return p;
+  }
+
+ private:
+  std::string path_;
+};
+
+// The scratch directory of this process. A function-local static, because libFuzzer calls the
+// target as a plain function many times and the directory must outlive every call; its destructor
+// runs at exit.
+inline const ScratchDir& scratch() {
+  static const ScratchDir dir;
+  return dir;
+}
+
+// One byte of the input picks the file extension the loader sees, so the fuzzer drives the reader
+// choice (OpenImageIO and Assimp pick their readers by extension first) as well as the content.
+template <std::size_t N>
+const char* pickExtension(std::uint8_t selector, const char* const (&extensions)[N]) {
+  return extensions[selector % N];
+}
+
+// Runs one input through `body`; penumbra::Error is the loader refusing the file, which is what it
+// should do with garbage. Every other exception propagates and libFuzzer reports it as a crash.
+template <class Body>
+int refusalIsFine(Body&& body) {
+  try {
+    body();
+  } catch (const penumbra::Error&) {
+  }
+  return 0;
+}
+
+}  // namespace penumbra::fuzz
