@@ -2,10 +2,16 @@
 // The inputs that found them are replayed as they are by the sanitizer build
 // (tests/data/fuzz/crashes/<target>/); these tests pin the behaviour in every build.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <chrono>
+#include <cstdio>
+#include <fstream>
 #include <string>
 
 #include "penumbra/error.hpp"
+#include "penumbra/image.hpp"
 #include "penumbra/lights.hpp"
 
 using namespace penumbra;
@@ -37,4 +43,37 @@ TEST(FuzzFindings, LightSetRegionsMustBeIntegersInRange) {
   ASSERT_EQ(ok.lights.size(), 1u);
   ASSERT_EQ(ok.lights[0].regions.size(), 1u);
   EXPECT_EQ(ok.lights[0].regions[0][3], 2147483647);
+}
+
+// fuzz_envmap: a 1 KB EXR whose header declares a 1.7 GB string attribute ('capDate'); OpenEXR
+// allocated it while parsing, 1.9 GB and 8 s before refusing. readImage now walks the header's
+// attribute sizes against the file first. The fuzz input's first byte picks the extension; the
+// file itself is the rest.
+TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedFirst) {
+  std::ifstream in(std::string(PENUMBRA_TEST_DATA) + "/fuzz/crashes/envmap/exr_1kb_needs_1.9GB",
+                   std::ios::binary);
+  const std::string input((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_GT(input.size(), 100u);
+  const std::string path =
+      testing::TempDir() + "/penumbra_huge_attribute_" + std::to_string(::getpid()) + ".exr";
+  std::ofstream(path, std::ios::binary) << input.substr(1);
+  rusage before{}, after{};
+  getrusage(RUSAGE_SELF, &before);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    readImage(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("attribute 'capDate'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("remain in the file"), std::string::npos) << msg;
+  }
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB";
+  std::remove(path.c_str());
+  // A valid EXR still loads (its header walked the same way).
+  EXPECT_EQ(readImage(std::string(PENUMBRA_TEST_DATA) + "/envmaps/bad/one_pixel.exr").width, 1);
 }
