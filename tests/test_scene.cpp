@@ -841,9 +841,18 @@ TEST(SceneUntrusted, ConcurrentLoadsAgree) {
   const std::string f = kData + "/meshes/good/spider.obj";
   const Scene one = loadScene(f);
   std::vector<Scene> got(4);
+  std::vector<std::string> errors(got.size());
   std::vector<std::thread> threads;
-  for (auto& g : got) threads.emplace_back([&g, &f] { g = loadScene(f); });
+  for (std::size_t i = 0; i < got.size(); ++i)
+    threads.emplace_back([&, i] {
+      try {
+        got[i] = loadScene(f);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+      }
+    });
   for (auto& t : threads) t.join();
+  for (const std::string& e : errors) EXPECT_EQ(e, "");
   for (const Scene& g : got) {
     ASSERT_EQ(g.meshes.size(), one.meshes.size());
     for (std::size_t i = 0; i < g.meshes.size(); ++i) {

@@ -61,7 +61,8 @@ Scene builtinScene(float timeSeconds = 0.0f);
 // unreadable or unsupported, no triangles (points or lines only), non-finite vertex coordinates,
 // indices out of range, PLY/glTF/GLB sizes declared beyond what the file holds (checked before
 // Assimp sees the file), or a file that crashes Assimp or passes the time or memory limit of
-// `opt` (Assimp runs in a forked child process; POSIX only). Safe to call from several threads.
+// `opt` (Assimp runs in a forked child process; POSIX only). Safe to call from several threads;
+// their reader processes run one at a time.
 Scene loadScene(const std::string& path, const LoadOptions& opt = {});
 
 // Checks a scene built in code as loadScene checks a file. Throws Error(BadInput) naming the mesh

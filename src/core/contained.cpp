@@ -122,9 +122,12 @@ std::string lastLine(std::string text) {
 
 std::string runContained(const std::string& label, const ContainLimits& limits,
                          const std::function<std::string()>& work) {
-  // A fork from another thread between our pipe2 and the close of our write ends below would
-  // copy those write ends into its child, and our read would then wait for that child too.
-  // Forks made here are serialized; the window is a few system calls long.
+  // One contained child at a time per process; other callers wait. Two reasons: a fork from
+  // another thread between our pipe2 and the close of our write ends below would copy those
+  // write ends into its child (our read would then wait for that child too); and a fork while
+  // another thread of ours is allocating (appending to its result) can leave the child's
+  // allocator locked forever under sanitizer runtimes that do not guard fork (AddressSanitizer in
+  // clang 14 did: SceneUntrusted.ConcurrentLoadsAgree hung). glibc's malloc guards fork itself.
   static std::mutex forkMutex;
   std::unique_lock<std::mutex> forking(forkMutex);
   int out[2], err[2];
@@ -150,7 +153,6 @@ std::string runContained(const std::string& label, const ContainLimits& limits,
   }
   ::close(out[1]);
   ::close(err[1]);
-  forking.unlock();
 
   using Clock = std::chrono::steady_clock;
   const bool bounded = limits.seconds > 0;

@@ -19,6 +19,7 @@ struct ContainLimits {
 // or passes the time limit, throws Error(BadInput) "<label>: <what happened>", quoting the last
 // line the child wrote to stderr (an assertion message, say). The child never returns into the
 // caller's code: it leaves with _exit, running no destructors or atexit handlers of the parent.
+// Calls from several threads are safe and run one after another (one child at a time).
 std::string runContained(const std::string& label, const ContainLimits& limits,
                          const std::function<std::string()>& work);
 
