@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -843,8 +844,13 @@ TEST(SceneUntrusted, ConcurrentLoadsAgree) {
   std::vector<Scene> got(4);
   std::vector<std::string> errors(got.size());
   std::vector<std::thread> threads;
+  // Released together once all exist: a fork while another thread is still being created (its
+  // sanitizer bookkeeping locked) hung the child under clang 14's AddressSanitizer.
+  std::atomic<int> started{0};
   for (std::size_t i = 0; i < got.size(); ++i)
     threads.emplace_back([&, i] {
+      ++started;
+      while (started.load() < int(got.size())) std::this_thread::yield();
       try {
         got[i] = loadScene(f);
       } catch (const std::exception& e) {
