@@ -852,13 +852,29 @@ TEST(SceneUntrusted, ConcurrentLoadsAgree) {
       ++started;
       while (started.load() < int(got.size())) std::this_thread::yield();
       try {
-        got[i] = loadScene(f);
+        LoadOptions opt;
+        opt.timeoutSeconds = PENUMBRA_TEST_ASAN ? 5.0 : 0.0;
+        got[i] = loadScene(f, opt);
       } catch (const std::exception& e) {
         errors[i] = e.what();
       }
     });
   for (auto& t : threads) t.join();
-  for (const std::string& e : errors) EXPECT_EQ(e, "");
+  for (std::size_t i = 0; i < got.size(); ++i) {
+#if PENUMBRA_TEST_ASAN
+    // clang 14's AddressSanitizer does not guard fork: a child forked while another thread
+    // allocates (one unpacking its meshes) can find the ASan allocator locked and hang (seen in
+    // gdb: Semaphore::Wait in SizeClassAllocator64). glibc's malloc guards fork, so the normal
+    // build must load every time; under ASan a hung child must still end as the time-limit
+    // refusal, never as a crash or a wrong scene.
+    if (!errors[i].empty()) {
+      EXPECT_NE(errors[i].find("longer than its limit"), std::string::npos) << errors[i];
+      got[i] = one;
+    }
+#else
+    EXPECT_EQ(errors[i], "");
+#endif
+  }
   for (const Scene& g : got) {
     ASSERT_EQ(g.meshes.size(), one.meshes.size());
     for (std::size_t i = 0; i < g.meshes.size(); ++i) {
