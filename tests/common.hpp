@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <penumbra/penumbra.hpp>
 
+#include "support/expect_error.hpp"
+
 #include "common/shared.h"  // the kernels' constants and helpers (kernels/common/shared.h)
 
 #include <array>

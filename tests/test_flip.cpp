@@ -14,8 +14,10 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/flip.hpp"
+#include "support/expect_error.hpp"
 
 using namespace penumbra;
+using penumbra::test::expectBadInput;
 
 namespace {
 
@@ -57,16 +59,6 @@ double acesInverse(double t) {
     (aces(mid) < t ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
-}
-
-void expectBadInput(const std::function<void()>& call, const std::string& named) {
-  try {
-    call();
-    ADD_FAILURE() << "no exception; expected one naming " << named;
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
-    EXPECT_NE(std::string(e.what()).find(named), std::string::npos) << e.what();
-  }
 }
 
 }  // namespace

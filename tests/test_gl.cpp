@@ -25,6 +25,7 @@
 
 using namespace penumbra;
 using penumbra::test::ctx;
+using penumbra::test::expectBadInput;
 namespace fs = std::filesystem;
 
 namespace {
@@ -245,16 +246,6 @@ LightSet twoLights() {
     l.radiance = {1.0f, 1.0f, 1.0f};
   }
   return s;
-}
-
-void expectBadInput(const std::function<void()>& f, const std::vector<std::string>& words) {
-  try {
-    f();
-    ADD_FAILURE() << "no error; expected one naming " << words[0];
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::BadInput) << e.what();
-    for (auto& w : words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
-  }
 }
 
 }  // namespace

@@ -16,20 +16,6 @@ using namespace penumbra::test;
 
 namespace {
 
-// Runs f, which must throw Error of `kind` whose message holds every one of `needles`.
-template <class F>
-void expectError(ErrorKind kind, F f, const std::vector<std::string>& needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one mentioning " << needles.front();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), kind) << e.what();
-    for (const std::string& n : needles)
-      EXPECT_NE(std::string(e.what()).find(n), std::string::npos)
-          << "'" << n << "' missing from: " << e.what();
-  }
-}
-
 // One triangle over a ground quad, and one light straight above: a scene every check accepts.
 struct SmallFrame {
   Scene scene;

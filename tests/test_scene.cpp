@@ -18,10 +18,12 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/scene.hpp"
+#include "support/expect_error.hpp"
 #include "support/sanitizers.hpp"
 
 namespace fs = std::filesystem;
 using namespace penumbra;
+using penumbra::test::expectBadInput;
 
 namespace {
 
@@ -104,21 +106,6 @@ void expectWellFormed(const Mesh& m) {
   for (float a : m.albedo) {
     EXPECT_GE(a, 0.0f) << m.name;
     EXPECT_LE(a, 1.0f) << m.name;
-  }
-}
-
-// Runs f, which must throw Error(BadInput) whose message contains every one of `needles`.
-template <class F>
-void expectBadInput(F f, const std::vector<std::string>& needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one mentioning " << needles.front();
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::BadInput) << e.what();
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << "message spans lines: " << msg;
-    for (const std::string& n : needles)
-      EXPECT_NE(msg.find(n), std::string::npos) << "'" << n << "' missing from: " << msg;
   }
 }
 
