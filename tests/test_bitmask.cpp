@@ -3,6 +3,10 @@
 // shadow ray along the same direction; the lists against a C++ recount; the resolve against a C++
 // weighted sum; awkward cases (empty lists, one list holding every sample, edge-on casters, a
 // light sample in a caster's plane), determinism, and a tiny frame under oclgrind (Oclgrind*).
+// The Embree rays here follow the kernels' own sample directions (detail::bitmaskSampleDirection),
+// so they check the masks, not the sample set or the light frame; the reference that shares no
+// code with the technique (an oblique cap over a half-plane, integrated in double precision) is
+// in tests/test_independent_refs.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
