@@ -1,7 +1,8 @@
 // Whole-frame visibility of the exact-visibility techniques (bitmask, seed 001; area
 // approximation, seed 002) against a reference that shares no code with them: the cosine-weighted
 // unblocked share of an OBLIQUE cap light over a half-plane blocker, integrated in double precision
-// in this file (rings of the cap, each ring's lit arc in closed form). The other tests of these
+// in this file (rings of the cap, each ring's lit arc in closed form). (The bitmask's check against
+// Embree rays along directions the test draws itself is in test_bitmask.cpp.) The other tests of these
 // techniques check them against Embree rays along the kernels' own sample directions
 // (test_bitmask.cpp) or against quadratures of lights straight overhead; here the light's
 // direction, frame and cap all come from this file, so a wrong light frame, a mis-tilted sample
