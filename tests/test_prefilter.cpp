@@ -2,7 +2,8 @@
 // Fig. 8): the mip pyramid (kernels/shadows/mip.cl) against a C++ reference on awkward sizes, its
 // trilinear query (kernels/shadows/filter.clh) against a C++ reference and against the SAT's exact
 // box on level-aligned boxes, and MSSM4 rendered with the pyramid (analytic planar penumbra,
-// frame).
+// frame); and the filtered result against the box average computed directly over the footprint
+// (its mean and its spread), for both prefilters.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -389,6 +390,99 @@ TEST(Prefilter, MipReproducesConstantsAndRamps) {
   std::printf("[ penumbra ] S %d: constant max error %.2g, ramp max error %.2g texels over %zu boxes\n",
               S, worstConst, worstRamp * 256, rampBoxes.size());
   EXPECT_LT(worstRamp * 256, 1e-3);  // texels; float rounding of values up to 77 is ~1e-5
+}
+
+// The level choice judged by what it must achieve, not by a copy of it: the filtered result
+// against the box average computed here by direct summation over the footprint. A map whose
+// channels are x^2 and y^2 (texel centres, in units of the map) turns each query into the second
+// moment of the filter's footprint: Q(x^2) - Q(x)^2 is its variance, to compare with the box's own
+// (the direct average of x^2 less the square of the direct average of x). From the trilinear
+// filter's definition (not from filter.clh): level k holds 2^k-texel block means, whose discrete
+// variance is (4^k - 1)/12, and linear interpolation between block centres h = 2^k apart adds
+// a (1 - a) h^2 at fraction a, h^2/6 on average over box positions. With lambda = log2 w and
+// w = 2^k m, m in [1, 2), the mean footprint variance is 4^k (1/4 + 3 t / 4) ~ w^2 (1 + 3 t) / (4
+// m^2), t = log2 m, against the box's w^2 / 12: a ratio of 3 at m = 1 and 2 and at most 3.8
+// between. A level one too fine divides the ratio by 4 (<= 0.95), one too coarse multiplies it
+// by 4 (>= 12). Bounds: mean ratio in [2, 6] for every width. Measured: 2.78 to 3.92 over widths
+// 3 to 22.6 (the box's own discrete variance is a little below w^2 / 12). Negative controls: the same queries against the box of twice and of half the width must
+// leave [2, 6]. The SAT prefilter must give the box average itself (coverage-weighted at
+// fractional edges): ratio 1 and every mean within float rounding.
+TEST(Prefilter, FootprintMatchesTheBoxAverageComputedDirectly) {
+  const int S = 128;
+  Texels level0(std::size_t(S) * S);
+  auto X = [&](int i) { return (i + 0.5) / S; };  // texel centre in [0, 1], exact in 2^-8 steps
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      auto& t = level0[std::size_t(y) * S + x];
+      t.s[0] = (long long)std::llround(X(x) * PB_MOMENT_SCALE);
+      t.s[1] = (long long)std::llround(X(y) * PB_MOMENT_SCALE);
+      t.s[2] = (long long)std::llround(X(x) * X(x) * PB_MOMENT_SCALE);
+      t.s[3] = (long long)std::llround(X(y) * X(y) * PB_MOMENT_SCALE);
+    }
+  BothPrefilters P = buildBoth(level0, S, 1);
+  // Coverage-weighted direct average of channel c over the continuous box [x0,x1] x [y0,y1]
+  // (texel i covers [i, i + 1)).
+  auto direct = [&](double x0, double y0, double x1, double y1, std::array<double, 4>& m) {
+    m = {0, 0, 0, 0};
+    double area = 0;
+    for (int y = int(std::floor(y0)); y < int(std::ceil(y1)); ++y)
+      for (int x = int(std::floor(x0)); x < int(std::ceil(x1)); ++x) {
+        const double cover = (std::min(x1, x + 1.0) - std::max(x0, double(x))) *
+                             (std::min(y1, y + 1.0) - std::max(y0, double(y)));
+        if (cover <= 0) continue;
+        area += cover;
+        const double v[4] = {X(x), X(y), X(x) * X(x), X(y) * X(y)};
+        for (int c = 0; c < 4; ++c) m[c] += cover * v[c];
+      }
+    for (double& v : m) v /= area;
+  };
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (double w : {3.0, 4.0, 5.7, 8.0, 11.3, 16.0, 22.6}) {
+    std::vector<cl_float4> boxes;
+    for (int i = 0; i < 400; ++i) {
+      // centres far enough from the border that no level's interpolation clamps (2^(k+2) texels)
+      const double margin = 4 * w + 2;
+      const double cx = margin + u(rng) * (S - 2 * margin), cy = margin + u(rng) * (S - 2 * margin);
+      boxes.push_back({{float(cx - w / 2), float(cy - w / 2), float(cx + w / 2), float(cy + w / 2)}});
+    }
+    const std::vector<int> images(boxes.size(), 0);
+    auto mip = probe(Prefilter::Mip, P.mip, S, P.mipStride, boxes, images);
+    auto sat = probe(Prefilter::SAT, P.sat, S, P.satStride, boxes, images);
+    double vMip = 0, vBox = 0, vBox2 = 0, vBoxHalf = 0, satErr = 0, satVar = 0, meanErr = 0;
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const auto& b = boxes[i];
+      const double cx = 0.5 * (b.s[0] + b.s[2]), cy = 0.5 * (b.s[1] + b.s[3]);
+      std::array<double, 4> m, m2, mh;
+      direct(b.s[0], b.s[1], b.s[2], b.s[3], m);
+      direct(cx - w, cy - w, cx + w, cy + w, m2);
+      direct(cx - w / 4, cy - w / 4, cx + w / 4, cy + w / 4, mh);
+      for (int a = 0; a < 2; ++a) {
+        vMip += mip[i].s[2 + a] - double(mip[i].s[a]) * mip[i].s[a];
+        vBox += m[2 + a] - m[a] * m[a];
+        vBox2 += m2[2 + a] - m2[a] * m2[a];
+        vBoxHalf += mh[2 + a] - mh[a] * mh[a];
+        satVar += sat[i].s[2 + a] - double(sat[i].s[a]) * sat[i].s[a];
+        // the linear channels' mean over the continuous box is its centre (the direct,
+        // coverage-weighted mean of the texels differs from it by O(1/w) at fractional edges)
+        meanErr = std::max(meanErr, std::fabs(mip[i].s[a] * S - (a ? cy : cx)));  // texels
+      }
+      for (int c = 0; c < 4; ++c) satErr = std::max(satErr, std::fabs(sat[i].s[c] - m[c]));
+    }
+    const double ratio = vMip / vBox, ratio2 = vMip / vBox2, ratioHalf = vMip / vBoxHalf;
+    std::printf("[ penumbra ] box width %.1f texels: mip footprint variance / box's %.3f (against "
+                "the box twice as wide %.3f, half as wide %.3f); mip mean off by %.2e texels; SAT "
+                "max |mean - direct| %.2e, variance ratio %.4f\n",
+                w, ratio, ratio2, ratioHalf, meanErr, satErr, satVar / vBox);
+    EXPECT_GE(ratio, 2.0) << w;
+    EXPECT_LE(ratio, 6.0) << w;
+    EXPECT_LT(meanErr, 1e-3) << w;  // linear channels: the box's centre, float rounding only
+    EXPECT_FALSE(ratio2 >= 2.0 && ratio2 <= 6.0) << w;        // negative controls
+    EXPECT_FALSE(ratioHalf >= 2.0 && ratioHalf <= 6.0) << w;
+    // SAT: the exact box; float rounding of means <= 1 (measured ~1e-7)
+    EXPECT_LT(satErr, 1e-5) << w;
+    EXPECT_NEAR(satVar / vBox, 1.0, 0.02) << w;
+  }
 }
 
 // ---- MSSM4 with the mip pyramid ----
