@@ -20,10 +20,12 @@
 #include "penumbra/reference.hpp"
 #include "penumbra/scene.hpp"
 #include "common/shared.h"
+#include "support/expect_error.hpp"
 
 namespace {
 
 using namespace penumbra;
+using penumbra::test::expectBadInput;
 constexpr double kPi = 3.14159265358979323846;
 
 // A square at height y, half-size h, facing +y (two-sided anyway), optionally with vertex normals.
@@ -423,16 +425,6 @@ TEST(ReferenceCommon, ExceptionFromProgressPropagates) {
     EXPECT_THROW(
         referenceEnvironment(groundScene(), obliqueCamera(), constantEnv(1, 1, 1, 1, 1), o),
         std::runtime_error);
-  }
-}
-
-void expectBadInput(const std::function<void()>& f, const std::string& needle) {
-  try {
-    f();
-    ADD_FAILURE() << "expected Error(BadInput) mentioning " << needle;
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
   }
 }
 
