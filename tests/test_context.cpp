@@ -2,10 +2,38 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <optional>
+#include <string>
 
 #include "common.hpp"
 
 using namespace penumbra;
+
+namespace {
+
+// Sets (or, given nullopt, unsets) an environment variable for one scope and puts back what the
+// process had before, set or not: later tests in the same process (and a developer's own
+// PENUMBRA_DEVICE) see the variable as it was.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const std::optional<std::string>& value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value) ::setenv(name, value->c_str(), 1);
+    else ::unsetenv(name);
+  }
+  ~ScopedEnv() {
+    if (old_) ::setenv(name_, old_->c_str(), 1);
+    else ::unsetenv(name_);
+  }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+}  // namespace
 
 TEST(Context, ListsDevicesAndSelectsByIndexAndName) {
   auto devices = listDevices();
@@ -32,10 +60,20 @@ TEST(Context, UnknownDeviceIsANamedError) {
 }
 
 TEST(Context, EnvironmentVariableSelectsTheDevice) {
-  ::setenv("PENUMBRA_DEVICE", "no-such-device-xyz", 1);
-  EXPECT_THROW(Context c, Error);
-  ::unsetenv("PENUMBRA_DEVICE");
-  EXPECT_NO_THROW(Context c);
+  const char* before = std::getenv("PENUMBRA_DEVICE");
+  const std::optional<std::string> old = before ? std::optional<std::string>(before) : std::nullopt;
+  {
+    ScopedEnv bad("PENUMBRA_DEVICE", std::string("no-such-device-xyz"));
+    EXPECT_THROW(Context c, Error);
+  }
+  {
+    ScopedEnv unset("PENUMBRA_DEVICE", std::nullopt);
+    EXPECT_NO_THROW(Context c);
+  }
+  // Both scopes put back what the process had.
+  const char* after = std::getenv("PENUMBRA_DEVICE");
+  EXPECT_EQ(after != nullptr, old.has_value());
+  if (after && old) EXPECT_EQ(std::string(after), *old);
 }
 
 TEST(Context, KernelBuildFailureCarriesLogAndFile) {

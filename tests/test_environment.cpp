@@ -1,7 +1,11 @@
 // Environment maps: loading, sanitizing, solid angles, bad files.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "common.hpp"
 
@@ -70,7 +74,8 @@ TEST(Environment, LoadsExrHdrAndAgrees) {
 
 TEST(Environment, PfmLoads) {
   // Write a small PFM by hand (little-endian, bottom-to-top rows) and read it back.
-  std::string path = testing::TempDir() + "/pb_test.pfm";
+  // Named by process: two runs at once (two checkouts, CI beside a developer) must not share it.
+  std::string path = testing::TempDir() + "/pb_test_" + std::to_string(::getpid()) + ".pfm";
   {
     FILE* f = std::fopen(path.c_str(), "wb");
     ASSERT_TRUE(f);
@@ -82,6 +87,7 @@ TEST(Environment, PfmLoads) {
     std::fclose(f);
   }
   Environment env = loadEnvironment(path);
+  std::remove(path.c_str());
   EXPECT_EQ(env.equirect.width, 4);
   EXPECT_EQ(env.equirect.height, 2);
   double sum = 0;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
@@ -670,8 +671,9 @@ TEST(TexturedLights, ExtractedLightsTakeTheirMapsRadiance) {
 // `penumbra lights --light-texture N` writes textured caps that load back; out-of-range N is
 // bad input (exit 2) naming the option.
 TEST(TexturedLights, CliLightTexture) {
-  const std::string dir = ::testing::TempDir();
-  const std::string out = dir + "/textured_lights.json", err = dir + "/textured_lights.err";
+  // Named by process: two runs at once (two checkouts, CI beside a developer) must not share them.
+  const std::string stem = ::testing::TempDir() + "/textured_lights_" + std::to_string(::getpid());
+  const std::string out = stem + ".json", err = stem + ".err";
   const std::string cli = PENUMBRA_CLI;
   int rc = std::system((cli + " lights --lights 3 --face-size 32 --light-texture 3 --out " + out +
                         " 2> " + err).c_str());
@@ -694,5 +696,7 @@ TEST(TexturedLights, CliLightTexture) {
   char buf[512] = {0};
   const std::size_t got = std::fread(buf, 1, sizeof buf - 1, f);
   std::fclose(f);
+  std::remove(out.c_str());
+  std::remove(err.c_str());
   EXPECT_NE(std::string(buf, got).find("--light-texture must be in [1, 64], got 65"), std::string::npos) << buf;
 }
