@@ -1,9 +1,11 @@
 // The ambient residual (src/environment/ambient.cpp, kernels/environment/sh.cl): the map's SH
 // projection against host quadrature, the caps' analytic projection against quadrature, irradiance
-// of a constant map, median cut + ambient on every map, and the ambient in rendered frames and in
-// the reference.
+// of a constant map, the ambient of every method on every map against map minus lights by the
+// test's own quadrature (tests/support/extraction_checks.hpp) with negative controls, and the
+// ambient in rendered frames and in the reference.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -226,62 +229,70 @@ TEST(Ambient, RotationIsTheRotatedMapsProjection) {
   }
 }
 
-// Median cut at 32 lights plus the ambient on every map. Power: within 1% (issue 4; exact up to
-// fixed point, as the lights conserve it and the residual's l = 0 term is then ~0).
-// Irradiance on the 26 normals: issue 4 asks for 2%, which order-2 SH cannot give here. Without the
-// ambient the error comes from caps that straddle a normal's horizon: clipped as caps, not as the
-// regions' real shapes, they differ by up to ~2.6% of E each (measured on studio's -y and the
-// sky's (1,-1,-1) normals). That difference is sharp in the normal (the clamped cosine's kink), so
-// most of it lies in bands l >= 4, which 9 coefficients drop: host quadrature of the residual's
-// bands (report of issue 4) leaves a worst luminance error of 3.3-4.3% at l <= 2 and still 2.4-3%
-// at l <= 8. What the ambient does give, and what is asserted: it never makes the worst luminance
-// error larger at 32 lights (measured 3.1/3.1/5.6/5.0% -> 1.6/2.9/4.1/3.8% for courtyard, interior,
-// studio, builtin), and the result stays under 5.5% luminance and 10% per RGB channel (measured
-// worst 4.1% and 8.6%, the latter courtyard's blue on a dim normal), bounds with margin that flag
-// any regression of the residual. (The per-channel bound was 8% before median cut's square
-// regions chose their cut axis by a rotation-consistent rule: the light set changed, courtyard's
-// worst channel went from 6.7% to 8.6% while its luminance error fell from 1.9% to 1.6%.)
+namespace {
+
+// Median cut at 32 lights with the SH9 ambient on every map, judged in two parts; "lights +
+// ambient give the map's power and irradiance" is not one of them, as it holds for any lights
+// (the ambient is the map minus the lights: an empty light set passes it).
+// The lights alone carry the map's whole power (seed 003 eqs. 16-17; issue 4's 1%), against the
+// power of the test's own quadrature of the map: measured worst 0.017% (builtin).
+// The ambient alone against the map minus the lights, both by the test's quadrature, relative to
+// the map's irradiance, on the 26 normals: order-2 SH drops the residual's bands l >= 3, sharp in
+// the normal where a light's horizon passes (the caps straddling a normal's horizon, see the
+// report of issue 4), so issue 4's 2% is not met: KnownGap below. RegressionBound: measured worst
+// 8.6% (courtyard's blue on a dim normal; 5.1 / 5.4 / 4.3% interior, studio, builtin) + 1.4
+// points of margin (10%); the ambient made for no lights, for the lights turned round or for half
+// their power, kept beside the real lights, misses by 121-151% / 108-1114% / 62-78% and is
+// asserted to fail it, as the halved lights' power (50% off) fails the 1%.
 // This is the SH9 model (AmbientModel::SH9); the default irradiance map meets the 2%:
 // IrradianceMapMeetsIssue4OnEveryMethodAndMap below.
-TEST(Ambient, MedianCut32WithSH9AmbientOnEveryMap) {
-  std::vector<Environment> envs;
-  for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
-  envs.push_back(builtinEnvironment());
-  auto lum = [](const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2]; };
+constexpr double kSH9AmbientRegressionBound = 0.10;
+constexpr double kIssue4Bound = 0.02;
+
+// Per map: the SH9 ambient's error; with `controls`, also the lights' power and the controls,
+// asserted.
+std::vector<double> medianCutSH9AmbientErrors(const std::vector<Environment>& envs, bool controls) {
+  std::vector<double> errors;
   for (auto& env : envs) {
     ExtractOptions eo;
     eo.medianCut.lights = 32;
     eo.ambientOptions = sh9Options();
     LightSet set = extractLights(ctx(), env, eo);
-    ASSERT_TRUE(set.hasAmbient);
-    ASSERT_TRUE(set.ambientMap.empty());
-    double p[3];
-    env.power(p);
-    auto sp = set.power();
-    for (int c = 0; c < 3; ++c)
-      EXPECT_NEAR(sp[c] / p[c], 1.0, 0.01) << env.source << " power " << c;
-    LightSet bare = set;
-    bare.hasAmbient = false;
-    double worst = 0, worstBare = 0, worstLum = 0, worstLumBare = 0;
-    for (auto& n : normals26()) {
-      double e[3];
-      env.irradiance(n.data(), e);
-      auto with = set.irradiance(n), without = bare.irradiance(n);
-      for (int c = 0; c < 3; ++c) {
-        worst = std::max(worst, std::fabs(with[c] / e[c] - 1));
-        worstBare = std::max(worstBare, std::fabs(without[c] / e[c] - 1));
-      }
-      worstLum = std::max(worstLum, std::fabs(lum(with.data()) / lum(e) - 1));
-      worstLumBare = std::max(worstLumBare, std::fabs(lum(without.data()) / lum(e) - 1));
-    }
-    std::printf("[ measured ] %s: median cut 32, worst irradiance error on 26 normals: "
-                "luminance %.2f%% without ambient, %.2f%% with; RGB %.2f%% -> %.2f%%\n",
-                env.source.c_str(), 100 * worstLumBare, 100 * worstLum, 100 * worstBare,
-                100 * worst);
-    EXPECT_LE(worstLum, worstLumBare) << env.source;
-    EXPECT_LT(worstLum, 0.055) << env.source;
-    EXPECT_LT(worst, 0.10) << env.source;
+    EXPECT_TRUE(set.hasAmbient && set.ambientMap.empty());
+    const xref::Target t = xref::mapTarget(xref::mapSamples(env), xref::testNormals());
+    const double amb = xref::ambientError(set, t);
+    errors.push_back(amb);
+    if (!controls) continue;
+    const double lightsPower = xref::lightsError(set, t).power;
+    const double halvedPower = xref::lightsError(xref::halved(set), t).power;
+    const auto ctl = xref::ambientControls(ctx(), env, set, eo.ambientOptions, t);
+    std::printf("[ measured ] %s: median cut 32, lights alone: power error %.3f%%; SH9 ambient vs "
+                "map - lights on 26 normals: worst %.2f%%; controls (ambient of no lights / "
+                "negated / halved): %.1f%% / %.1f%% / %.1f%%; halved lights' power error "
+                "%.1f%%\n",
+                env.source.c_str(), 100 * lightsPower, 100 * amb, 100 * ctl[0], 100 * ctl[1],
+                100 * ctl[2], 100 * halvedPower);
+    EXPECT_LT(lightsPower, 0.01) << env.source;
+    EXPECT_GT(halvedPower, 0.01) << env.source << ": the halved control must fail";
+    for (double c : ctl) EXPECT_GT(c, kSH9AmbientRegressionBound) << env.source << " control";
   }
+  return errors;
+}
+
+}  // namespace
+
+TEST(Ambient, RegressionBoundMedianCut32SH9AmbientOnEveryMap) {
+  std::vector<Environment> envs;
+  for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
+  envs.push_back(builtinEnvironment());
+  for (double e : medianCutSH9AmbientErrors(envs, true)) EXPECT_LT(e, kSH9AmbientRegressionBound);
+}
+
+// Issue 4's 2% for the SH9 ambient: not met (above; the worst map, courtyard, alone here: measured
+// 8.6%). Fails the day it is met: then assert the 2% in the test above.
+TEST(Ambient, MedianCut32SH9AmbientKnownGapToIssue4Bound) {
+  const auto e = medianCutSH9AmbientErrors({loadEnvironment(data(kMaps[0]))}, false);
+  EXPECT_GT(e.at(0), kIssue4Bound);
 }
 
 // A rendered frame with the ambient differs from the same frame without it by exactly the
@@ -519,8 +530,6 @@ std::vector<std::array<float, 3>> testNormals(int extra) {
   return out;
 }
 
-double lumOf(const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2]; }
-
 }  // namespace
 
 TEST(AmbientMap, MatchesHostReferenceOnAwkwardSizes) {
@@ -746,24 +755,28 @@ TEST(AmbientMap, JsonRoundTripAndBadFields) {
   }
 }
 
-// Issue 4's criterion with the default ambient, the irradiance map: for every method (median cut
-// at 32 lights, greedy and center-surround at their defaults) and every test map plus the
-// built-in sky, lights + ambient conserve the map's power within 1% and give its irradiance
-// within 2% on the 26 normals, in luminance and in each RGB channel; and the same on 200 random
-// normals (the table is not tuned to the 26: most random normals fall between its texels).
-// Measured worst at 128x64 (the default): see the [ measured ] lines and the report of issue 4
-// (worst 1.43%, interior center-surround on a random normal; the size was chosen by this
-// measurement, lights.hpp).
+// Issue 4's criterion with the default ambient, the irradiance map, stated for what it is about:
+// the ambient is the map minus the lights. "Lights + ambient give the map's power and irradiance"
+// holds for any lights and so is not asserted (an empty light set passes it). For every method
+// (median cut at 32 lights, greedy and center-surround at their defaults) and every test map plus
+// the built-in sky, the ambient alone is judged against the map's irradiance minus the lights',
+// both by the test's own quadrature (tests/support/extraction_checks.hpp), relative to the map's
+// irradiance, on the 26 normals and 200 random ones (the table is not tuned to the 26): within
+// issue 4's 2% (the table's bilinear interpolation is what remains; measured worst 0.74%,
+// interior center-surround; 0.05-0.48% elsewhere). Negative controls, asserted to fail the 2%:
+// the ambient made for no lights, for the lights turned round and for half their power, each
+// kept beside the real lights (on the 26 normals): measured 76-135% / 50-1116% / 38-58%, least
+// on courtyard center-surround, whose 2 lights carry 1.7% of the power: 10.5% / 49.6% / 5.3%.
+// The lights themselves are judged per method in test_lights.cpp, test_greedy.cpp and
+// test_center_surround.cpp.
 TEST(AmbientMap, IrradianceMapMeetsIssue4OnEveryMethodAndMap) {
   std::vector<Environment> envs;
   for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
   envs.push_back(builtinEnvironment());
-  const auto normals = testNormals(200);
   for (const Environment& env : envs) {
-    std::vector<std::array<double, 3>> ref(normals.size());
-    for (std::size_t i = 0; i < normals.size(); ++i) env.irradiance(normals[i].data(), ref[i].data());
-    double p[3];
-    env.power(p);
+    const auto samples = xref::mapSamples(env);
+    const xref::Target all = xref::mapTarget(samples, xref::testNormals(200));
+    const xref::Target few = xref::mapTarget(samples, xref::testNormals());
     for (ExtractionMethod method :
          {ExtractionMethod::MedianCut, ExtractionMethod::Greedy, ExtractionMethod::CenterSurround}) {
       ExtractOptions eo;
@@ -771,25 +784,16 @@ TEST(AmbientMap, IrradianceMapMeetsIssue4OnEveryMethodAndMap) {
       eo.medianCut.lights = 32;
       LightSet set = extractLights(ctx(), env, eo);
       ASSERT_FALSE(set.ambientMap.empty());
-      const auto sp = set.power();
-      for (int c = 0; c < 3; ++c)
-        EXPECT_NEAR(sp[c] / p[c], 1.0, 0.01) << env.source << " " << toString(method);
-      double worst[2] = {0, 0}, worstLum[2] = {0, 0};  // [0]: the 26 normals, [1]: random ones
-      for (std::size_t i = 0; i < normals.size(); ++i) {
-        const int k = i < 26 ? 0 : 1;
-        const auto e = set.irradiance(normals[i]);
-        for (int c = 0; c < 3; ++c) worst[k] = std::max(worst[k], std::fabs(e[c] / ref[i][c] - 1));
-        worstLum[k] = std::max(worstLum[k], std::fabs(lumOf(e.data()) / lumOf(ref[i].data()) - 1));
-      }
-      std::printf("[ measured ] %s %s (%zu lights), 128x64 irradiance map: worst irradiance error "
-                  "luminance / any channel: 26 normals %.2f%% / %.2f%%, 200 random normals "
-                  "%.2f%% / %.2f%%\n",
-                  env.source.c_str(), toString(method), set.lights.size(), 100 * worstLum[0],
-                  100 * worst[0], 100 * worstLum[1], 100 * worst[1]);
-      for (int k = 0; k < 2; ++k) {
-        EXPECT_LT(worstLum[k], 0.02) << env.source << " " << toString(method) << " set " << k;
-        EXPECT_LT(worst[k], 0.02) << env.source << " " << toString(method) << " set " << k;
-      }
+      const double err = xref::ambientError(set, all);
+      const auto ctl = xref::ambientControls(ctx(), env, set, eo.ambientOptions, few);
+      std::printf("[ measured ] %s %s (%zu lights), 128x64 irradiance map vs map - lights on 226 "
+                  "normals: worst %.2f%%; controls (ambient of no lights / negated / halved): "
+                  "%.1f%% / %.1f%% / %.1f%%\n",
+                  env.source.c_str(), toString(method), set.lights.size(), 100 * err,
+                  100 * ctl[0], 100 * ctl[1], 100 * ctl[2]);
+      EXPECT_LT(err, kIssue4Bound) << env.source << " " << toString(method);
+      for (int k = 0; k < 3; ++k)
+        EXPECT_GT(ctl[k], kIssue4Bound) << env.source << " " << toString(method) << " control " << k;
     }
   }
 }

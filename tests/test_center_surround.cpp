@@ -1,7 +1,7 @@
 // Center-surround light extraction (seed 004 §3): the device's filter responses against a
-// brute-force loop on the sphere, synthetic maps with known discs, the 2% stopping rule, the
-// issue's conservation / rotation / determinism requirements, option validation and the
-// oclgrind run of every kernel.
+// brute-force loop on the sphere, synthetic maps with known discs, the 2% stopping rule, the lights
+// alone against the map in their caps (independent quadrature, negative controls), the issue's
+// rotation / determinism requirements, option validation and the oclgrind run of every kernel.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +14,7 @@
 
 #include "environment/center_surround.hpp"
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 namespace penumbra {
 namespace {
@@ -311,68 +312,92 @@ std::vector<Environment> allMaps() {
   return maps;
 }
 
-std::vector<std::array<float, 3>> cubeNormals() {
-  std::vector<std::array<float, 3>> n;
-  for (int x = -1; x <= 1; ++x)
-    for (int y = -1; y <= 1; ++y)
-      for (int z = -1; z <= 1; ++z) {
-        if (!x && !y && !z) continue;
-        float l = std::sqrt(float(x * x + y * y + z * z));
-        n.push_back({x / l, y / l, z / l});
+
+namespace xref = penumbra::test::xref;
+
+// What center-surround's lights are meant to carry (seed 004 §3): each light takes the map's
+// energy inside its centre cap, less what an earlier light took. By the test's own quadrature
+// (tests/support/extraction_checks.hpp), each cap taken about the light's own direction with its
+// own half-angle (the direction is the luminance-weighted mean of the cap it took: at the cap's
+// centre for a compact source, off it by part of the radius where the cap holds a gradient).
+xref::Target capsTarget(const std::vector<xref::Sample>& q, const LightSet& set,
+                        const std::vector<xref::D3>& normals) {
+  std::vector<xref::Sample> in;
+  for (const xref::Sample& s : q)
+    for (const AreaLight& l : set.lights)
+      if (xref::dot3(s.dir, xref::toD(l.direction)) >= l.cosAlpha) {
+        in.push_back(s);
+        break;
       }
-  return n;  // 6 axes, 12 edges, 8 corners
+  return xref::mapTarget(in, normals);
 }
 
-// Power: lights + ambient within 1% (issue 4): the lights carry exactly the removed texels'
-// energy and the residual's l = 0 term the rest.
-// Irradiance on the 26 normals: issue 4 asks for 2%, which center-surround with an order-2 SH
-// ambient cannot give on these maps. Seed 004 extracts only compact sources; on the courtyard
-// (no compact source: the lights carry under 2% of the power) the residual is nearly the whole
-// map, and 9 SH coefficients of a whole map miss its irradiance on the dim normals by many
-// percent (the l >= 4 bands of the clamped cosine that order 2 drops). Asserted instead: the
-// ambient makes the worst luminance error smaller than the lights alone give, and the result
-// stays under bounds set with margin above what was measured (worst 15.6/4.8/3.4/5.1%, mean
-// 3.8/1.3/0.5/0.9% for courtyard, interior, studio, builtin) so that a regression shows.
-// AmbientModel::SH9 (the default irradiance map is tested for every method in
-// tests/test_ambient.cpp, IrradianceMapMeetsIssue4OnEveryMethodAndMap).
-TEST(CenterSurround, LightsPlusSH9AmbientConservePowerAndIrradiance) {
-  auto lum = [](const double* e) { return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2]; };
-  for (const Environment& env : allMaps()) {
+// The lights judged alone (their ambient ignored) against capsTarget, the irradiance error as a
+// fraction of the whole map's (`map`): power and worst luminance error on the 26 normals. An empty
+// set takes nothing and so differs from its empty target by nothing: `meets` requires a light.
+xref::LightsError judgeCenterSurround(const std::vector<xref::Sample>& q, const xref::Target& map,
+                                      const LightSet& set) {
+  return xref::lightsError(set, capsTarget(q, set, map.normals), &map);
+}
+
+// Bounds. Power: each light carries exactly the texels it took, so what differs is the test's
+// cap (about the light's direction) from the cap taken (about the filter's centre): measured
+// 1.69% on courtyard (2 lights on no compact source, 1.7% of the map's power, their directions
+// off their caps' centres), 0.12 / 0.11 / 0.00% elsewhere; bound 3%. Irradiance: the uniform cap
+// in place of what its texels held; measured worst 2.89% of the map's (studio; 0.14 / 0.34 /
+// 0.02% elsewhere, means <= 0.24%); RegressionBound 4% (+1.1 points); issue 4's 2% is not met on
+// studio (KnownGap below). The controls: no lights (refused by the count), directions negated
+// (power 21000-268000% off: the caps then hold the dim opposite side), power halved (50-51% off in
+// power; in irradiance 3.0% on courtyard, 35-49% elsewhere): each fails.
+constexpr double kIssue4Bound = 0.02;
+constexpr double kCsPowerBound = 0.03;
+constexpr double kCsRegressionIrradiance = 0.04;
+
+bool meets(const LightSet& set, const xref::LightsError& e, double irradianceBound) {
+  return !set.lights.empty() && e.power < kCsPowerBound && e.worstLum < irradianceBound;
+}
+
+// Per map: the worst luminance error; with `controls`, the controls asserted to fail.
+double centerSurroundWorst(const std::vector<Environment>& envs, bool controls) {
+  double worst = 0;
+  for (const Environment& env : envs) {
     LightSet set = extractCenterSurround(test::ctx(), env, {});
-    ASSERT_GE(set.lights.size(), 1u) << env.source;
-    LightSet bare = set;
-    AmbientOptions sh9;
-    sh9.model = AmbientModel::SH9;
-    addAmbientResidual(test::ctx(), env, set, sh9);
-    ASSERT_TRUE(set.hasAmbient);
-    double want[3];
-    env.power(want);
-    auto got = set.power();
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 0.01 * want[c]) << env.source;
-    double worst = 0, worstBare = 0, mean = 0;
-    const auto normals = cubeNormals();
-    for (const auto& n : normals) {
-      double e[3];
-      env.irradiance(n.data(), e);
-      auto g = set.irradiance(n), b = bare.irradiance(n);
-      double err = std::abs(lum(g.data()) / lum(e) - 1);
-      worst = std::max(worst, err);
-      worstBare = std::max(worstBare, std::abs(lum(b.data()) / lum(e) - 1));
-      mean += err / normals.size();
+    const auto q = xref::mapSamples(env);
+    const xref::Target map = xref::mapTarget(q, xref::testNormals());
+    const xref::LightsError j = judgeCenterSurround(q, map, set);
+    worst = std::max(worst, j.worstLum);
+    std::printf("[ measured ] %s: center-surround %zu lights carry %.1f%% of the map's power; vs "
+                "the map in their caps: power %.2f%%, irradiance worst %.2f%% mean %.2f%% of the "
+                "map's\n",
+                env.source.c_str(), set.lights.size(), 100 * set.lightsPower()[1] / map.power[1],
+                100 * j.power, 100 * j.worstLum, 100 * j.meanLum);
+    EXPECT_TRUE(meets(set, j, 1.0)) << env.source;  // the count and the power
+    if (!controls) continue;
+    const LightSet c[3] = {xref::withoutLights(set), xref::negated(set), xref::halved(set)};
+    for (int k = 0; k < 3; ++k) {
+      const xref::LightsError e = judgeCenterSurround(q, map, c[k]);
+      std::printf("[ control ] %s: %s: power %.1f%%, irradiance %.1f%%\n", env.source.c_str(),
+                  k == 0 ? "no lights" : k == 1 ? "negated" : "halved", 100 * e.power,
+                  100 * e.worstLum);
+      EXPECT_FALSE(meets(c[k], e, kCsRegressionIrradiance)) << env.source << " control " << k;
     }
-    std::printf("[ measured ] %s: center-surround %zu lights carry %.1f%% of the power; worst "
-                "irradiance error on 26 normals (luminance) %.2f%% lights only, %.2f%% with "
-                "ambient (mean %.2f%%)\n",
-                env.source.c_str(), set.lights.size(),
-                100 * (set.lightsPower()[1] / want[1]), 100 * worstBare, 100 * worst, 100 * mean);
-    EXPECT_LT(worst, worstBare) << env.source;
-    EXPECT_LT(worst, 0.22) << env.source;
-    EXPECT_LT(mean, 0.06) << env.source;
   }
+  return worst;
 }
 
-// Rotation by 90 degrees about y: shifting the columns by width/4 adds 90 degrees to phi, which
-// maps direction (x, y, z) to (-z, y, x) (pb_equirect_dir).
+// Replaces "lights + SH9 ambient within 22% worst / 6% mean of the map's irradiance", which an
+// empty light set passes too (the ambient is then the whole map).
+TEST(CenterSurround, RegressionBoundLightsCarryTheirCaps) {
+  EXPECT_LT(centerSurroundWorst(allMaps(), true), kCsRegressionIrradiance);
+}
+
+// Issue 4's 2% for center-surround's lights against their caps: not met on studio (above: measured
+// 2.89%). Fails the day it is met: then assert the 2% above.
+TEST(CenterSurround, LightsKnownGapToIssue4Bound) {
+  EXPECT_GT(centerSurroundWorst({loadEnvironment(test::data("envmaps/studio.exr"))}, false),
+            kIssue4Bound);
+}
+
 TEST(CenterSurround, RotatingTheMapRotatesTheLights) {
   for (const Environment& env : allMaps()) {
     Environment rot = env;

@@ -1,6 +1,8 @@
 // Greedy fitting of square/rectangular lights (seed 000 §4.2): the device fit against a plain C++
-// copy of the algorithm, energy conservation, a known bright square, and the issue's conservation,
-// rotation and determinism requirements for the extracted light set.
+// copy of the algorithm and against the properties seed 000 gives each light (a check sharing no
+// code with the kernel), energy conservation, a known bright square, the lights alone against the
+// map above its face means (independent quadrature, negative controls), and the issue's rotation
+// and determinism requirements for the extracted light set.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,11 +11,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "environment/cubemap.hpp"
 #include "environment/greedy.hpp"
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -179,6 +183,116 @@ std::vector<i64> randomEnergy(int m, unsigned seed) {
   return e;
 }
 
+// An independent check of the fit, sharing no code with greedy.cl or its copy above: the
+// properties seed 000 §4.2 gives every fitted light, verified on the device's output by replaying
+// only the removal rule. Per face, in fitting order, each light
+//   - contains the brightest texel not yet covered (its seed; ties: any of them),
+//   - is a square in the square variant,
+//   - cannot grow: every rim it could add (for squares the four L-shaped rims of one more row and
+//     column, for rectangles each side's strip) adds at most t of what the grown light would
+//     hold (the growth test; float there, double here, with a relative margin of 1e-5 for the
+//     float rounding), unless it is the whole face,
+//   - takes from each texel what lies above the face's mean (integer mean of the face's original
+//     energies, per channel), exactly, and its luminance (2126 R + 7152 G + 722 B) / 10000 per
+//     texel, exactly,
+//   - has a moment no longer than its luminance (a mean of unit vectors);
+// a face ends when every texel is covered or it holds its most lights; the remaining map is the
+// replay's. Returns the first violation, or "" when there is none.
+std::string greedyViolation(const std::vector<i64>& energy, int m, float t, bool square,
+                            const std::vector<GreedyRect>& fit, const std::vector<i64>& remaining) {
+  const std::size_t plane = 6ull * m * m;
+  std::vector<i64> e = energy;
+  std::vector<char> covered(plane, 0);
+  auto lumAt = [&](std::size_t i) {
+    return (2126 * e[i] + 7152 * e[plane + i] + 722 * e[2 * plane + i]) / 10000;
+  };
+  auto grows = [&](double added, double held) { return added > t * (held + added) * (1 + 1e-5); };
+  std::size_t next = 0;
+  for (int f = 0; f < 6; ++f) {
+    const std::size_t base = std::size_t(f) * m * m;
+    auto at = [&](int x, int y) { return base + std::size_t(y) * m + x; };
+    auto sum = [&](int x0, int y0, int x1, int y1) {  // luminance over [x0,x1) x [y0,y1)
+      double v = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) v += double(lumAt(at(x, y)));
+      return v;
+    };
+    i64 mean[3] = {0, 0, 0};
+    for (int c = 0; c < 3; ++c) {
+      for (int i = 0; i < m * m; ++i) mean[c] += energy[c * plane + base + i];
+      mean[c] /= i64(m) * m;
+    }
+    int count = 0;
+    for (; next < fit.size() && fit[next].face == f; ++next, ++count) {
+      const GreedyRect& g = fit[next];
+      const std::string id = "face " + std::to_string(f) + " light " + std::to_string(count) + ": ";
+      if (!(g.x0 >= 0 && g.y0 >= 0 && g.x0 < g.x1 && g.y0 < g.y1 && g.x1 <= m && g.y1 <= m))
+        return id + "bad rectangle";
+      if (square && g.x1 - g.x0 != g.y1 - g.y0) return id + "not a square";
+      i64 brightest = -1;
+      for (int i = 0; i < m * m; ++i)
+        if (!covered[base + i]) brightest = std::max(brightest, lumAt(base + i));
+      bool seeded = false;
+      for (int y = g.y0; y < g.y1; ++y)
+        for (int x = g.x0; x < g.x1; ++x)
+          seeded = seeded || (!covered[at(x, y)] && lumAt(at(x, y)) == brightest);
+      if (!seeded) return id + "does not hold the brightest uncovered texel";
+      const double held = sum(g.x0, g.y0, g.x1, g.y1);
+      const bool cl = g.x0 > 0, cr = g.x1 < m, ct = g.y0 > 0, cb = g.y1 < m;
+      bool more = false;
+      if (square) {  // the rim towards each corner: one more column and row, corner included
+        more = (cl && ct && grows(sum(g.x0 - 1, g.y0 - 1, g.x1, g.y1) - held, held)) ||
+               (cr && ct && grows(sum(g.x0, g.y0 - 1, g.x1 + 1, g.y1) - held, held)) ||
+               (cl && cb && grows(sum(g.x0 - 1, g.y0, g.x1, g.y1 + 1) - held, held)) ||
+               (cr && cb && grows(sum(g.x0, g.y0, g.x1 + 1, g.y1 + 1) - held, held));
+      } else {
+        more = (cl && grows(sum(g.x0 - 1, g.y0, g.x0, g.y1), held)) ||
+               (cr && grows(sum(g.x1, g.y0, g.x1 + 1, g.y1), held)) ||
+               (ct && grows(sum(g.x0, g.y0 - 1, g.x1, g.y0), held)) ||
+               (cb && grows(sum(g.x0, g.y1, g.x1, g.y1 + 1), held));
+      }
+      if (more) return id + "stopped while a rim would still grow it";
+      std::array<i64, 4> removed{};
+      for (int y = g.y0; y < g.y1; ++y)
+        for (int x = g.x0; x < g.x1; ++x) {
+          const std::size_t i = at(x, y);
+          i64 d[3];
+          for (int c = 0; c < 3; ++c) {
+            const i64 keep = std::min(e[c * plane + i], mean[c]);
+            d[c] = e[c * plane + i] - keep;
+            e[c * plane + i] = keep;
+            removed[c] += d[c];
+          }
+          removed[3] += (2126 * d[0] + 7152 * d[1] + 722 * d[2]) / 10000;
+          covered[i] = 1;
+        }
+      if (g.removed != removed) return id + "took other energy than above the face mean";
+      const double ml = std::sqrt(double(g.moment[0]) * g.moment[0] +
+                                  double(g.moment[1]) * g.moment[1] + double(g.moment[2]) * g.moment[2]);
+      if (ml > double(removed[3]) * (1 + 1e-6) + 0.5 * (g.x1 - g.x0) * (g.y1 - g.y0) + 1)
+        return id + "moment longer than its luminance";
+    }
+    const int uncovered = int(std::count(covered.begin() + base, covered.begin() + base + m * m, 0));
+    const int most = int(std::min<i64>(i64(m) * m, detail::kGreedyMaxPerFace));
+    if (uncovered != 0 && count != most) return "face " + std::to_string(f) + ": stopped early";
+  }
+  if (next != fit.size()) return "lights out of face order";
+  if (remaining != e) return "remaining map differs from the replay";
+  return "";
+}
+
+struct DeviceFit {
+  std::vector<GreedyRect> fit;
+  std::vector<i64> remaining;
+};
+DeviceFit deviceFit(const std::vector<i64>& energy, int m, float t, bool square) {
+  cl::Buffer buf = ctx().upload(energy, "test energy");
+  DeviceFit d;
+  d.fit = detail::greedyFit(ctx(), buf, m, t, square);
+  d.remaining = ctx().download<i64>(buf, energy.size(), "remaining");
+  return d;
+}
+
 const float kNormals26[26][3] = {
     {1, 0, 0},  {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}, {0, 0, 1},  {0, 0, -1}, {1, 1, 0},
     {1, -1, 0}, {-1, 1, 0}, {-1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {-1, 0, 1}, {-1, 0, -1},
@@ -201,6 +315,43 @@ Environment rotated90(const Environment& env) {
     for (int s = 0; s < W; ++s)
       for (int c = 0; c < 3; ++c) r.equirect.at((s + W / 4) % W, t, c) = env.equirect.at(s, t, c);
   return r;
+}
+
+// What greedy's lights are meant to carry (seed 000 §4.2): on each cube face of m^2 texels, what
+// every texel holds above the face's mean, per channel (the rest stays in the map for the
+// ambient). By the test's own binning of its quadrature samples (tests/support/
+// extraction_checks.hpp): a sample belongs to the face of its largest |coordinate| and to the
+// cell of the other two divided by it (which of them is a face's x does not matter: the cells are
+// the same sets). Each sample keeps its cell's taken fraction.
+xref::Target greedyTarget(const Environment& env, int m, const std::vector<xref::D3>& normals) {
+  std::vector<xref::Sample> q = xref::mapSamples(env);
+  std::vector<std::size_t> cell(q.size());
+  std::vector<xref::D3> e(6ull * m * m, xref::D3{0, 0, 0});
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    const xref::D3& d = q[i].dir;
+    const int axis = std::fabs(d[0]) >= std::fabs(d[1]) && std::fabs(d[0]) >= std::fabs(d[2]) ? 0
+                     : std::fabs(d[1]) >= std::fabs(d[2])                                    ? 1
+                                                                                             : 2;
+    const int face = 2 * axis + (d[axis] < 0);
+    const double a = d[(axis + 1) % 3] / std::fabs(d[axis]), b = d[(axis + 2) % 3] / std::fabs(d[axis]);
+    const int ca = std::clamp(int((a + 1) / 2 * m), 0, m - 1), cb = std::clamp(int((b + 1) / 2 * m), 0, m - 1);
+    cell[i] = (std::size_t(face) * m + cb) * m + ca;
+    for (int c = 0; c < 3; ++c) e[cell[i]][c] += q[i].energy[c];
+  }
+  std::vector<xref::D3> taken(e.size());
+  for (int f = 0; f < 6; ++f) {
+    xref::D3 mean{0, 0, 0};
+    for (int k = 0; k < m * m; ++k)
+      for (int c = 0; c < 3; ++c) mean[c] += e[std::size_t(f) * m * m + k][c] / (double(m) * m);
+    for (int k = 0; k < m * m; ++k) {
+      const std::size_t o = std::size_t(f) * m * m + k;
+      for (int c = 0; c < 3; ++c)
+        taken[o][c] = e[o][c] > mean[c] ? (e[o][c] - mean[c]) / e[o][c] : 0.0;
+    }
+  }
+  for (std::size_t i = 0; i < q.size(); ++i)
+    for (int c = 0; c < 3; ++c) q[i].energy[c] *= taken[cell[i]][c];
+  return xref::mapTarget(q, normals);
 }
 
 double lumOf(const std::array<float, 3>& p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2]; }
@@ -318,51 +469,112 @@ TEST(Greedy, BrightDiscOnMapGivesStrongestLightAtIt) {
   EXPECT_EQ(l.regions[0][0], 4);  // +Z face
 }
 
-// AmbientModel::SH9 (the default irradiance map is tested for every method in
-// tests/test_ambient.cpp, IrradianceMapMeetsIssue4OnEveryMethodAndMap).
-TEST(Greedy, ConservesPowerAndIrradianceWithSH9Ambient) {
-  // The issue's bounds: power within 1% (asserted: the ambient's l = 0 term carries exactly what
-  // the lights do not), irradiance on 26 normals within 2% of the map's. The second is NOT met
-  // and is not asserted at 2%: measured at the defaults (t = 0.02, 64^2 faces, 64 lights) the
-  // worst luminance error with the ambient is 6.2% (courtyard), 5.8% (interior), 1.4% (builtin),
-  // 0.9% (studio), and one channel reaches 23% (courtyard, -y normal, blue: a dim normal, where
-  // a small absolute error is a large relative one). The squares t = 0.02 grows become wide caps
-  // that spill across a normal's horizon; that error changes sharply with the normal, so it sits
-  // in SH bands l >= 4, which 9 coefficients cannot hold (median cut with the same ambient:
-  // 1.9-4.6% luminance, tests/test_ambient.cpp). What is asserted instead: the ambient never makes
-  // the worst luminance error worse than the lights alone, and it stays under 8% (luminance), 30%
-  // (any channel): bounds that catch a broken residual (which shows as tens of percent in
-  // luminance) without pretending the 2% holds.
-  auto lum = [](const double* v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; };
-  for (const std::string& path : allMaps()) {
-    Environment env = environmentFrom(path);
-    LightSet set = extractGreedy(ctx(), env, {});
-    LightSet bare = set;
-    AmbientOptions sh9;
-    sh9.model = AmbientModel::SH9;
-    addAmbientResidual(ctx(), env, set, sh9);
-    double p[3];
-    env.power(p);
-    auto lp = set.power();
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(lp[c] / p[c], 1.0, 0.01) << path << " channel " << c;
-    double worstLum = 0, worstLumBare = 0, worstChannel = 0;
-    for (auto& n0 : kNormals26) {
-      float l = std::sqrt(n0[0] * n0[0] + n0[1] * n0[1] + n0[2] * n0[2]);
-      float n[3] = {n0[0] / l, n0[1] / l, n0[2] / l};
-      double e[3];
-      env.irradiance(n, e);
-      auto g = set.irradiance({n[0], n[1], n[2]});
-      auto b = bare.irradiance({n[0], n[1], n[2]});
-      worstLum = std::max(worstLum, std::fabs(lum(g.data()) / lum(e) - 1));
-      worstLumBare = std::max(worstLumBare, std::fabs(lum(b.data()) / lum(e) - 1));
-      for (int c = 0; c < 3; ++c) worstChannel = std::max(worstChannel, std::fabs(g[c] / e[c] - 1));
+// The fit against properties it must have, by a check that shares no code with greedy.cl
+// (greedyViolation), on random energies with ties and zeros and on the sky, both variants; and
+// negative controls, fits made wrong by hand, which the check must refuse.
+TEST(GreedyKernel, FitHasTheGreedyPropertiesIndependentOfTheKernel) {
+  Environment sky = builtinEnvironment(256);
+  for (int m : {3, 17, 32})
+    for (bool square : {true, false})
+      for (float t : {0.02f, 0.3f}) {
+        const std::string what = "m " + std::to_string(m) + (square ? " square" : " rect") +
+                                 " t " + std::to_string(t);
+        for (const auto& energy : {randomEnergy(m, 40 + m), mapEnergy(sky, m)}) {
+          const DeviceFit d = deviceFit(energy, m, t, square);
+          EXPECT_EQ(greedyViolation(energy, m, t, square, d.fit, d.remaining), "") << what;
+        }
+      }
+  // Controls on one real fit: each wrong fit must be refused.
+  const int m = 17;
+  const std::vector<i64> energy = randomEnergy(m, 57);
+  const DeviceFit d = deviceFit(energy, m, 0.02f, true);
+  ASSERT_GE(d.fit.size(), 3u);
+  auto refused = [&](std::vector<GreedyRect> fit, const char* what) {
+    const std::string v = greedyViolation(energy, m, 0.02f, true, fit, d.remaining);
+    std::printf("[ control ] %s: %s\n", what, v.c_str());
+    EXPECT_NE(v, "") << what;
+  };
+  std::vector<GreedyRect> f(d.fit.begin() + 1, d.fit.end());
+  refused(f, "first light dropped");
+  f = d.fit;
+  std::swap(f[0], f[1]);
+  refused(f, "first two lights swapped");
+  f = d.fit;
+  for (auto& g : f)
+    if (g.x1 - g.x0 > 1) {
+      --g.x1, --g.y1;  // a square one texel smaller
+      break;
     }
-    std::printf("greedy %s: worst irradiance error on 26 normals, luminance %.2f%% (lights alone %.2f%%), any channel %.2f%%\n",
-                path.c_str(), 100 * worstLum, 100 * worstLumBare, 100 * worstChannel);
-    EXPECT_LE(worstLum, worstLumBare + 1e-6) << path;
-    EXPECT_LT(worstLum, 0.08) << path;
-    EXPECT_LT(worstChannel, 0.30) << path;
+  refused(f, "a square shrunk by a texel");
+  f = d.fit;
+  f[0].removed[1] /= 2;
+  refused(f, "half the green taken");
+  f = d.fit;
+  f[0].x0 = f[0].x1 - 1, f[0].y0 = f[0].y1 - 1;
+  refused(f, "first light its seed texel only");
+}
+
+namespace {
+
+constexpr double kIssue4IrradianceBound = 0.02;
+constexpr double kGreedyLightsRegressionBound = 0.12;
+
+// Greedy's lights alone against what they are meant to carry (greedyTarget: the map above each
+// face's mean, the test's own binning and quadrature), at the defaults but keeping every light
+// (maxLights = PB_MAX_LIGHTS; 19-24 lights are found on the test maps, so none is dropped at the
+// default 64 either). Power: the lights carry the taken energy, so the difference is the two
+// binnings' (the device's fixed point and float directions vs the test's double): issue 4's 1%,
+// measured 0.000%. Irradiance on the 26 normals, as a fraction of the whole map's irradiance
+// there (the target is near zero on normals facing away from every light): issue 4's 2% is not
+// met (KnownGap below): the squares' caps differ from the squares where they straddle a normal's
+// horizon, and a square holding a gradient puts its cap off the square's centre. Measured worst
+// luminance 9.9% courtyard, 6.3% interior, 4.7% builtin, 0.85% studio (means 2.0/0.5/0.4/0.1%);
+// RegressionBound 12% (the 9.9% + 2.1 points). Negative controls, asserted to fail it: no lights
+// 73-96%, directions negated 149-652%, power halved 37-48% (and 50% in power).
+// Replaces "lights + SH9 ambient within 8% / 30% of the map", which an empty set passes too.
+double greedyLightsWorst(const std::vector<Environment>& envs, bool controls) {
+  double worst = 0;
+  for (const Environment& env : envs) {
+    GreedyOptions o;
+    o.maxLights = PB_MAX_LIGHTS;
+    const LightSet set = extractGreedy(ctx(), env, o);
+    EXPECT_LT(set.lights.size(), std::size_t(PB_MAX_LIGHTS)) << env.source << ": lights dropped";
+    const xref::Target t = greedyTarget(env, o.faceSize, xref::testNormals());
+    const xref::Target map = xref::mapTarget(xref::mapSamples(env), xref::testNormals());
+    const xref::LightsError e = xref::lightsError(set, t, &map);
+    worst = std::max(worst, e.worstLum);
+    std::printf("[ measured ] greedy %s (%zu lights) alone vs the map above its face means: power "
+                "%.3f%%, irradiance on 26 normals worst luminance %.2f%% (mean %.2f%%), any "
+                "channel %.2f%%\n",
+                env.source.c_str(), set.lights.size(), 100 * e.power, 100 * e.worstLum,
+                100 * e.meanLum, 100 * e.worstRgb);
+    EXPECT_LT(e.power, 0.01) << env.source;
+    if (!controls) continue;
+    const xref::LightsError c[3] = {xref::lightsError(xref::withoutLights(set), t, &map),
+                                    xref::lightsError(xref::negated(set), t, &map),
+                                    xref::lightsError(xref::halved(set), t, &map)};
+    std::printf("[ control ] greedy %s: no lights / negated / halved: worst luminance "
+                "%.1f%% / %.1f%% / %.1f%%, power %.1f%% / %.1f%% / %.1f%%\n",
+                env.source.c_str(), 100 * c[0].worstLum, 100 * c[1].worstLum, 100 * c[2].worstLum,
+                100 * c[0].power, 100 * c[1].power, 100 * c[2].power);
+    for (auto& k : c) EXPECT_GT(k.worstLum, kGreedyLightsRegressionBound) << env.source;
   }
+  return worst;
+}
+
+}  // namespace
+
+TEST(Greedy, RegressionBoundLightsCarryTheMapAboveItsFaceMeans) {
+  std::vector<Environment> envs;
+  for (const std::string& path : allMaps()) envs.push_back(environmentFrom(path));
+  EXPECT_LT(greedyLightsWorst(envs, true), kGreedyLightsRegressionBound);
+}
+
+// Issue 4's 2% for greedy's lights: not met (above; courtyard, the worst map, alone here: measured
+// 9.9%). Fails the day it is met: then assert the 2% above.
+TEST(Greedy, LightsKnownGapToIssue4Bound) {
+  EXPECT_GT(greedyLightsWorst({loadEnvironment(data("envmaps/courtyard.exr"))}, false),
+            kIssue4IrradianceBound);
 }
 
 TEST(Greedy, Rotating90DegreesRotatesTheLights) {

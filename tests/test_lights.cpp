@@ -1,11 +1,15 @@
-// Area lights: the cap irradiance formula, and median-cut extraction on the device.
+// Area lights: the cap irradiance formula, and median-cut extraction on the device (its lights
+// judged against the test's own quadrature of the map, with negative controls).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cstdio>
 #include <cmath>
 #include <vector>
 
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -81,17 +85,6 @@ void expectConserves(const Environment& env, const LightSet& set, const std::str
   }
 }
 
-// Worst relative irradiance error over the normals.
-double worstIrradianceError(const Environment& env, const LightSet& set) {
-  double worst = 0;
-  for (auto& n : kNormals) {
-    double e[3];
-    env.irradiance(n, e);
-    worst = std::max(worst, std::fabs(lum3(set.irradiance({n[0], n[1], n[2]})) / luminance(e) - 1));
-  }
-  return worst;
-}
-
 }  // namespace
 
 TEST(MedianCut, ConservesPowerAndFirstMomentOnEveryMap) {
@@ -107,26 +100,65 @@ TEST(MedianCut, ConservesPowerAndFirstMomentOnEveryMap) {
   expectConserves(sky, extractMedianCut(ctx(), sky, {}), "builtin");
 }
 
-// Irradiance on a normal within 1% (issue 2) holds once regions are small: a cap light is exact for
-// every normal that sees all of it (previous test), and only regions straddling the normal's
-// horizon, clipped as caps instead of as their real shapes, differ. At 32 lights the large regions
-// of real maps straddle the horizon of axis-aligned normals; the measured worst case over the
-// three maps and the built-in sky is 6.5% (studio), so 1% is not a property of seed 003's
-// model at 32 lights and the bound below is the measured one with margin. At 256 lights every map
-// is within 1% (measured worst 0.84%). Issue 4's ambient residual (tests/test_ambient.cpp) reduces
-// the 32-light error (luminance worst 6.6% -> 4.6%) but cannot reach 1-2%: the horizon-clipping
-// difference is sharp in the normal and lies mostly in SH bands l >= 4, beyond its 9 coefficients.
-TEST(MedianCut, IrradianceOnNormals) {
+namespace {
+
+// Median cut's lights alone (no ambient), against the test's own quadrature of the map
+// (tests/support/extraction_checks.hpp), on the 26 normals of issue 4: the worst relative
+// luminance error. A cap light is exact for every normal that sees all of it (previous test);
+// only regions straddling the normal's horizon, clipped as caps instead of as their real shapes,
+// differ. Issue 2's bound is 1%: met at 256 lights (asserted; measured worst 0.94%, studio), not
+// at 32, where the large regions of real maps straddle the horizon of axis-aligned normals
+// (measured worst 5.6% studio, 5.0% builtin, 3.1% courtyard and interior: KnownGap below).
+// RegressionBound at 32 lights: the measured 5.6% + 1.4 points (7%). Power: 1% (issue 4),
+// measured 0.02% worst. The negative controls (no lights, directions negated, power halved) miss
+// by 100%, 91-850% and 50-51% (see [ control ]) and are asserted to fail each bound.
+constexpr double kIssue2Bound = 0.01;
+constexpr double kMedianCut32RegressionBound = 0.07;
+
+// The worst error over every map and the built-in sky at `lights` lights; with `controls`, each
+// control is asserted to fail `bound`.
+double medianCutWorstError(int lights, bool controls, double bound) {
   std::vector<Environment> envs;
   for (const char* rel : kMaps) envs.push_back(loadEnvironment(data(rel)));
   envs.push_back(builtinEnvironment());
+  double worst = 0;
   for (auto& env : envs) {
     MedianCutOptions mc;
-    mc.lights = 32;
-    EXPECT_LT(worstIrradianceError(env, extractMedianCut(ctx(), env, mc)), 0.08) << env.source;
-    mc.lights = 256;
-    EXPECT_LT(worstIrradianceError(env, extractMedianCut(ctx(), env, mc)), 0.01) << env.source;
+    mc.lights = lights;
+    const LightSet set = extractMedianCut(ctx(), env, mc);
+    const xref::Target t = xref::mapTarget(xref::mapSamples(env), xref::testNormals());
+    const xref::LightsError e = xref::lightsError(set, t);
+    std::printf("[ measured ] %s median cut %d, lights alone vs quadrature: power %.3f%%, worst "
+                "luminance irradiance error %.2f%%\n",
+                env.source.c_str(), lights, 100 * e.power, 100 * e.worstLum);
+    EXPECT_LT(e.power, 0.01) << env.source;
+    worst = std::max(worst, e.worstLum);
+    if (!controls) continue;
+    const double c[3] = {xref::lightsError(xref::withoutLights(set), t).worstLum,
+                         xref::lightsError(xref::negated(set), t).worstLum,
+                         xref::lightsError(xref::halved(set), t).worstLum};
+    std::printf("[ control ] %s median cut %d: no lights / negated / halved: %.1f%% / %.1f%% / "
+                "%.1f%%\n",
+                env.source.c_str(), lights, 100 * c[0], 100 * c[1], 100 * c[2]);
+    for (double v : c) EXPECT_GT(v, bound) << env.source << " control";
   }
+  return worst;
+}
+
+}  // namespace
+
+TEST(MedianCut, IrradianceOnNormalsAt256LightsMeetsIssue2) {
+  EXPECT_LT(medianCutWorstError(256, true, kIssue2Bound), kIssue2Bound);
+}
+
+TEST(MedianCut, RegressionBoundIrradianceOnNormalsAt32Lights) {
+  EXPECT_LT(medianCutWorstError(32, true, kMedianCut32RegressionBound), kMedianCut32RegressionBound);
+}
+
+// Issue 2's 1% at 32 lights: not met (above: measured worst 5.6%, studio). Fails the day it is:
+// then assert the 1% there.
+TEST(MedianCut, IrradianceOnNormalsAt32LightsKnownGapToIssue2Bound) {
+  EXPECT_GT(medianCutWorstError(32, false, 0), kIssue2Bound);
 }
 
 TEST(MedianCut, AnyLightCount) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -292,45 +293,85 @@ TEST(PolygonLights, MedianCutExactOnRegionUniformMap) {
   }
 }
 
+namespace {
+
 // Median cut with polygon shape on every map and the builtin, at 32 lights (8 and 64 were measured
-// too, see the report; left out to keep the suite short): lights +
-// ambient conserve the map's power within 1% (issue 4), every single-region light is a polygon and
-// every merged light a cap. The irradiance on the 26 normals is measured and reported for both
-// shapes, not asserted below 2%: on real maps the regions are not uniform (median cut cuts at the
-// energy median, so a bright source shares its region with dark texels), a uniform polygon moves
-// the region's first moment to the polygon's centroid, and its error is several times the cap's
-// (lights.hpp MedianCutOptions::shape). What is asserted is that the ambient, with the polygons'
-// own SH projection subtracted, improves on the polygons alone at every count (a wrong projection,
-// say a cap's, would not).
-TEST(PolygonLights, MedianCutOnEveryMap) {
-  for (auto& env : everyMap()) {
-    double p[3];
-    env.power(p);
-    for (int n : {32}) {
-      ExtractOptions eo;
-      eo.medianCut.lights = n;
-      eo.medianCut.shape = LightShape::Polygon;
-      LightSet set = extractLights(ctx(), env, eo);
-      int polygons = 0;
-      for (auto& l : set.lights) {
-        polygons += l.shape == LightShape::Polygon;
-        EXPECT_EQ(l.shape == LightShape::Polygon, l.regions.size() == 1) << env.source;
-      }
-      EXPECT_GT(polygons, 0) << env.source;
-      auto sp = set.power();
-      for (int c = 0; c < 3; ++c) EXPECT_NEAR(sp[c] / p[c], 1.0, 0.01) << env.source << " " << c;
-      IrrError poly = irradianceError(env, set);
-      LightSet bare = set;
-      bare.hasAmbient = false;
-      IrrError polyBare = irradianceError(env, bare);
-      std::printf("[ measured ] %s median cut %d (%d polygons of %zu lights): worst irradiance "
-                  "error on 26 normals, RGB / luminance: %.2f%% / %.2f%% with the ambient, "
-                  "%.2f%% / %.2f%% without (caps: tests/test_ambient.cpp)\n",
-                  env.source.c_str(), n, polygons, set.lights.size(), 100 * poly.rgb,
-                  100 * poly.lum, 100 * polyBare.rgb, 100 * polyBare.lum);
-      EXPECT_LT(poly.lum, polyBare.lum) << env.source << " " << n;
+// too, see the report; left out to keep the suite short): every single-region light is a polygon
+// and every merged light a cap. Judged in parts, none of which holds by construction ("lights +
+// ambient give the map's power" holds for any lights, the ambient being the map minus them):
+//   - the lights alone carry the map's power within 1% (issue 4), against the test's own
+//     quadrature (tests/support/extraction_checks.hpp);
+//   - the lights alone against the map's irradiance on the 26 normals: issue 4's 2% is not met
+//     (KnownGap below): median-cut regions are not uniform (cut at the energy median, a bright
+//     source shares its region with dark texels), a uniform polygon moves the region's first
+//     moment to the polygon's centroid, and on a normal that sees part of a region the error is
+//     large (lights.hpp MedianCutOptions::shape). Measured worst luminance 80 / 35 / 104 / 49%
+//     (courtyard, interior, studio, builtin: dim normals), mean over the 26 normals 11.5 / 11.3 /
+//     13.4 / 10.4%. The worst does not separate the set from its controls (no lights is 100%),
+//     so the RegressionBound is on the mean: 17% (the 13.4% + 3.6 points); the controls' means:
+//     no lights 100%, directions negated 39-164%, power halved 47-48%;
+//   - the ambient (the default irradiance map) alone against the map minus the polygons, the
+//     polygons' irradiance by the test's quadrature over their own shape: within 2% (measured
+//     0.14-0.59%; a residual that subtracted caps for the polygons would miss by their
+//     difference). Controls (ambient made for no lights / negated / halved, beside the real
+//     lights): 160-215% / 63-1025% / 80-107%.
+// Negative controls, each asserted to fail its part.
+constexpr double kIssue4Bound = 0.02;
+constexpr double kPolygonLightsRegressionBound = 0.17;
+
+// Per map: the lights' worst (first) and mean (second) luminance error; with `controls`, the
+// other parts and the controls asserted.
+std::pair<double, double> polygonMedianCutErrors(const std::vector<Environment>& envs,
+                                                 bool controls) {
+  std::pair<double, double> worst{0, 0};
+  for (auto& env : envs) {
+    ExtractOptions eo;
+    eo.medianCut.lights = 32;
+    eo.medianCut.shape = LightShape::Polygon;
+    LightSet set = extractLights(ctx(), env, eo);
+    int polygons = 0;
+    for (auto& l : set.lights) {
+      polygons += l.shape == LightShape::Polygon;
+      EXPECT_EQ(l.shape == LightShape::Polygon, l.regions.size() == 1) << env.source;
     }
+    EXPECT_GT(polygons, 0) << env.source;
+    const xref::Target t = xref::mapTarget(xref::mapSamples(env), xref::testNormals());
+    const xref::LightsError e = xref::lightsError(set, t);
+    worst = {std::max(worst.first, e.worstLum), std::max(worst.second, e.meanLum)};
+    EXPECT_LT(e.power, 0.01) << env.source;
+    if (!controls) continue;
+    const double amb = xref::ambientError(set, t);
+    const auto ctlAmb = xref::ambientControls(ctx(), env, set, eo.ambientOptions, t);
+    const xref::LightsError c[3] = {xref::lightsError(xref::withoutLights(set), t),
+                                    xref::lightsError(xref::negated(set), t),
+                                    xref::lightsError(xref::halved(set), t)};
+    std::printf("[ measured ] %s median cut 32 (%d polygons of %zu lights), lights alone: power "
+                "%.3f%%, irradiance error on 26 normals (luminance) worst %.2f%% mean %.2f%%; "
+                "controls (no lights / negated / halved): mean %.1f%% / %.1f%% / %.1f%%. Ambient "
+                "vs map - polygons: %.2f%%; controls %.1f%% / %.1f%% / %.1f%%\n",
+                env.source.c_str(), polygons, set.lights.size(), 100 * e.power,
+                100 * e.worstLum, 100 * e.meanLum, 100 * c[0].meanLum, 100 * c[1].meanLum,
+                100 * c[2].meanLum, 100 * amb, 100 * ctlAmb[0], 100 * ctlAmb[1],
+                100 * ctlAmb[2]);
+    for (auto& k : c) EXPECT_GT(k.meanLum, kPolygonLightsRegressionBound) << env.source;
+    EXPECT_LT(amb, kIssue4Bound) << env.source;
+    for (double k : ctlAmb) EXPECT_GT(k, kIssue4Bound) << env.source;
   }
+  return worst;
+}
+
+}  // namespace
+
+TEST(PolygonLights, RegressionBoundMedianCutOnEveryMap) {
+  EXPECT_LT(polygonMedianCutErrors(everyMap(), true).second, kPolygonLightsRegressionBound);
+}
+
+// Issue 4's 2% for the polygon lights alone: not met (above; checked on studio, the map whose
+// regions are furthest from uniform: measured worst 104%). Fails the day it is met: then assert it
+// above.
+TEST(PolygonLights, MedianCutKnownGapToIssue4Bound) {
+  EXPECT_GT(polygonMedianCutErrors({loadEnvironment(data("envmaps/studio.exr"))}, false).first,
+            kIssue4Bound);
 }
 
 // Polygon median cut is deterministic (bit-identical JSON) and follows the map under a

@@ -6,6 +6,20 @@ import pytest
 import penumbra
 
 
+def map_quadrature(env):
+    """The map's texels as (unit direction, radiance x exact solid angle): the equirect convention
+    (y up; longitude 2 pi (s / W - 1/2), colatitude pi t / H) written here, not the library's."""
+    img = np.asarray(env.equirect, dtype=np.float64)
+    h, w = img.shape[:2]
+    th0, th1 = np.pi * np.arange(h) / h, np.pi * (np.arange(h) + 1) / h
+    dw = 2 * np.pi / w * (np.cos(th0) - np.cos(th1))
+    th = np.pi * (np.arange(h) + 0.5) / h
+    ph = 2 * np.pi * ((np.arange(w) + 0.5) / w - 0.5)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    dirs = np.stack([np.sin(T) * np.sin(P), np.cos(T), -np.sin(T) * np.cos(P)], axis=-1)
+    return dirs.reshape(-1, 3), (img[..., :3] * dw[:, None, None]).reshape(-1, 3)
+
+
 def test_light_set_arrays(lights, env):
     assert len(lights) == len(lights.lights) > 0 and lights.method == "median-cut"
     assert lights.face_size == 64 and lights.has_ambient
@@ -24,12 +38,29 @@ def test_light_set_arrays(lights, env):
     assert all(v >= 0 for v in first.irradiance(first.direction))
     sh = lights.ambient_sh
     assert sh.shape == (9, 3) and sh.dtype == np.float32
-    # Lights plus ambient carry the map's power (seed 003 eqs. 16-17).
-    assert np.allclose(lights.power(), env.power(), rtol=0.02)
+    # Lights plus ambient would match the map for any lights (the ambient is the map minus the
+    # lights), so the lights and the ambient are judged apart, against a quadrature of the map
+    # written here (map_quadrature), with negative controls that must fail.
+    dirs, energy = map_quadrature(env)
+    power = energy.sum(axis=0)
+    # Median cut's lights alone carry the map's whole power (seed 003 eqs. 16-17; issue 4's 1%).
+    # Not to 1% here: this 64x32 map is narrower than four 64-texel faces, so the cube is gathered
+    # (nearest map texel per cube sub-sample), which keeps the map's power only approximately:
+    # measured 1.4% short at face 64 (exact to 1e-7 at faces 8 and 16, which splat). Regression
+    # bound 2%; half the lights' power (50% off) fails it.
+    assert np.allclose(lights.lights_power(), power, rtol=0.02)
+    assert not np.allclose(0.5 * np.asarray(lights.lights_power()), power, rtol=0.02)
     assert np.allclose(np.add(lights.lights_power(), lights.ambient_power()), lights.power())
-    up = (0.0, 1.0, 0.0)
-    assert np.allclose(lights.irradiance(up), env.irradiance(up), rtol=0.05)
-    assert len(lights.ambient_irradiance(up)) == 3
+    # The ambient alone is the map's irradiance minus the lights' (issue 4's 2% of the map's) on
+    # three normals (measured 0.12% worst); an ambient that subtracted no lights, or half of each,
+    # misses by more (measured 101-135% and 51-68%).
+    for normal in ((0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (0.6, 0.0, -0.8)):
+        e_map = (energy * np.clip(dirs @ np.asarray(normal), 0, None)[:, None]).sum(axis=0)
+        e_lights = np.sum([l.irradiance(normal) for l in lights.lights], axis=0)
+        amb = np.asarray(lights.ambient_irradiance(normal))
+        assert np.all(np.abs(amb - (e_map - e_lights)) < 0.02 * e_map), normal
+        for wrong in (e_map, e_map - 0.5 * e_lights):
+            assert np.any(np.abs(amb - wrong) > 0.02 * e_map), normal
     doc = json.loads(lights.to_json())
     assert doc["method"] == "median-cut" and doc["count"] == n == len(doc["lights"])
     assert f"{n} lights" in repr(lights)
