@@ -234,7 +234,7 @@ namespace {
 // Median cut at 32 lights with the SH9 ambient on every map, judged in two parts; "lights +
 // ambient give the map's power and irradiance" is not one of them, as it holds for any lights
 // (the ambient is the map minus the lights: an empty light set passes it).
-// The lights alone carry the map's whole power (seed 003 eqs. 16-17; issue 4's 1%), against the
+// The lights alone carry the map's whole power (Kneiphof 2017 eqs. 16-17; issue 4's 1%), against the
 // power of the test's own quadrature of the map: measured worst 0.017% (builtin).
 // The ambient alone against the map minus the lights, both by the test's quadrature, relative to
 // the map's irradiance, on the 26 normals: order-2 SH drops the residual's bands l >= 3, sharp in

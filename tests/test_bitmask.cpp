@@ -1,4 +1,4 @@
-// Sample-based visibility (seed 001; src/shadows/bitmask.cpp, kernels/shadows/viewsamples.cl,
+// Sample-based visibility (Sintorn et al. 2008; src/shadows/bitmask.cpp, kernels/shadows/viewsamples.cl,
 // kernels/shadows/bitmask.cl). Every (view sample, light sample) bit is checked against an Embree
 // shadow ray along the same direction; the lists against a C++ recount; the resolve against a C++
 // weighted sum; awkward cases (empty lists, one list holding every sample, edge-on casters, a
@@ -443,7 +443,7 @@ double relErr(const Image& image, const Image& ref) { return compareImages(image
 
 }  // namespace
 
-// Closed-mesh detection (seed 001 §3.3's back-face rule applies to closed meshes only): a box
+// Closed-mesh detection (Sintorn et al. 2008 §3.3's back-face rule applies to closed meshes only): a box
 // with shared vertices, the same box wound inward, with split vertices per face (welded by
 // position), with a face missing (open), and the built-in scene's meshes.
 TEST(BitmaskClosed, MeshOrientation) {
@@ -535,7 +535,7 @@ TEST(BitmaskAgreement, LoadedMesh) {
   }
 }
 
-// Temporal jitter (seed 001 §4.3): frames with rotated sample sets, averaged, approach the Embree
+// Temporal jitter (Sintorn et al. 2008 §4.3): frames with rotated sample sets, averaged, approach the Embree
 // light-set reference of the same lights; one frame's error is that of 128 fixed samples. Also:
 // frame 0 is the unjittered frame, and a jittered frame differs from it.
 TEST(BitmaskJitter, AccumulationConvergesToReference) {

@@ -1,4 +1,4 @@
-// Center-surround light extraction (seed 004 §3): the device's filter responses against a
+// Center-surround light extraction (Arbree et al. §3): the device's filter responses against a
 // brute-force loop on the sphere, synthetic maps with known discs, the 2% stopping rule, the lights
 // alone against the map in their caps (independent quadrature, negative controls), the issue's
 // rotation / determinism requirements, option validation and the oclgrind run of every kernel.
@@ -281,7 +281,7 @@ TEST(CenterSurround, ThreeDiscsBecomeThreeLights) {
   }
 }
 
-// The 2% rule (seed 004 §3, Weber's law): a fourth disc carrying 1.5% of the three others' power
+// The 2% rule (Arbree et al. §3, Weber's law): a fourth disc carrying 1.5% of the three others' power
 // is not extracted, one carrying 3% is. It has the smallest response of the four, so it would be
 // the fourth light found, when the lights so far are the three discs.
 TEST(CenterSurround, TwoPercentStopRule) {
@@ -315,7 +315,7 @@ std::vector<Environment> allMaps() {
 
 namespace xref = penumbra::test::xref;
 
-// What center-surround's lights are meant to carry (seed 004 §3): each light takes the map's
+// What center-surround's lights are meant to carry (Arbree et al. §3): each light takes the map's
 // energy inside its centre cap, less what an earlier light took. By the test's own quadrature
 // (tests/support/extraction_checks.hpp), each cap taken about the light's own direction with its
 // own half-angle (the direction is the luminance-weighted mean of the cap it took: at the cap's

@@ -159,7 +159,7 @@ TEST(Frame, DefaultTechniqueBeatsHardShadowsAgainstLightSetReference) {
 // Bound: relative RMSE < 0.08 against a 1024-spp reference at 160x90. What it is made of, measured
 // with the CLI (README, "Measuring"): the 32-light set itself differs from the map by 3.2% (light-set
 // reference vs environment reference, both 2048 spp); MSSM4 differs from the light-set reference by
-// 2.9% (weak shadows of large lights, seed 003 Fig. 7, and texel-sized contact detail); the
+// 2.9% (weak shadows of large lights, Kneiphof 2017 Fig. 7, and texel-sized contact detail); the
 // reference's own Monte Carlo noise is 2.8% at 1024 spp (two seeds at 256 spp differ by 8.4%, i.e.
 // 5.9% each). Measured total: 4.9% (4.1% at 12d159c); the bound leaves room for other seeds' noise and for float
 // differences between OpenCL devices, while a broken shadow pass (no shadows: 18.9%) fails it.

@@ -1,5 +1,5 @@
-// Greedy fitting of square/rectangular lights (seed 000 §4.2): the device fit against a plain C++
-// copy of the algorithm and against the properties seed 000 gives each light (a check sharing no
+// Greedy fitting of square/rectangular lights (Annen et al. 2008 §4.2): the device fit against a plain C++
+// copy of the algorithm and against the properties Annen et al. 2008 gives each light (a check sharing no
 // code with the kernel), energy conservation, a known bright square, the lights alone against the
 // map above its face means (independent quadrature, negative controls), and the rotation
 // and determinism requirements for the extracted light set.
@@ -184,7 +184,7 @@ std::vector<i64> randomEnergy(int m, unsigned seed) {
 }
 
 // An independent check of the fit, sharing no code with greedy.cl or its copy above: the
-// properties seed 000 §4.2 gives every fitted light, verified on the device's output by replaying
+// properties Annen et al. 2008 §4.2 gives every fitted light, verified on the device's output by replaying
 // only the removal rule. Per face, in fitting order, each light
 //   - contains the brightest texel not yet covered (its seed; ties: any of them),
 //   - is a square in the square variant,
@@ -317,7 +317,7 @@ Environment rotated90(const Environment& env) {
   return r;
 }
 
-// What greedy's lights are meant to carry (seed 000 §4.2): on each cube face of m^2 texels, what
+// What greedy's lights are meant to carry (Annen et al. 2008 §4.2): on each cube face of m^2 texels, what
 // every texel holds above the face's mean, per channel (the rest stays in the map for the
 // ambient). By the test's own binning of its quadrature samples (tests/support/
 // extraction_checks.hpp): a sample belongs to the face of its largest |coordinate| and to the

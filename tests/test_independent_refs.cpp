@@ -1,5 +1,5 @@
-// Whole-frame visibility of the exact-visibility techniques (bitmask, seed 001; area
-// approximation, seed 002) against a reference that shares no code with them: the cosine-weighted
+// Whole-frame visibility of the exact-visibility techniques (bitmask, Sintorn et al. 2008; area
+// approximation, Ying et al.) against a reference that shares no code with them: the cosine-weighted
 // unblocked share of an OBLIQUE cap light over a half-plane blocker, integrated in double precision
 // in this file (rings of the cap, each ring's lit arc in closed form). (The bitmask's check against
 // Embree rays along directions the test draws itself is in test_bitmask.cpp.) The other tests of these

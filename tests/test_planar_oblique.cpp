@@ -295,7 +295,7 @@ TEST(PlanarOblique, LightFiftyDegreesOffTheNormal) {
 // - bitmask 0.015, measured 0.0042 (as above);
 // - PCSS 0.05 (measured 0.029: its receiver-plane bias follows the tilt), CSSM 0.07 (0.052),
 //   MSSM4 0.12 (0.096): REGRESSION bounds, measured plus about a quarter. MSSM4 is the worst here
-//   by design: at 25 degrees its upper-bound blocker depth (seed 003 eq. 19, weight
+//   by design: at 25 degrees its upper-bound blocker depth (Kneiphof 2017 eq. 19, weight
 //   min(1, upperBoundTilt tan 25) = 0.93) narrows the penumbra (mean signed error +0.057); with
 //   eq. 7 alone it measures 0.040, but eq. 7 darkens open tilted ground (test_shadow_accuracy.cpp),
 //   the trade-off options.hpp documents.

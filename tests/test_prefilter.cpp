@@ -1,4 +1,4 @@
-// The two prefilters of the filtered techniques (seed 000 §4.1, "Mipmaps vs. Summed Area Tables",
+// The two prefilters of the filtered techniques (Annen et al. 2008 §4.1, "Mipmaps vs. Summed Area Tables",
 // Fig. 8): the mip pyramid (kernels/shadows/mip.cl) against a C++ reference on awkward sizes, its
 // trilinear query (kernels/shadows/filter.clh) against a C++ reference and against the SAT's exact
 // box on level-aligned boxes, and MSSM4 rendered with the pyramid (analytic planar penumbra,
@@ -520,7 +520,7 @@ ProfileComparison planarCase(Prefilter pf, double alphaDeg, double h, int mapSiz
 // as the planar scene puts it at the map's centre line) each level is the exact ramp of its cell
 // width and only the blend of a narrower and a wider ramp is off, by <= 0.074; with phi = 1/2 the
 // neighbouring cell's mean still carries half the edge where the box would read 0 or 1: error
-// phi (1 - phi) = 1/4 at integer levels (the aliasing of seed 000 Fig. 8), and RMS 1/(4 sqrt 3) =
+// phi (1 - phi) = 1/4 at integer levels (the aliasing of Annen et al. 2008 Fig. 8), and RMS 1/(4 sqrt 3) =
 // 0.144 across the ramp. On top comes what the SAT itself shows in the same scene (test_mssm.cpp's
 // 0.05 for the edge on the texel grid: disc vs equal-area square 0.023, moment bias, texels; with
 // the edge 2/3 texel off the grid the depth map moves it by up to half a texel, and the SAT's

@@ -1,5 +1,5 @@
 // Ellipse (volumetric) lights and textured lights (lights.hpp makeEllipseLight, setLightTexture,
-// lightSamples; seed 001 §4.1): the ellipse's solid angle and its shading polygon's irradiance
+// lightSamples; Sintorn et al. 2008 §4.1): the ellipse's solid angle and its shading polygon's irradiance
 // against quadrature of the true ellipse, its samples, the textured radiance's integral, the
 // per-sample weights of the bitmask technique, brute force and the Embree light-set reference
 // (a blocker over the bright half of a half-black light), a uniform texture rendering as no
