@@ -427,8 +427,9 @@ TEST_F(CliRenderOptions, BitmaskSamplesAndAccumulate) {
   EXPECT_LT(accErr, fewErr * 0.9) << accErr << " vs " << fewErr;
 }
 
-// Area-approx: each of its three options changes the frame, and differently from the others (the
-// report has no block for them, so the images must tell them apart).
+// Area-approx: each of its three options changes the frame, and differently from the others. The
+// report has no block for them; the maps' bytes count the samples instead: one depth map per
+// sample, vertices x (edge samples + 1) of them per light (options.hpp), 4 bytes a texel.
 TEST_F(CliRenderOptions, AreaApproxOptions) {
   const Rendered base = render("base", {"--shadows", "area-approx"});
   const Rendered samples = render("samples", {"--shadows", "area-approx", "--area-samples", "3"});
@@ -436,6 +437,13 @@ TEST_F(CliRenderOptions, AreaApproxOptions) {
   const Rendered taps = render("taps", {"--shadows", "area-approx", "--area-taps", "0"});
   ASSERT_FALSE(base.image.empty() || samples.image.empty() || vertices.image.empty() ||
                taps.image.empty());
+  auto depthMaps = [](const Rendered& r) {
+    return r.report["shadow_map_bytes"].get<double>() / (64.0 * 64.0 * 4.0 * 4.0);
+  };
+  EXPECT_EQ(depthMaps(base), kDefaults.areaApprox.capVertices * (kDefaults.areaApprox.edgeSamples + 1));
+  EXPECT_EQ(depthMaps(samples), kDefaults.areaApprox.capVertices * (3 + 1));
+  EXPECT_EQ(depthMaps(vertices), 4 * (kDefaults.areaApprox.edgeSamples + 1));
+  EXPECT_EQ(depthMaps(taps), depthMaps(base));
   for (const Rendered* r : {&samples, &vertices, &taps}) EXPECT_GT(rel(r->image, base.image), 1e-5);
   EXPECT_FALSE(samePixels(samples.image, vertices.image));
   EXPECT_FALSE(samePixels(samples.image, taps.image));
@@ -532,13 +540,15 @@ TEST_F(CliRenderOptions, AmbientInTheFrame) {
 
 // --no-ground drops the ground plane added under a loaded mesh: with the same camera, the geometry
 // pixels are those of the mesh alone (a small quad floating above where the ground would be).
+// --camera puts the view where it says: aimed 1 unit to the right of the quad's centre, so the
+// quad sits left of the frame's middle (about 9 pixels; a framed camera would centre it).
 TEST_F(CliOptions, NoGroundRemovesTheGround) {
   {
     std::ofstream obj(path("quad.obj"));
     obj << "v -0.5 1 -0.5\nv 0.5 1 -0.5\nv 0.5 1 0.5\nv -0.5 1 0.5\nf 1 2 3\nf 1 3 4\n";
   }
   const std::vector<std::string> scene = {"--scene", path("quad.obj"), "--camera",
-                                          "0,3,4,0,0.5,0,50", "--shadows", "hard"};
+                                          "1,3,4,1,1,0,50", "--shadows", "hard"};
   const Rendered ground = render("ground", scene);
   const Rendered bare = render("bare", cat(scene, {"--no-ground"}));
   ASSERT_FALSE(ground.image.empty() || bare.image.empty());
@@ -546,8 +556,14 @@ TEST_F(CliOptions, NoGroundRemovesTheGround) {
   RecordProperty("pixels_with_ground", int(g));
   RecordProperty("pixels_without", int(b));
   EXPECT_GT(b, 0u);
-  // The ground fills the lower part of the frame around the quad: many more pixels.
+  // The ground fills the lower part of the frame around the quad: measured 729 pixels vs 35.
   EXPECT_GT(g, 2 * b) << g << " vs " << b;
+  double sumX = 0;
+  for (int y = 0; y < bare.image.height; ++y)
+    for (int x = 0; x < bare.image.width; ++x) sumX += bare.image.at(x, y, 3) > 0.5f ? x + 0.5 : 0.0;
+  const double centroidX = sumX / double(std::max<std::size_t>(1, b));
+  RecordProperty("quad_centroid_x", std::to_string(centroidX));
+  EXPECT_LT(centroidX, bare.image.width / 2.0 - 4.0);
 }
 
 // ---------------------------------------------------------------------------------------------
