@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -803,10 +804,14 @@ TEST_F(CliReference, EnvironmentLightSetAndCompare) {
 
   Result cmp = run({"compare", "refl.exr", "ref.exr", "--out", "m.json"});
   ASSERT_EQ(cmp.code, 0) << describe(cmp);
+  // Two different images (the light set misses part of the map's light): every error is
+  // positive, the largest error is at least the RMS one (values hand-checked in
+  // CliCompare.MatchesHandComputedMetrics).
   for (const char* key : {"rmse", "relative_rmse", "psnr", "max_abs_error"}) {
     double v = jsonNumber(cmp.out, key);
-    EXPECT_TRUE(std::isfinite(v) && v >= 0) << key << "\n" << describe(cmp);
+    EXPECT_TRUE(std::isfinite(v) && v > 0) << key << "\n" << describe(cmp);
   }
+  EXPECT_GE(jsonNumber(cmp.out, "max_abs_error"), jsonNumber(cmp.out, "rmse")) << cmp.out;
   EXPECT_EQ(readText(dir_ / "m.json"), cmp.out);
 
   // Missing reference: exit 2, the line names the file.
@@ -827,6 +832,155 @@ TEST_F(CliCompare, IdenticalImages) {
   EXPECT_EQ(jsonNumber(r.out, "rmse"), 0) << describe(r);
   EXPECT_EQ(jsonNumber(r.out, "max_abs_error"), 0) << describe(r);
   EXPECT_NE(r.out.find("\"psnr\""), std::string::npos) << describe(r);
+}
+
+// compare's numbers against values worked out by hand from the definitions in reference.hpp and
+// README ("compare"): over B's geometry pixels (alpha > 0.5) and RGB, RMSE = sqrt(mean d^2),
+// relative RMSE = RMSE / mean(B), PSNR = 20 log10(max(B) / RMSE), max abs error = max |d|.
+// B has two geometry pixels, (1,2,3) and (3,2,1): mean 2, max 3. A differs by (2,0,0) and
+// (0,-1,1): sum d^2 = 6 over 6 values, RMSE 1, relative 0.5, PSNR 20 log10 3, max |d| 2. A third
+// pixel where B's alpha is 0 differs by 100 and must not count; A's own alpha (0 on the compared
+// pixels) must not mask anything. Every value is exact in the EXR's floats.
+TEST_F(CliCompare, MatchesHandComputedMetrics) {
+  Image a(3, 1, 4, 0.0f), b(3, 1, 4, 0.0f);
+  const float bPix[3][4] = {{1, 2, 3, 1}, {3, 2, 1, 1}, {5, 5, 5, 0}};
+  const float aPix[3][4] = {{3, 2, 3, 0}, {3, 1, 2, 0}, {105, 105, 105, 1}};
+  for (int x = 0; x < 3; ++x)
+    for (int c = 0; c < 4; ++c) a.at(x, 0, c) = aPix[x][c], b.at(x, 0, c) = bPix[x][c];
+  writeImage(path("a.exr"), a);
+  writeImage(path("b.exr"), b);
+  Result r = run({"compare", "a.exr", "b.exr"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  EXPECT_NEAR(jsonNumber(r.out, "rmse"), 1.0, 1e-12) << r.out;
+  EXPECT_NEAR(jsonNumber(r.out, "relative_rmse"), 0.5, 1e-12) << r.out;
+  EXPECT_NEAR(jsonNumber(r.out, "psnr"), 9.5424250943932487, 1e-9) << r.out;  // 20 log10(3)
+  EXPECT_NEAR(jsonNumber(r.out, "max_abs_error"), 2.0, 1e-12) << r.out;
+  EXPECT_EQ(jsonNumber(r.out, "pixels"), 2) << r.out;
+
+  // Without alpha in B every pixel counts: the third one adds 3 x 100^2 to sum d^2 over 9 values,
+  // mean(B) = (12 + 15) / 9 = 3, max(B) = 5, max |d| = 100.
+  Image b3(3, 1, 3, 0.0f);
+  for (int x = 0; x < 3; ++x)
+    for (int c = 0; c < 3; ++c) b3.at(x, 0, c) = bPix[x][c];
+  writeImage(path("b3.exr"), b3);
+  Result all = run({"compare", "a.exr", "b3.exr"});
+  ASSERT_EQ(all.code, 0) << describe(all);
+  const double rmse = std::sqrt((6.0 + 3 * 100.0 * 100.0) / 9.0);
+  EXPECT_NEAR(jsonNumber(all.out, "rmse"), rmse, 1e-9 * rmse) << all.out;
+  EXPECT_NEAR(jsonNumber(all.out, "relative_rmse"), rmse / 3.0, 1e-9 * rmse) << all.out;
+  EXPECT_NEAR(jsonNumber(all.out, "psnr"), 20.0 * std::log10(5.0 / rmse), 1e-9) << all.out;
+  EXPECT_NEAR(jsonNumber(all.out, "max_abs_error"), 100.0, 1e-9) << all.out;
+  EXPECT_EQ(jsonNumber(all.out, "pixels"), 3) << all.out;
+}
+
+// PNG tone mapping (image.hpp): exposure, then Reinhard x / (1 + x) per channel, then the sRGB
+// transfer function of IEC 61966-2-1 (12.92 t up to 0.0031308, 1.055 t^(1/2.4) - 0.055 above),
+// rounded to 8 bits. The expected bytes are worked out here from those formulas, in double.
+std::uint8_t expectedPngByte(double linear, double exposure) {
+  const double x = std::max(0.0, linear * exposure);
+  const double t = x / (1.0 + x);
+  const double e = t <= 0.0031308 ? 12.92 * t : 1.055 * std::pow(t, 1.0 / 2.4) - 0.055;
+  return std::uint8_t(std::lround(std::clamp(e, 0.0, 1.0) * 255.0));
+}
+
+// The 8-bit values of a PNG as read back without linearizing (value / 255).
+std::vector<int> pngBytes(const std::string& file) {
+  const Image png = readImage(file);
+  std::vector<int> out;
+  for (std::size_t i = 0; i < std::size_t(png.width) * png.height; ++i)
+    for (int c = 0; c < 3; ++c) out.push_back(int(std::lround(png.pixels[i * png.channels + c] * 255.0f)));
+  return out;
+}
+
+// The automatic exposure (image.hpp): 0.25 over the log-average luminance (Reinhard et al. 2002,
+// eq. 1, with its small delta) of the pixels with alpha > 0.5 when there are any, Rec. 709
+// luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (the sRGB primaries).
+double expectedAutoExposure(const Image& img) {
+  bool anyAlpha = false;
+  for (std::size_t i = 0; img.channels == 4 && i < std::size_t(img.width) * img.height; ++i)
+    anyAlpha |= img.pixels[i * 4 + 3] > 0.5f;
+  double logSum = 0;
+  int n = 0;
+  for (std::size_t i = 0; i < std::size_t(img.width) * img.height; ++i) {
+    const float* p = &img.pixels[i * img.channels];
+    if (anyAlpha && !(p[3] > 0.5f)) continue;
+    logSum += std::log(1e-4 + 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]);
+    ++n;
+  }
+  return 0.25 / std::exp(logSum / n);
+}
+
+TEST_F(CliCompare, PngToneMappingHasTheExpectedBytes) {
+  // Values over the whole curve: the linear toe, mid-tones, highlights, a value past 1 and 0.
+  const float values[8] = {0.0f, 0.001f, 0.05f, 0.18f, 0.5f, 1.0f, 3.0f, 40.0f};
+  Image img(8, 1, 3);
+  for (int x = 0; x < 8; ++x) {
+    img.at(x, 0, 0) = values[x];
+    img.at(x, 0, 1) = values[7 - x];
+    img.at(x, 0, 2) = 0.5f * values[x];
+  }
+  for (const float exposure : {1.0f, 0.5f, 3.0f}) {
+    SCOPED_TRACE(exposure);
+    writeImage(path("t.png"), img, exposure);
+    const std::vector<int> got = pngBytes(path("t.png"));
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(got[std::size_t(x * 3 + c)], expectedPngByte(img.at(x, 0, c), exposure))
+            << "pixel " << x << " channel " << c << " linear " << img.at(x, 0, c);
+  }
+  // Fixed points of the formulas as a check on the helper itself: 0 -> 0; x = 1 -> t = 1/2 ->
+  // 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354 -> 188; a huge value -> t ~ 1 -> 255.
+  EXPECT_EQ(expectedPngByte(0.0, 1.0), 0);
+  EXPECT_EQ(expectedPngByte(1.0, 1.0), 188);
+  EXPECT_EQ(expectedPngByte(1e9, 1.0), 255);
+
+  // Automatic exposure: two geometry pixels of luminance 0.5 and 2 have log-average 1, so the
+  // exposure is 0.25 (the delta moves it by 1e-4 relative); the background pixel's 1000 must not
+  // count (with it the exposure would be 0.025).
+  Image rgba(3, 1, 4, 0.0f);
+  for (int c = 0; c < 3; ++c) rgba.at(0, 0, c) = 0.5f, rgba.at(1, 0, c) = 2.0f, rgba.at(2, 0, c) = 1000.0f;
+  rgba.at(0, 0, 3) = rgba.at(1, 0, 3) = 1.0f;
+  EXPECT_NEAR(autoExposure(rgba), 0.25, 0.25 * 2e-4);
+  EXPECT_NEAR(expectedAutoExposure(rgba), 0.25, 0.25 * 2e-4);
+}
+
+// render's PNG is its EXR tone mapped: at --exposure 2, and at the automatic exposure when none
+// is given. Both outputs come from one run each with the same options (renders are reproducible
+// bit for bit, CliOutputs.IdenticalRunsWriteIdenticalBytes). The expected bytes are computed in
+// double from the EXR's floats; the library works in float, so a value within float round-off of a
+// rounding boundary may land one level off: at most one level, on at most 1% of the values.
+TEST_F(CliCompare, RenderPngIsTheToneMappedExr) {
+  const std::vector<std::string> frame = cat({"render", "--size", "48x27", "--shadows", "hard"}, kFast);
+  ASSERT_EQ(run(cat(frame, {"--out", "f.exr"})).code, 0);
+  ASSERT_EQ(run(cat(frame, {"--out", "f2.png", "--exposure", "2"})).code, 0);
+  ASSERT_EQ(run(cat(frame, {"--out", "fa.png"})).code, 0);
+  const Image exr = readImage(path("f.exr"));
+  const double autoExp = expectedAutoExposure(exr);
+  // The control: the automatic exposure is not 2 (else the two PNGs could not tell them apart).
+  ASSERT_GT(std::fabs(std::log(autoExp / 2.0)), 0.2) << autoExp;
+  for (const auto& [file, exposure] : {std::pair<std::string, double>{"f2.png", 2.0},
+                                       std::pair<std::string, double>{"fa.png", autoExp}}) {
+    SCOPED_TRACE(file);
+    const std::vector<int> got = pngBytes(path(file));
+    ASSERT_EQ(got.size(), std::size_t(exr.width) * exr.height * 3);
+    std::size_t off = 0, far = 0;
+    for (std::size_t i = 0; i < std::size_t(exr.width) * exr.height; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const int want = expectedPngByte(exr.pixels[i * 4 + c], exposure);
+        const int d = std::abs(got[i * 3 + c] - want);
+        off += d == 1;
+        far += d > 1;
+      }
+    EXPECT_EQ(far, 0u);
+    EXPECT_LE(off, got.size() / 100);
+  }
+  // Negative control: the PNG at --exposure 2 is not what the automatic exposure gives.
+  const std::vector<int> two = pngBytes(path("f2.png"));
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < std::size_t(exr.width) * exr.height; ++i)
+    for (int c = 0; c < 3; ++c)
+      moved += std::abs(two[i * 3 + c] - expectedPngByte(exr.pixels[i * 4 + c], autoExp)) > 1;
+  EXPECT_GT(moved, two.size() / 4);
 }
 
 TEST_F(CliCompare, DifferentSizesFail) {

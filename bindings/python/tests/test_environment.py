@@ -42,8 +42,13 @@ def test_rotation(env):
 
 def test_from_and_load(data):
     assert penumbra.environment_from("builtin").source == "builtin"
-    env = penumbra.load_environment(str(data / "envmaps" / "courtyard.hdr"))
-    assert env.equirect.ndim == 3 and env.equirect.shape[2] == 3
+    path = data / "envmaps" / "courtyard.hdr"
+    env = penumbra.load_environment(str(path))
+    # The map holds the file's radiance as it is (an RGBE file has nothing to sanitize).
+    pixels = penumbra.read_image(str(path))
+    assert env.sanitized_pixels == 0
+    assert env.equirect.shape == pixels.shape[:2] + (3,)
+    assert np.array_equal(env.equirect, pixels[..., :3])
     assert env.source.endswith("courtyard.hdr")
 
 

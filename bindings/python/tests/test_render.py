@@ -21,7 +21,14 @@ def test_every_technique(scene, camera, lights, env, renderer, technique):
     alpha = img[..., 3]
     assert (alpha > 0.5).any() and (alpha < 0.5).any()  # geometry and sky
     assert "total" in frame.timings and all(v >= 0 for v in frame.timings.values())
-    assert frame.shadow_map_bytes >= 0
+    # The maps' bytes: none for no shadows, one 32-bit depth per texel and light for hard and
+    # PCSS, one depth map per sample for brute force; every other technique stores more per texel.
+    depth_maps = 64 * 64 * len(lights) * 4
+    expected = {"none": 0, "hard": depth_maps, "pcss": depth_maps, "brute": 4 * depth_maps}
+    if technique in expected:
+        assert frame.shadow_map_bytes == expected[technique]
+    else:
+        assert frame.shadow_map_bytes > depth_maps
 
 
 def test_bitmask_sampled(scene, camera, lights, env, renderer):
@@ -29,6 +36,10 @@ def test_bitmask_sampled(scene, camera, lights, env, renderer):
     opt.bitmask.light_samples = 128
     img = renderer.render(scene, camera, lights, env, opt).image
     assert np.isfinite(img).all()
+    # Visibility only takes light away: never brighter than the unshadowed frame, darker somewhere.
+    none = renderer.render(scene, camera, lights, env, small_options(technique="none")).image
+    assert (img[..., :3] <= none[..., :3] + 1e-5).all()
+    assert (img[..., :3] < none[..., :3] - 1e-3).any()
 
 
 def test_shadows_darken(scene, camera, lights, env, renderer):
@@ -100,7 +111,28 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert vis.shape == (len(lights), H, W)
     assert vis.min() >= -1e-4 and vis.max() <= 1 + 1e-4
     report = json.loads(penumbra.render_report_json(ctx, lights, env, small_options(), frame))
-    assert isinstance(report, dict)
+    assert (report["width"], report["height"], report["shadow_map_size"]) == (W, H, 64)
+    assert report["lights"] == len(lights) and report["shadows"] == "mssm4"
+    assert report["environment"] == env.source and report["sanitized_pixels"] == 0
+    assert report["shadow_map_bytes"] == frame.shadow_map_bytes
+    assert report["shadow_map_bytes_per_texel"] == frame.shadow_map_bytes // (64 * 64 * len(lights))
+    assert report["timings_ms"]["total"] == pytest.approx(frame.timings["total"], rel=1e-5)
+    # Each option lands in its own field (values that differ from every default).
+    opt = small_options(technique="cssm", prefilter="mip", front_back_faces=True)
+    opt.shadow.depth_bias, opt.shadow.light_size_scale, opt.shadow.max_filter_texels = 0.0125, 0.5, 9
+    opt.mssm.moment_bias, opt.mssm.slope_bias, opt.mssm.upper_bound_tilt = 1.5e-4, 0.75, 1.25
+    opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
+    opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
+    opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
+    r = json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))
+    assert r["shadows"] == "cssm" and r["prefilter"] == "mip" and r["front_back_faces"] is True
+    assert (r["shadow"]["depth_bias"], r["shadow"]["light_size_scale"],
+            r["shadow"]["max_filter_texels"]) == (0.0125, 0.5, 9)
+    assert (r["mssm"]["moment_bias"], r["mssm"]["slope_bias"], r["mssm"]["upper_bound_tilt"]) == \
+        (1.5e-4, 0.75, 1.25)
+    assert (r["cssm"]["order"], r["cssm"]["sharpen_a"], r["cssm"]["sharpen_b"]) == (7, 11, 13)
+    assert (r["pcss"]["blocker_taps"], r["pcss"]["filter_taps"], r["brute"]["samples"]) == (9, 25, 3)
+    assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
     with pytest.raises(penumbra.BadInput):
         renderer.last_visibility(7, 3)
 

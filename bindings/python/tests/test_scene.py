@@ -34,8 +34,24 @@ def test_mesh_arrays():
 
 def test_camera():
     scene = penumbra.builtin_scene()
-    cam = penumbra.frame_camera(scene, 2.0)
-    assert len(cam.eye) == 3 and cam.fovy_deg > 0
+    # frame_camera frames what stands on the ground (src/scene/scene.cpp: the ground plane is left
+    # out when anything else is there): the bounds of the other meshes, computed here.
+    pts = np.concatenate([m.positions for m in scene.meshes if m.name != "ground"])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
+    for aspect in (2.0, 0.5):
+        cam = penumbra.frame_camera(scene, aspect)
+        # Above the objects, looking at their centre, far enough that their sphere fits the view
+        # both ways: radius / distance <= sin of the smaller half field of view.
+        eye = np.array(cam.eye)
+        assert np.allclose(cam.target, center, atol=1e-4)
+        assert eye[1] > center[1]
+        dist = np.linalg.norm(eye - center)
+        half_v = np.radians(cam.fovy_deg) / 2
+        half_h = np.arctan(aspect * np.tan(half_v))
+        assert radius / dist <= np.sin(min(half_v, half_h)) * (1 + 1e-5)
+        # ... and not much further (a 5% margin in the code; 10% here).
+        assert radius / dist >= np.sin(min(half_v, half_h)) / 1.1
     c = penumbra.Camera(eye=(0, 1, 5), fovy_deg=30)
     c.target = (0, 0.5, 0)
     c.up = (0, 1, 0)
