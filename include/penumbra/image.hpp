@@ -46,7 +46,8 @@ ImageAttributes readImageAttributes(const std::string& path);
 // alpha and any are set) to 0.25 before tone mapping (Reinhard et al. 2002's "key").
 float autoExposure(const Image& image);
 
-// Tone mapping used for PNG: exposure, then x/(1+x) on luminance-preserving RGB, then sRGB.
+// Tone mapping used for PNG, one channel at a time (the caller has applied the exposure):
+// x/(1+x) (Reinhard et al. 2002), then the sRGB transfer function; 0 for x <= 0 or NaN.
 float toneMapChannel(float linear);
 
 }  // namespace penumbra

@@ -75,8 +75,9 @@ void validateScene(const Scene& scene);
 // "builtin" -> builtinScene(), else loadScene(path, opt).
 Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt = {});
 
-// A camera looking at the scene's bounds from above and to the side, far enough that the bounds'
-// sphere fits the view for the given aspect ratio (width/height).
+// A camera looking at the scene's bounds (without the mesh named "ground", which would otherwise
+// set the framing) from above and to the side, far enough that the bounds' sphere fits the view
+// for the given aspect ratio (width/height).
 Camera frameCamera(const Scene& scene, float aspect);
 
 // The camera's orthonormal basis for a width x height image. Pixel (px, py) (continuous, row 0 at
