@@ -28,6 +28,7 @@ Only the Python standard library is used; ccache is used when it is on PATH.
 import argparse
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -195,21 +196,36 @@ class Scratch:
         # The copy's layout is the checkout's (sources at the root, build/ inside), so ccache with
         # CCACHE_BASEDIR above both finds the objects of an earlier build of the checkout.
         self.src, self.build = root, root / "build"
+        self.marker = root / "build" / "mutation_in_progress"
 
     def make(self) -> None:
         files = subprocess.run(["git", "ls-files", "-co", "--exclude-standard", "-z"], cwd=self.repo,
                                stdout=subprocess.PIPE, check=True).stdout.decode().split("\0")
-        if self.src.exists():  # a previous run's copy: keep its build/, replace the sources
-            for p in self.src.iterdir():
-                if p.name != "build":
-                    shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
-        for f in files:
-            if not f:
-                continue
+        wanted = {f for f in files if f and (self.repo / f).is_file()}
+        # A previous run's copy keeps its build/; a source whose bytes differ from the checkout's
+        # (a mutant left by an interrupted run, or a changed file) is rewritten with a new mtime,
+        # so that the build cannot keep objects made from other text. Unchanged files keep theirs.
+        if self.src.exists():
+            for p in sorted(self.src.rglob("*"), reverse=True):
+                rel = p.relative_to(self.src).as_posix()
+                if rel == "build" or rel.startswith("build/"):
+                    continue
+                if p.is_file() and rel not in wanted:
+                    p.unlink()
+                elif p.is_dir() and not any(p.iterdir()):
+                    p.rmdir()
+        # A run killed outright (SIGKILL) leaves the name of the file it had mutated in the marker:
+        # that file's objects were built from the mutant, so it is rewritten even if restored.
+        stale = self.marker.read_text().strip() if self.marker.exists() else None
+        for f in sorted(wanted):
             s, d = self.repo / f, self.src / f
-            if s.is_file():
-                d.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(s, d)
+            if f != stale and d.is_file() and d.read_bytes() == s.read_bytes():
+                continue
+            d.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(s, d)
+            shutil.copymode(s, d)
+        if stale:
+            self.marker.unlink()
         cmd = ["cmake", "-S", str(self.src), "-B", str(self.build), "-DCMAKE_BUILD_TYPE=Release"]
         if shutil.which("ccache"):
             cmd.append("-DCMAKE_CXX_COMPILER_LAUNCHER=ccache")
@@ -266,6 +282,8 @@ def first_failure(out: str) -> str:
 
 
 def main() -> int:
+    # A kill (SIGTERM) unwinds like Ctrl-C, so the mutated file is restored by its `finally`.
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--list", action="store_true", help="list the faults and exit")
     ap.add_argument("--only", default="", help="comma-separated fault ids")
@@ -332,6 +350,7 @@ def main() -> int:
     for f in faults:
         p = s.src / f.path
         original = p.read_text()
+        s.marker.write_text(f.path)
         p.write_text(original.replace(f.old, f.new))
         t0 = time.time()
         try:
@@ -345,6 +364,7 @@ def main() -> int:
         finally:
             p.write_text(original)
             os.utime(p)  # newer than the mutant's objects: the next build recompiles it
+            s.marker.unlink()
         dt = time.time() - t0
         rows.append((f, verdict, why, dt))
         log(f"{verdict:8} {dt:6.0f} s  {f.id}: {why}")
