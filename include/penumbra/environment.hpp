@@ -1,5 +1,5 @@
 // HDR environment maps: loading (EXR, Radiance HDR, PFM through OpenImageIO), sanitizing, the
-// built-in sky, and the energy-conserving resampling to a cube map on the device.
+// built-in sky, and the resampling to a cube map on the device.
 //
 // Direction convention: y up; see pb_equirect_dir / pb_dir_equirect in shared.h.
 #pragma once
@@ -53,10 +53,13 @@ Environment loadEnvironment(const std::string& path);
 Environment builtinEnvironment(int width = 512);
 
 // The map resampled to a cube map on the device (kernels/environment/envmap.cl), as radiant energy
-// per texel (radiance x solid angle, so the sum over all texels is the map's power): RGB, the six
-// faces stacked vertically (width m, height 6m; face f in rows f*m .. f*m+m-1), oriented as
-// pb_cube_dir in shared.h. Radiance is energy / pb_cube_texel_solid_angle. `supersample` caps
-// the sub-samples per side. Throws Error(BadInput) for faceSize outside [1, 4096].
+// per texel (radiance x solid angle): RGB, the six faces stacked vertically (width m, height 6m;
+// face f in rows f*m .. f*m+m-1), oriented as pb_cube_dir in shared.h. Radiance is energy /
+// pb_cube_texel_solid_angle. `supersample` caps the sub-samples per side. The sum over all texels
+// is the map's power (to float rounding) when the map is at least 4 faces wide (each map texel is
+// splatted with its exact solid angle); a narrower map is gathered by sub-samples, which is
+// approximate (a 64x32 sky at face 64 loses 1.4% of its power: bindings/python/tests/
+// test_lights.py). Throws Error(BadInput) for faceSize outside [1, 4096].
 Image cubeMapEnergy(Context& ctx, const Environment& env, int faceSize, int supersample = 4);
 
 // "builtin" -> builtinEnvironment(), anything else -> loadEnvironment(path).
