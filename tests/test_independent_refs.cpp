@@ -24,15 +24,8 @@ using namespace penumbra::test;
 
 namespace {
 
-using D3 = std::array<double, 3>;
-
-D3 unitD(D3 a) {
-  const double l = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
-D3 crossD(D3 a, D3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
+using dvec::D3;
+using dvec::unitD;
 
 // A cap of half-angle alpha around the unit direction c over the ground (normal +y), and the
 // half-plane blocker {x < edge} at height h. Visibility at ground point x (independent of z):
@@ -47,8 +40,8 @@ struct ObliqueHalfPlane {
   double alpha, h, edge;
   ObliqueHalfPlane(D3 dir, double alphaRad, double height, double edgeX)
       : c(unitD(dir)), alpha(alphaRad), h(height), edge(edgeX) {
-    e1 = unitD(crossD(c, std::fabs(c[2]) < 0.9 ? D3{0, 0, 1} : D3{1, 0, 0}));
-    e2 = crossD(c, e1);
+    e1 = unitD(dvec::cross(c, std::fabs(c[2]) < 0.9 ? D3{0, 0, 1} : D3{1, 0, 0}));
+    e2 = dvec::cross(c, e1);
   }
   double visibility(double x, int rings = 1000) const {
     const double xr = x - edge;

@@ -66,17 +66,12 @@ TEST(Raster, CoverageMatchesEmbreeOnLoadedMeshes) {
 
 namespace {
 
-using D3 = std::array<double, 3>;
+using dvec::D3;
+using dvec::cross;
+using dvec::dot;
+using dvec::unitD;
 D3 sub(D3 a, D3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 D3 add(D3 a, D3 b, double s) { return {a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]}; }
-double dotD(D3 a, D3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-D3 crossD(D3 a, D3 b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-D3 unitD(D3 a) {
-  const double l = std::sqrt(dotD(a, a));
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
 
 // Two tilted triangles, the second partly in front of the first as seen from above and from the
 // camera below: each texel takes the nearer.
@@ -110,15 +105,15 @@ double nearestHit(D3 o, D3 d, double shiftY, double* margin) {
   for (const Tri& t0 : kTris) {
     const Tri t = {add(t0.a, {0, 1, 0}, shiftY), add(t0.b, {0, 1, 0}, shiftY),
                    add(t0.c, {0, 1, 0}, shiftY)};
-    const D3 n = crossD(sub(t.b, t.a), sub(t.c, t.a));
-    const double nd = dotD(n, d);
+    const D3 n = cross(sub(t.b, t.a), sub(t.c, t.a));
+    const double nd = dot(n, d);
     if (nd == 0) continue;
-    const double tt = dotD(n, sub(t.a, o)) / nd;
+    const double tt = dot(n, sub(t.a, o)) / nd;
     if (tt <= 0) continue;
     const D3 p = add(o, d, tt);
-    const double nn = dotD(n, n);
-    const double w0 = dotD(crossD(sub(t.b, p), sub(t.c, p)), n) / nn;
-    const double w1 = dotD(crossD(sub(t.c, p), sub(t.a, p)), n) / nn;
+    const double nn = dot(n, n);
+    const double w0 = dot(cross(sub(t.b, p), sub(t.c, p)), n) / nn;
+    const double w1 = dot(cross(sub(t.c, p), sub(t.a, p)), n) / nn;
     const double w2 = 1 - w0 - w1;
     const double m = std::min({w0, w1, w2});
     *margin = std::min(*margin, std::fabs(m));
@@ -167,8 +162,8 @@ View makeView(D3 eye, D3 target, D3 upHint, double halfW, double halfH, int w, i
   View v;
   v.origin = eye;
   v.fwd = unitD(sub(target, eye));
-  v.right = unitD(crossD(v.fwd, upHint));
-  v.up = crossD(v.right, v.fwd);
+  v.right = unitD(cross(v.fwd, upHint));
+  v.up = cross(v.right, v.fwd);
   v.halfW = halfW;
   v.halfH = halfH;
   v.w = w;
@@ -248,7 +243,7 @@ std::vector<float> gbufferDistances(const Scene& scene, const View& v) {
       v.ray(x + 0.5, y + 0.5, &o, &d);
       // the distance to the stored point, signed along the ray
       t[std::size_t(y) * v.w + x] =
-          q.s[3] == 0 ? INFINITY : float(dotD(sub({q.s[0], q.s[1], q.s[2]}, o), d));
+          q.s[3] == 0 ? INFINITY : float(dot(sub({q.s[0], q.s[1], q.s[2]}, o), d));
     }
   return t;
 }

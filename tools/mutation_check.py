@@ -281,9 +281,13 @@ def first_failure(out: str) -> str:
     return out.strip().splitlines()[-1][:120] if out.strip() else "non-zero exit"
 
 
+def interrupted(signum, frame):
+    """SIGTERM unwinds like Ctrl-C, so the mutated file is restored by its `finally`."""
+    raise KeyboardInterrupt
+
+
 def main() -> int:
-    # A kill (SIGTERM) unwinds like Ctrl-C, so the mutated file is restored by its `finally`.
-    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    signal.signal(signal.SIGTERM, interrupted)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--list", action="store_true", help="list the faults and exit")
     ap.add_argument("--only", default="", help="comma-separated fault ids")
