@@ -28,15 +28,30 @@ struct Image {
 // linear already and read as they are.
 Image readImage(const std::string& path, bool linearize = false);
 
-// Writes .exr (linear half/float, all channels) or .png (RGB, tone-mapped, sRGB-encoded; alpha
-// dropped) atomically: the image goes to a temporary file beside the target and is renamed into
-// place, so a failure never leaves a half-written file. Throws Error(BadInput) on an unknown
-// extension or an unwritable path.
-// exrAttributes: numbers stored in an EXR's header under their names (as doubles; a PNG drops
-// them), e.g. the reference's "penumbra:relative_noise".
+// Writes any format OpenImageIO has a writer for, chosen by the extension, atomically: the image
+// goes to a temporary file beside the target and is renamed into place, so a failure never leaves
+// a half-written file. Float formats (.exr, .hdr, .pfm) get the linear pixels, all channels;
+// every other format (.png, .jpg, .tif, .tga, .bmp, ...) gets 8-bit RGB through toneMap (alpha
+// dropped). Throws Error(BadInput) on an extension without a writer or an unwritable path.
+// numbers / text: header attributes stored under their names (as doubles / strings) where the
+// format has a header for them (EXR, TIFF, ...; a PNG keeps the text ones), e.g. the reference's
+// "penumbra:relative_noise" or "penumbra:version".
 using ImageAttributes = std::map<std::string, double>;
+using ImageText = std::map<std::string, std::string>;
 void writeImage(const std::string& path, const Image& image, float exposure = 1.0f,
-                const ImageAttributes& exrAttributes = {});
+                const ImageAttributes& numbers = {}, const ImageText& text = {});
+
+// True when writeImage can write `path`'s format (an OpenImageIO writer exists for its extension).
+bool canWriteImage(const std::string& path);
+
+// True when writeImage stores `path`'s format as linear floats (.exr, .hdr, .pfm), false when it
+// tone-maps to 8 bits.
+bool isFloatImageFormat(const std::string& path);
+
+// The display image writeImage puts in an 8-bit file: width*height*3 bytes, row 0 at the top,
+// each channel multiplied by `exposure`, then toneMapChannel, then rounded to 0..255. A one- or
+// two-channel image is shown as grey (its first channel). exposure <= 0 means autoExposure(image).
+std::vector<unsigned char> toneMap(const Image& image, float exposure);
 
 // The numeric header attributes of an image whose names start with "penumbra:" (empty when it has
 // none). Throws Error(BadInput) as readImage does when the file cannot be opened.

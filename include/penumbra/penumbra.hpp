@@ -12,4 +12,5 @@
 #include "penumbra/renderer.hpp"
 #include "penumbra/scan.hpp"
 #include "penumbra/scene.hpp"
+#include "penumbra/suggest.hpp"
 #include "penumbra/version.hpp"

@@ -59,8 +59,17 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
-// Writes a JSON report of a render: device, lights, sanitized pixels, timings and options.
+// What a report says about how the frame was asked for (the caller knows it; the renderer does
+// not): the command line and the input files, "" for a built-in default or an extracted set.
+struct ReportInfo {
+  std::vector<std::string> command;  // argv as run (the CLI) or e.g. {"python", ...}
+  std::string scene, environment, lightSet;
+};
+
+// The JSON report of a render (UTF-8, valid JSON whatever the names hold): penumbra's version,
+// the command and inputs (when given), device, lights, sanitized pixels, timings and the options.
 std::string renderReportJson(const std::string& device, const LightSet& lights,
-                             const Environment& env, const RenderOptions& opt, const Frame& f);
+                             const Environment& env, const RenderOptions& opt, const Frame& f,
+                             const ReportInfo& info = {});
 
 }  // namespace penumbra

@@ -157,13 +157,52 @@ float autoExposure(const Image& img) {
   return float(0.25 / std::exp(logSum / double(n)));
 }
 
-void writeImage(const std::string& path, const Image& image, float exposure,
-                const ImageAttributes& exrAttributes) {
+namespace {
+
+std::string lowerExtension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-  bool exr = ext == ".exr", png = ext == ".png";
-  if (!exr && !png) badInput(path + ": unsupported output format '" + ext + "' (use .png or .exr)");
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
+}
+
+}  // namespace
+
+bool isFloatImageFormat(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  return ext == ".exr" || ext == ".hdr" || ext == ".pfm";
+}
+
+bool canWriteImage(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  if (ext.size() < 2) return false;
+  // ImageOutput::create only looks the extension up in OpenImageIO's plugin table; nothing is
+  // opened or created on disk.
+  auto out = ImageOutput::create(ext.substr(1));
+  OIIO::geterror();  // a failed lookup leaves a message behind; clear it
+  return bool(out);
+}
+
+std::vector<unsigned char> toneMap(const Image& image, float exposure) {
+  if (!(exposure > 0.0f)) exposure = autoExposure(image);
+  std::vector<unsigned char> px(std::size_t(image.width) * image.height * 3);
+  if (image.channels <= 0) return px;
+  const int colour = image.channels >= 3 ? 3 : 1;
+  for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
+    for (int c = 0; c < 3; ++c) {
+      float v = image.pixels[i * image.channels + (colour == 3 ? c : 0)] * exposure;
+      px[i * 3 + c] = (unsigned char)std::lround(std::clamp(toneMapChannel(v), 0.0f, 1.0f) * 255.0f);
+    }
+  return px;
+}
+
+void writeImage(const std::string& path, const Image& image, float exposure,
+                const ImageAttributes& numbers, const ImageText& text) {
+  const std::string ext = lowerExtension(path);
+  if (!canWriteImage(path))
+    badInput(path + ": unsupported output format '" + ext +
+             "' (no OpenImageIO writer for it; use e.g. .exr, .png, .jpg, .tif or .hdr)");
   if (image.empty()) badInput(path + ": nothing to write (empty image)");
+  const bool linear = isFloatImageFormat(path);
   fs::path target(path);
   fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
   std::error_code ec;
@@ -172,29 +211,31 @@ void writeImage(const std::string& path, const Image& image, float exposure,
   fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ext);
   auto out = ImageOutput::create(tmp.string());
   if (!out) badInput(path + ": cannot create writer (" + OIIO::geterror() + ")");
-  bool ok;
-  if (exr) {
-    ImageSpec spec(image.width, image.height, image.channels, TypeDesc::FLOAT);
-    if (image.channels == 4) spec.alpha_channel = 3;
-    spec.attribute("compression", "zip");
-    // OpenImageIO stamps the current time into the EXR header (capDate) unless the spec holds a
-    // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
-    spec.attribute("DateTime", "");
-    for (const auto& [name, value] : exrAttributes)
-      spec.attribute(name, TypeDesc::DOUBLE, &value);
-    ok = out->open(tmp.string(), spec) &&
-         out->write_image(TypeDesc::FLOAT, image.pixels.data()) && out->close();
-  } else {
-    ImageSpec spec(image.width, image.height, 3, TypeDesc::UINT8);
-    std::vector<unsigned char> px(std::size_t(image.width) * image.height * 3);
-    for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
-      for (int c = 0; c < 3; ++c) {
-        float v = image.pixels[i * image.channels + std::min(c, image.channels - 1)] * exposure;
-        px[i * 3 + c] = (unsigned char)std::lround(std::clamp(toneMapChannel(v), 0.0f, 1.0f) * 255.0f);
-      }
-    ok = out->open(tmp.string(), spec) && out->write_image(TypeDesc::UINT8, px.data()) &&
-         out->close();
+  // .hdr holds RGB only; other float formats keep every channel.
+  const int channels = linear ? (ext == ".hdr" || ext == ".pfm" ? std::min(image.channels, 3) : image.channels) : 3;
+  ImageSpec spec(image.width, image.height, channels, linear ? TypeDesc::FLOAT : TypeDesc::UINT8);
+  if (linear && channels == 4) spec.alpha_channel = 3;
+  if (ext == ".exr") spec.attribute("compression", "zip");
+  // OpenImageIO stamps the current time into the header (capDate) unless the spec holds a
+  // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
+  spec.attribute("DateTime", "");
+  for (const auto& [name, value] : numbers) spec.attribute(name, TypeDesc::DOUBLE, &value);
+  for (const auto& [name, value] : text) spec.attribute(name, value);
+  bool ok = out->open(tmp.string(), spec);
+  if (ok && linear) {
+    if (channels == image.channels) {
+      ok = out->write_image(TypeDesc::FLOAT, image.pixels.data());
+    } else {
+      std::vector<float> px(std::size_t(image.width) * image.height * channels);
+      for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
+        for (int c = 0; c < channels; ++c) px[i * channels + c] = image.pixels[i * image.channels + c];
+      ok = out->write_image(TypeDesc::FLOAT, px.data());
+    }
+  } else if (ok) {
+    std::vector<unsigned char> px = toneMap(image, exposure);
+    ok = out->write_image(TypeDesc::UINT8, px.data());
   }
+  ok = ok && out->close();
   if (!ok) {
     std::string err = out->geterror();
     out.reset();
