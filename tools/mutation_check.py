@@ -172,7 +172,8 @@ FAULTS = [
           pytest=["bindings/python/tests"]),
     Fault("py-write-image-exposure", "Python write_image ignores its exposure",
           "bindings/python/penumbra_module.cpp",
-          "        writeImage(path, img, exposure);", "        writeImage(path, img, 1.0f);",
+          "        writeImage(path.string(), img, exposure, numbers, text);",
+          "        writeImage(path.string(), img, 1.0f, numbers, text);",
           pytest=["bindings/python/tests"]),
 ]
 
