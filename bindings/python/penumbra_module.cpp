@@ -277,11 +277,16 @@ std::function<void(double)> progressWithInterrupts(const py::object* callback) {
 // `shadows` is `technique`, and LoadOptions' fields are load_scene's keywords ("timeout_seconds").
 std::string pythonFieldNames(const std::string& message) {
   static const std::pair<const char*, const char*> kHeads[] = {
-      {"RenderOptions.", "RenderOptions."},     {"MedianCutOptions.", "MedianCutOptions."},
-      {"GreedyOptions.", "GreedyOptions."},     {"CenterSurroundOptions.", "CenterSurroundOptions."},
-      {"ReferenceOptions.", "ReferenceOptions."}, {"ExtractOptions.", "ExtractOptions."},
-      {"ExtractOptions::", "ExtractOptions."},  {"AmbientOptions.", "AmbientOptions."},
-      {"LoadOptions::", ""},                    {"LoadOptions.", ""}};
+      {"RenderOptions.", "RenderOptions."},
+      {"MedianCutOptions.", "MedianCutOptions."},
+      {"GreedyOptions.", "GreedyOptions."},
+      {"CenterSurroundOptions.", "CenterSurroundOptions."},
+      {"ReferenceOptions.", "ReferenceOptions."},
+      {"ExtractOptions.", "ExtractOptions."},
+      {"ExtractOptions::", "ExtractOptions."},
+      {"AmbientOptions.", "AmbientOptions."},
+      {"LoadOptions::", ""},
+      {"LoadOptions.", ""}};
   std::string out;
   std::size_t i = 0;
   for (;;) {
@@ -867,12 +872,15 @@ PYBIND11_MODULE(_penumbra, m) {
           "slice"_a, "The lights in the slice, as a list of copies.")
       .def(
           "__setitem__",
-          [](LightSet& s, py::ssize_t i, const AreaLight& light) { s.lights[lightIndex(s, i)] = light; },
+          [](LightSet& s, py::ssize_t i, const AreaLight& light) {
+            s.lights[lightIndex(s, i)] = light;
+          },
           "index"_a, "light"_a, "Replaces light i (negative: from the end).")
       .def(
           "__iter__",
           [](const LightSet& s) {
-            return py::make_iterator<py::return_value_policy::copy>(s.lights.begin(), s.lights.end());
+            return py::make_iterator<py::return_value_policy::copy>(s.lights.begin(),
+                                                                    s.lights.end());
           },
           py::keep_alive<0, 1>(), "Iterates over copies of the lights.")
       .def("__repr__", [](const LightSet& s) {
@@ -916,8 +924,9 @@ PYBIND11_MODULE(_penumbra, m) {
         "negative radiance or power, bad polygon vertices, textures or ambient.");
   m.def("load_light_set", [](const fs::path& path) { return loadLightSet(path.string()); },
         "path"_a, py::call_guard<py::gil_scoped_release>(),
-        "Reads a light-set JSON file (str or os.PathLike) (caps, polygons, rects, ellipses, textures; the format of `penumbra render "
-        "--light-set`). Raises BadInput naming the file and the light for bad input.");
+        "Reads a light-set JSON file, path str or os.PathLike (caps, polygons, rects, ellipses, "
+        "textures; the format of `penumbra render --light-set`). Raises BadInput naming the "
+        "file and the light for bad input.");
   m.def("light_set_from_json", &lightSetFromJson, "text"_a, "source"_a = "light set",
         "Parses light-set JSON text; `source` names it in error messages.");
 
@@ -927,21 +936,34 @@ PYBIND11_MODULE(_penumbra, m) {
       .value("CENTER_SURROUND", ExtractionMethod::CenterSurround,
              "Center-surround filter bank (seed 004 §3).");
 
+  // The defaults the docstrings print.
+  const MedianCutOptions MC;
+  const GreedyOptions GR;
+  const CenterSurroundOptions CS;
+  const AmbientOptions AM;
+  const ExtractOptions EX;
   py::class_<MedianCutOptions> mc(m, "MedianCutOptions", "Options of extract_median_cut.");
   initFromFields<MedianCutOptions>(mc);
   addRepr(mc);
-  mc.def_readwrite("lights", &MedianCutOptions::lights, "Regions/lights, >= 1. Default 32.")
-      .def_readwrite("face_size", &MedianCutOptions::faceSize, "Cube face size, 1..4096. Default 256.")
+  mc.def_readwrite("lights", &MedianCutOptions::lights,
+                   withDefault("Regions/lights, >= 1.", MC.lights).c_str())
+      .def_readwrite("face_size", &MedianCutOptions::faceSize,
+                     withDefault("Cube face size, 1..4096.", MC.faceSize).c_str())
       .def_readwrite("supersample", &MedianCutOptions::supersample,
-                     "Sub-samples per texel side when splatting. Default 4.")
+                     withDefault("Sub-samples per texel side when splatting.",
+                                 MC.supersample).c_str())
       .def_readwrite("min_half_angle_deg", &MedianCutOptions::minHalfAngleDeg,
-                     "Lower clamp on the half-angle, degrees. Default 0.")
+                     withDefault("Lower clamp on the half-angle, degrees.",
+                                 MC.minHalfAngleDeg).c_str())
       .def_readwrite("max_half_angle_deg", &MedianCutOptions::maxHalfAngleDeg,
-                     "Upper clamp on the half-angle, degrees. Default 85.")
+                     withDefault("Upper clamp on the half-angle, degrees.",
+                                 MC.maxHalfAngleDeg).c_str())
       .def_readwrite("merge_across_faces", &MedianCutOptions::mergeAcrossFaces,
-                     "Merge compact lights split by a cube-face edge. Default True.")
+                     withDefault("Merge compact lights split by a cube-face edge.",
+                                 MC.mergeAcrossFaces).c_str())
       .def_readwrite("merge_compactness", &MedianCutOptions::mergeCompactness,
-                     "Largest cap/region solid-angle ratio merged, (0, 1]. Default 0.5.")
+                     withDefault("Largest cap/region solid-angle ratio merged, (0, 1].",
+                                 MC.mergeCompactness).c_str())
       .def_readwrite("shape", &MedianCutOptions::shape,
                      "LightShape.CAP (default) or POLYGON: a light from one region becomes that "
                      "region's cube-face quadrilateral.");
@@ -950,29 +972,41 @@ PYBIND11_MODULE(_penumbra, m) {
   initFromFields<GreedyOptions>(gr);
   addRepr(gr);
   gr.def_readwrite("threshold", &GreedyOptions::threshold,
-                   "A side grows while its added energy / the light's exceeds this. Default 0.02.")
-      .def_readwrite("square", &GreedyOptions::square, "Square lights (else rectangles). Default True.")
-      .def_readwrite("face_size", &GreedyOptions::faceSize, "Cube face size, 1..1024. Default 64.")
-      .def_readwrite("max_lights", &GreedyOptions::maxLights, "Strongest lights kept. Default 64.")
-      .def_readwrite("supersample", &GreedyOptions::supersample, "Splat sub-samples. Default 4.");
+                   withDefault("A side grows while its added energy / the light's exceeds this.",
+                               GR.threshold).c_str())
+      .def_readwrite("square", &GreedyOptions::square,
+                     withDefault("Square lights (else rectangles).", GR.square).c_str())
+      .def_readwrite("face_size", &GreedyOptions::faceSize,
+                     withDefault("Cube face size, 1..1024.", GR.faceSize).c_str())
+      .def_readwrite("max_lights", &GreedyOptions::maxLights,
+                     withDefault("Strongest lights kept.", GR.maxLights).c_str())
+      .def_readwrite("supersample", &GreedyOptions::supersample,
+                     withDefault("Splat sub-samples.", GR.supersample).c_str());
 
   py::class_<CenterSurroundOptions> cs(m, "CenterSurroundOptions",
                                        "Options of extract_center_surround.");
   initFromFields<CenterSurroundOptions>(cs);
   addRepr(cs);
-  cs.def_readwrite("width", &CenterSurroundOptions::width, "Working map width. Default 512.")
-      .def_readwrite("sizes", &CenterSurroundOptions::sizes, "Filter sizes. Default 20.")
-      .def_readwrite("min_deg", &CenterSurroundOptions::minDeg, "Smallest outer diameter. Default 4.5.")
-      .def_readwrite("max_deg", &CenterSurroundOptions::maxDeg, "Largest outer diameter. Default 45.")
+  cs.def_readwrite("width", &CenterSurroundOptions::width,
+                   withDefault("Working map width.", CS.width).c_str())
+      .def_readwrite("sizes", &CenterSurroundOptions::sizes,
+                     withDefault("Filter sizes.", CS.sizes).c_str())
+      .def_readwrite("min_deg", &CenterSurroundOptions::minDeg,
+                     withDefault("Smallest outer diameter.", CS.minDeg).c_str())
+      .def_readwrite("max_deg", &CenterSurroundOptions::maxDeg,
+                     withDefault("Largest outer diameter.", CS.maxDeg).c_str())
       .def_readwrite("inner_ratio", &CenterSurroundOptions::innerRatio,
-                     "Inner / outer radius. Default 0.75.")
+                     withDefault("Inner / outer radius.", CS.innerRatio).c_str())
       .def_readwrite("surround_weight", &CenterSurroundOptions::surroundWeight,
-                     "Weight of the ring (centre +1). Default -10.")
+                     withDefault("Weight of the ring (centre +1).", CS.surroundWeight).c_str())
       .def_readwrite("candidate_fraction", &CenterSurroundOptions::candidateFraction,
-                     "Brightest fraction of texels that are candidates. Default 0.10.")
+                     withDefault("Brightest fraction of texels that are candidates.",
+                                 CS.candidateFraction).c_str())
       .def_readwrite("stop_fraction", &CenterSurroundOptions::stopFraction,
-                     "Stop when a light carries less than this of those so far. Default 0.02.")
-      .def_readwrite("max_lights", &CenterSurroundOptions::maxLights, "Most lights. Default 256.");
+                     withDefault("Stop when a light carries less than this of those so far.",
+                                 CS.stopFraction).c_str())
+      .def_readwrite("max_lights", &CenterSurroundOptions::maxLights,
+                     withDefault("Most lights.", CS.maxLights).c_str());
 
   py::enum_<AmbientModel>(m, "AmbientModel", "How the ambient residual is shaded.")
       .value("IRRADIANCE_MAP", AmbientModel::IrradianceMap,
@@ -985,9 +1019,9 @@ PYBIND11_MODULE(_penumbra, m) {
   ao.def_readwrite("model", &AmbientOptions::model,
                    "AmbientModel.IRRADIANCE_MAP (default) or SH9.")
       .def_readwrite("map_width", &AmbientOptions::mapWidth,
-                     "Irradiance map width, 1..1024. Default 128.")
+                     withDefault("Irradiance map width, 1..1024.", AM.mapWidth).c_str())
       .def_readwrite("map_height", &AmbientOptions::mapHeight,
-                     "Irradiance map height, 1..1024. Default 64.");
+                     withDefault("Irradiance map height, 1..1024.", AM.mapHeight).c_str());
 
   py::class_<ExtractOptions> eo(m, "ExtractOptions", "Options of extract_lights.");
   initFromFields<ExtractOptions>(eo);
@@ -999,7 +1033,8 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("median_cut", &ExtractOptions::medianCut, "MedianCutOptions.")
       .def_readwrite("greedy", &ExtractOptions::greedy, "GreedyOptions.")
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
-      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
+      .def_readwrite("ambient", &ExtractOptions::ambient,
+                     withDefault("Add the ambient residual.", EX.ambient).c_str())
       .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
                      "AmbientOptions: its representation (default: a 128x64 irradiance map).")
       .def_readwrite("light_texture", &ExtractOptions::lightTexture,
@@ -1049,7 +1084,8 @@ PYBIND11_MODULE(_penumbra, m) {
         writeLightOverlay(path.string(), env, lights);
       },
       "path"_a, "env"_a, "lights"_a, py::call_guard<py::gil_scoped_release>(),
-      "Writes (to a str or os.PathLike path) a PNG of the tone-mapped map with every light's region or cap outlined.");
+      "Writes a PNG (path: str or os.PathLike) of the tone-mapped map with every light's "
+      "region or cap outlined.");
 
   // ---- rendering --------------------------------------------------------------------------
   py::enum_<ShadowTechnique>(m, "ShadowTechnique", "How light visibility is computed.")
@@ -1300,16 +1336,21 @@ PYBIND11_MODULE(_penumbra, m) {
       "The JSON report `penumbra render --report` writes for a frame.");
 
   // ---- reference and comparison -----------------------------------------------------------
+  const ReferenceOptions RF;  // the defaults the docstrings print
   py::class_<ReferenceOptions> rf(m, "ReferenceOptions", "Options of the Embree reference.");
   initFromFields<ReferenceOptions>(rf);
   addRepr(rf);
-  rf.def_readwrite("width", &ReferenceOptions::width, "Image width. Default 640.")
-      .def_readwrite("height", &ReferenceOptions::height, "Image height. Default 360.")
-      .def_readwrite("spp", &ReferenceOptions::spp, "Shadow-ray samples per pixel. Default 256.")
+  rf.def_readwrite("width", &ReferenceOptions::width, withDefault("Image width.", RF.width).c_str())
+      .def_readwrite("height", &ReferenceOptions::height,
+                     withDefault("Image height.", RF.height).c_str())
+      .def_readwrite("spp", &ReferenceOptions::spp,
+                     withDefault("Shadow-ray samples per pixel.", RF.spp).c_str())
       .def_readwrite("seed", &ReferenceOptions::seed, "Random seed (same seed, same image).")
-      .def_readwrite("threads", &ReferenceOptions::threads, "Threads, 0: all. Default 0.")
+      .def_readwrite("threads", &ReferenceOptions::threads,
+                     withDefault("Threads, 0: all.", RF.threads).c_str())
       .def_readwrite("environment_background", &ReferenceOptions::environmentBackground,
-                     "Show the map behind the geometry. Default True.");
+                     withDefault("Show the map behind the geometry.",
+                                 RF.environmentBackground).c_str());
   m.def(
       "reference_environment",
       [](const Scene& s, const Camera& c, const Environment& e, const ReferenceOptions& options,

@@ -128,6 +128,16 @@ def test_option_errors_name_the_python_attribute(scene, camera, lights, env, ren
         penumbra.parse_shadow_technique("bogus")
 
 
+def test_other_errors_name_keywords_too(ctx, env, data):
+    # Fields the library spells with '::' or as a LoadOptions member become what Python users
+    # type: an attribute path, or load_scene's keyword.
+    with pytest.raises(penumbra.BadInput,
+                       match=r"^ExtractOptions\.light_texture must be 0 \(none\) or in \[1, 64\], got 100$"):
+        penumbra.extract_lights(ctx, env, options=penumbra.ExtractOptions(light_texture=100))
+    with pytest.raises(penumbra.BadInput, match=r"^timeout_seconds must be a finite number"):
+        penumbra.load_scene(data / "meshes" / "good" / "spider.obj", timeout_seconds=math.nan)
+
+
 def test_docstrings_show_the_struct_defaults():
     assert "Default 80." in penumbra.CSSMOptions.sharpen_b.__doc__
     assert "Default 3e-05." in penumbra.MSSMOptions.moment_bias.__doc__

@@ -1,11 +1,8 @@
 # The Python examples of the documentation run as written: every ```python block of README.md's
-# "### Python" section and of bindings/README.md, each in a fresh directory, with the interpreter
-# and package under test.
-import os
+# "### Python" section and of bindings/README.md, each as a script in an empty directory, with
+# the package under test.
 import pathlib
 import re
-import subprocess
-import sys
 
 import pytest
 
@@ -36,16 +33,17 @@ def test_the_documents_have_examples():
 
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)), ids=[f"{n}:{i}" for i, (n, _) in enumerate(BLOCKS)])
-def test_example_runs(tmp_path, index):
+def test_example_runs(tmp_path, monkeypatch, index):
+    # In this interpreter (its OpenCL platform is up already), as a script run in an empty
+    # directory: its own globals, relative paths land in tmp_path.
     name, code = BLOCKS[index]
-    (tmp_path / "example.py").write_text(code)
-    # the package under test, wherever the working directory is
-    env = dict(os.environ, PYTHONPATH=str(pathlib.Path(penumbra.__file__).resolve().parents[1]))
-    done = subprocess.run([sys.executable, "example.py"], cwd=tmp_path, capture_output=True,
-                          text=True, timeout=300, env=env)
-    assert done.returncode == 0, f"{name} block {index}:\n{code}\n{done.stderr}"
-    # what the examples write exists and is an image
-    for written in tmp_path.glob("*.png"):
-        assert written.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    for written in tmp_path.glob("*.exr"):
-        assert written.read_bytes()[:4] == b"\x76\x2f\x31\x01"
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, f"{name} python block {index}", "exec"), {"__name__": "__main__"})
+    written = list(tmp_path.iterdir())
+    for path in written:  # what the examples write is a whole image
+        if path.suffix == ".png":
+            assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+            assert penumbra.read_image(path).shape[2] == 3
+        elif path.suffix == ".exr":
+            assert penumbra.read_image(path).shape[2] == 4
+    assert written
