@@ -9,6 +9,7 @@ Usage: pip_install_check.py SOURCE_DIR BUILD_DIR (run with the interpreter the b
 import os
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -59,8 +60,14 @@ def main():
         for key in ("PENUMBRA_DEVICE", "OCL_ICD_VENDORS", "POCL_DEVICES", "HOME"):
             if key in os.environ:
                 clean[key] = os.environ[key]
-        subprocess.run([sys.executable, "-c", CHECK, str(site), version], check=True, env=clean,
-                       cwd=tmp)
+        try:
+            subprocess.run([sys.executable, "-c", CHECK, str(site), version], check=True,
+                           env=clean, cwd=tmp)
+        finally:
+            # setup.py's staging inside the reused tree (setuptools/, penumbra.egg-info): copies
+            # that would go stale
+            shutil.rmtree(build / "setuptools", ignore_errors=True)
+            shutil.rmtree(build / "penumbra.egg-info", ignore_errors=True)
 
 
 if __name__ == "__main__":
