@@ -256,18 +256,28 @@ void addRepr(Cls& cls) {
 
 // The reference's progress callback: runs on the calling thread while the GIL is released, so it
 // takes the GIL, raises a pending Ctrl-C (PyErr_CheckSignals runs Python's SIGINT handler, which
-// raises KeyboardInterrupt) and then calls the user's callable with the fraction done. An
-// exception from either leaves as py::error_already_set, which stops the reference (its
-// documented contract: progress may throw) and reaches Python unchanged. `callback` is held by
-// pointer: the library may copy the std::function without the GIL.
-std::function<void(double)> progressWithInterrupts(const py::object* callback) {
-  if (!callback->is_none() && !PyCallable_Check(callback->ptr()))
+// raises KeyboardInterrupt) and then calls the user's callable with the fraction done, when it has
+// grown (the library may report on a timer, the same fraction again). An exception from either
+// leaves as py::error_already_set, which stops the reference (its documented contract: progress
+// may throw) and reaches Python unchanged. The state lives on the binding's stack for the call and
+// is held by pointer: the library may copy the std::function without the GIL.
+struct PythonProgress {
+  py::object callback;  // None or a callable taking the fraction
+  double last = -1.0;   // the fraction it was last given
+};
+std::function<void(double)> progressWithInterrupts(PythonProgress* state) {
+  if (!state->callback.is_none() && !PyCallable_Check(state->callback.ptr())) {
+    const std::string type = py::str(py::type::handle_of(state->callback).attr("__name__"));
     throw py::type_error("progress must be a callable taking the fraction done, or None; got " +
-                         std::string(py::str(py::type::handle_of(*callback).attr("__name__"))));
-  return [callback](double fraction) {
+                         type);
+  }
+  return [state](double fraction) {
     py::gil_scoped_acquire gil;
     if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-    if (!callback->is_none()) (*callback)(fraction);
+    if (!state->callback.is_none() && fraction > state->last) {
+      state->last = fraction;
+      state->callback(fraction);
+    }
   };
 }
 
@@ -1356,7 +1366,8 @@ PYBIND11_MODULE(_penumbra, m) {
       [](const Scene& s, const Camera& c, const Environment& e, const ReferenceOptions& options,
          const py::object& progress) {
         ReferenceOptions o = options;
-        o.progress = progressWithInterrupts(&progress);
+        PythonProgress state{progress};
+        o.progress = progressWithInterrupts(&state);
         Image img;
         {
           py::gil_scoped_release release;
@@ -1376,7 +1387,8 @@ PYBIND11_MODULE(_penumbra, m) {
       [](const Scene& s, const Camera& c, const LightSet& l, const Environment& e,
          const ReferenceOptions& options, const py::object& progress) {
         ReferenceOptions o = options;
-        o.progress = progressWithInterrupts(&progress);
+        PythonProgress state{progress};
+        o.progress = progressWithInterrupts(&state);
         Image img;
         {
           py::gil_scoped_release release;
