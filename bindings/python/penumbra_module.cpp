@@ -421,6 +421,7 @@ PYBIND11_MODULE(_penumbra, m) {
         case ErrorKind::Device: cls = exceptions.device; break;
         case ErrorKind::Internal: cls = exceptions.internal; break;
       }
+      if (!cls) cls = exceptions.base;  // a kind added to the library later
       PyErr_SetString(cls.ptr(), pythonFieldNames(e.what()).c_str());
     } catch (const cl::Error& e) {
       // The library converts OpenCL errors itself; this is a safety net.
