@@ -431,16 +431,19 @@ TEST(ReferenceCommon, ExceptionFromProgressPropagates) {
   }
 }
 
-// A frame of long pixels (32768 samples, about 5 ms each here, a row of 160 about 0.8 s, the
-// frame 3 s on one thread). The stops below come at 30%, inside the second row: a stop that
-// waited for the end of a row, not of a pixel, would miss the half-second bound.
+// A frame of long pixels (131072 samples, about 17 ms each on an idle core here; two rows of 80,
+// each about 1.4 s, the frame 2.8 s on one thread). The stops below come at 15%, early in the
+// rows: a stop that waited for the end of a row, not of a pixel, would miss the half-second
+// bound, and polls only at the ends of rows would first come at 50%.
 struct LongFrame {
   Scene scene = groundScene();
   Environment env = constantEnv(8, 4, 0.5f, 0.5f, 0.5f);
-  ReferenceOptions opt = smallOptions(32768, 4);
+  Camera camera = obliqueCamera();
+  ReferenceOptions opt = smallOptions(131072, 2);
   LongFrame() {
     scene.meshes.push_back(quad(0.6f, 0.5f));
-    opt.width = 160;
+    opt.width = 80;
+    camera.fovyDeg = 1.0f;  // 40:1, so the whole row still sees the ground and the quad
   }
 };
 
@@ -456,28 +459,28 @@ TEST(ReferenceCommon, CancelStopsWithinHalfASecond) {
     f.opt.progress = [&](double x) { fraction = x; };
     f.opt.cancel = [&] {
       asked.push_back(Clock::now());
-      return fraction >= 0.3;
+      return fraction >= 0.15;
     };
     ErrorKind kind = ErrorKind::Internal;
     std::string what;
     try {
-      referenceEnvironment(f.scene, obliqueCamera(), f.env, f.opt);
+      referenceEnvironment(f.scene, f.camera, f.env, f.opt);
     } catch (const Error& e) {
       kind = e.kind();
       what = e.what();
     }
     const Clock::time_point returned = Clock::now();
     EXPECT_EQ(kind, ErrorKind::Cancelled) << what;
-    EXPECT_NE(what.find("reference: cancelled after 3"), std::string::npos) << what;
+    EXPECT_NE(what.find("reference: cancelled after 1"), std::string::npos) << what;
     EXPECT_STREQ(toString(ErrorKind::Cancelled), "cancelled");
     ASSERT_GE(asked.size(), 2u);
     EXPECT_LT(std::chrono::duration<double>(returned - asked.back()).count(), 0.5);
     // Polled at least every 100 ms (plus a pixel and a loaded machine's slack).
     for (std::size_t i = 1; i < asked.size(); ++i)
       EXPECT_LT(std::chrono::duration<double>(asked[i] - asked[i - 1]).count(), 0.25) << i;
-    // Stopped at the first poll past 30%.
-    EXPECT_GE(fraction, 0.3);
-    EXPECT_LT(fraction, 0.5);
+    // Stopped at the first poll past 15%, 100 ms (some 3%) later at most.
+    EXPECT_GE(fraction, 0.15);
+    EXPECT_LT(fraction, 0.3);
   }
 }
 
@@ -487,14 +490,16 @@ TEST(ReferenceCommon, ExceptionFromProgressStopsWithinHalfASecond) {
     LongFrame f;
     f.opt.threads = threads;
     Clock::time_point thrown;
+    double thrownAt = 1;
     f.opt.progress = [&](double x) {
-      if (x < 0.3) return;
+      if (x < 0.15) return;
       thrown = Clock::now();
+      thrownAt = x;
       throw std::domain_error("stop here");
     };
     std::string what;
     try {
-      referenceLights(f.scene, obliqueCamera(), [] {
+      referenceLights(f.scene, f.camera, [] {
         LightSet ls;
         ls.lights.push_back(capLight({0.3f, 1, 0}, 15.0f, 3.0f));
         return ls;
@@ -503,6 +508,7 @@ TEST(ReferenceCommon, ExceptionFromProgressStopsWithinHalfASecond) {
       what = e.what();
     }
     EXPECT_EQ(what, "stop here");
+    EXPECT_LT(thrownAt, 0.3);  // called within 100 ms of passing 15%, not at the end of a row
     EXPECT_LT(std::chrono::duration<double>(Clock::now() - thrown).count(), 0.5);
   }
 }
