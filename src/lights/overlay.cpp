@@ -2,8 +2,10 @@
 // cube-face regions outlined (or its cap's circle when it has none), its centre marked and
 // labelled with its index and share of the set's power, for looking at what an extraction found.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "penumbra/environment.hpp"
 #include "penumbra/extraction.hpp"
@@ -93,7 +95,7 @@ Image linearOverlay(const Environment& rotated, const LightSet& set, bool labels
   exposure = autoExposure(env.equirect);
   if (labels) {
     // "index  share of the set's power (luminance)" beside each centre, drawn after every outline
-    // so no outline crosses a label; a dark halo keeps it legible on bright sky.
+    // so no outline crosses a label.
     auto lum = [](const std::array<float, 3>& p) {
       return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2];
     };
@@ -103,6 +105,7 @@ Image linearOverlay(const Environment& rotated, const LightSet& set, bool labels
     // White after tone mapping (x / (1 + x) of 20 is 0.95) yet not so bright that the text's
     // anti-aliased edges clip to white too.
     const std::vector<float> white(3, 20.0f / exposure);
+    std::vector<std::array<int, 3>> placed;  // labels drawn: left, baseline, width
     for (std::size_t i = 0; i < set.lights.size(); ++i) {
       const AreaLight& l = set.lights[i];
       float s, t;
@@ -110,12 +113,22 @@ Image linearOverlay(const Environment& rotated, const LightSet& set, bool labels
       char text[64];
       std::snprintf(text, sizeof text, "%zu  %.3g%%", i,
                     total > 0 ? 100.0 * std::max(0.0, double(lum(l.power))) / total : 0.0);
-      // Right of the cross, or left of it near the map's right edge; above it, or below near the top.
-      const bool leftSide = s > float(W) - float(6 * size);
-      const int x = int(s) + (leftSide ? -6 : 6);
-      const int y = t < float(size + 6) ? int(t) + size + 4 : int(t) - 5;
-      detail::drawText(img, x, y, text, size, white,
-                       leftSide ? detail::TextAlign::Right : detail::TextAlign::Left, 1);
+      // Right of the cross, or left of it near the map's right edge; above it, or below near the
+      // top; moved down a line at a time while it would overlap a label already drawn.
+      const int width = detail::textWidth(text, size);
+      const bool leftSide = float(W) - s < float(width + 8);
+      const int x0 = leftSide ? int(s) - 6 - width : int(s) + 6;
+      int y = t < float(size + 6) ? int(t) + size + 4 : int(t) - 5;
+      auto overlaps = [&](const std::array<int, 3>& b) {
+        return x0 < b[0] + b[2] && b[0] < x0 + width && y - size < b[1] && b[1] - size < y;
+      };
+      while (y < H && std::any_of(placed.begin(), placed.end(), overlaps)) y += size + 2;
+      placed.push_back({x0, y, width});
+      // A dark box under the text: white on a bright sky would not read.
+      for (int yy = std::max(0, y - size); yy < std::min(H, y + size / 3); ++yy)
+        for (int xx = std::max(0, x0 - 2); xx < std::min(W, x0 + width + 2); ++xx)
+          for (int c = 0; c < 3; ++c) img.at(xx, yy, c) = 0.0f;
+      detail::drawText(img, x0, y, text, size, white, detail::TextAlign::Left);
     }
   }
   return img;

@@ -140,6 +140,11 @@ bool drawText(Image& image, int x, int y, const std::string& text, int size,
                           IBA::TextAlignY::Baseline, shadow);
 }
 
+int textWidth(const std::string& text, int size) {
+  const OIIO::ROI box = IBA::text_size(text, size, "DejaVuSans");
+  return box.defined() ? box.width() : 0;
+}
+
 }  // namespace detail
 
 namespace {

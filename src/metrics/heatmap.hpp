@@ -48,4 +48,7 @@ enum class TextAlign { Left, Centre, Right };
 bool drawText(Image& image, int x, int y, const std::string& text, int size,
               const std::vector<float>& colour, TextAlign align = TextAlign::Left, int shadow = 0);
 
+// The width in pixels drawText gives `text` at `size` (0 when no font is found).
+int textWidth(const std::string& text, int size);
+
 }  // namespace penumbra::detail
