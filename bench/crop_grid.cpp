@@ -8,10 +8,11 @@
 #include <penumbra/heatmap.hpp>
 #include <penumbra/penumbra.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,25 +31,12 @@ struct Entry {
   Image image;
 };
 
-void usage(std::ostream& o) {
-  o << "usage: crop_grid --reference REF.exr [--crop X,Y,W,H]... [--zoom K] [--scale S]\n"
-       "                 [--truth-column] --out GRID.png NAME=IMAGE.exr...\n"
-       "  --reference   the truth every image is compared with (its alpha marks the geometry)\n"
-       "  --crop        a box in pixels (repeatable; default: the whole frame)\n"
-       "  --zoom        enlarge each cell K times, nearest pixel (default 1)\n"
-       "  --scale       top of the error colour scale, a fraction of the reference's mean\n"
-       "                (default: the largest of the images' automatic scales)\n"
-       "  --truth-column  the reference's crop first in every row, instead of a row of its own\n"
-       "  --out         the grid, any 8-bit format (.png)\n"
-       "  NAME=IMAGE    an image to compare, labelled NAME (same size as the reference)\n";
-}
-
 Box parseBox(const std::string& s) {
   Box b;
   char tail = 0;
   if (std::sscanf(s.c_str(), "%d,%d,%d,%d%c", &b.x, &b.y, &b.w, &b.h, &tail) != 4 || b.w < 1 ||
       b.h < 1 || b.x < 0 || b.y < 0)
-    badInput("--crop must be X,Y,W,H with X, Y >= 0 and W, H >= 1, got '" + s + "'");
+    throw CLI::ValidationError("--crop", "must be X,Y,W,H with X, Y >= 0 and W, H >= 1, got '" + s + "'");
   return b;
 }
 
@@ -70,42 +58,44 @@ void pasteCell(Image& dst, const Image& src, const Box& box, int zoom, int x0, i
 
 int run(int argc, char** argv) {
   std::string referencePath, outPath;
-  std::vector<Box> boxes;
-  std::vector<std::pair<std::string, std::string>> inputs;
+  std::vector<std::string> crops, named;
   int zoom = 1;
   double scale = 0;
   bool truthColumn = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) badInput(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      usage(std::cout);
-      return 0;
-    } else if (a == "--reference") {
-      referencePath = value();
-    } else if (a == "--out") {
-      outPath = value();
-    } else if (a == "--truth-column") {
-      truthColumn = true;
-    } else if (a == "--crop") {
-      boxes.push_back(parseBox(value()));
-    } else if (a == "--zoom") {
-      zoom = std::stoi(value());
-      if (zoom < 1 || zoom > 16) badInput("--zoom must be 1..16");
-    } else if (a == "--scale") {
-      scale = std::stod(value());
-      if (!(scale > 0)) badInput("--scale must be > 0");
-    } else if (a.find('=') != std::string::npos && a[0] != '-') {
-      inputs.emplace_back(a.substr(0, a.find('=')), a.substr(a.find('=') + 1));
-    } else {
-      badInput("unknown argument '" + a + "' (see --help)");
+  CLI::App app{"A labelled crop grid: per image and crop box, the tone-mapped crop and its error "
+               "heat map against the reference, one colour scale and its bar under the grid",
+               "crop_grid"};
+  app.add_option("--reference", referencePath,
+                 "the truth every image is compared with (its alpha marks the geometry)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--out", outPath, "the grid, any 8-bit format (.png)")->required();
+  app.add_option("--crop", crops, "a box X,Y,W,H in pixels (repeatable; default: the whole frame)");
+  app.add_option("--zoom", zoom, "enlarge each cell K times, nearest pixel")
+      ->check(CLI::Range(1, 16))->capture_default_str();
+  app.add_option("--scale", scale, "top of the error colour scale, a fraction of the reference's "
+                                   "mean (default: the largest of the images' automatic scales)")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--truth-column", truthColumn,
+               "the reference's crop first in every row, instead of a row of its own");
+  app.add_option("images", named, "NAME=IMAGE: an image to compare (the reference's size), "
+                                  "labelled NAME")->required();
+  std::vector<Box> boxes;
+  std::vector<std::pair<std::string, std::string>> inputs;
+  try {
+    app.parse(argc, argv);
+    for (const std::string& c : crops) boxes.push_back(parseBox(c));
+    for (const std::string& n : named) {
+      const std::size_t eq = n.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == n.size())
+        throw CLI::ValidationError("images", "must be NAME=IMAGE, got '" + n + "'");
+      inputs.emplace_back(n.substr(0, eq), n.substr(eq + 1));
     }
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "crop_grid: " << e.what() << " (--help lists the options)\n";
+    return 2;
   }
-  if (referencePath.empty() || outPath.empty() || inputs.empty())
-    badInput("--reference, --out and at least one NAME=IMAGE are required (see --help)");
 
   const Image reference = readImage(referencePath);
   std::vector<Entry> entries;
