@@ -10,11 +10,13 @@
 #include <assimp/Importer.hpp>
 #include <assimp/LogStream.hpp>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <locale>
 #include <new>
 #include <sstream>
 
@@ -40,6 +42,7 @@ constexpr float kMinLength = 1e-20f;
 
 std::string vecText(const Vec3& v) {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "0.5", whatever the global locale
   s << "(" << v[0] << ", " << v[1] << ", " << v[2] << ")";
   return s.str();
 }
@@ -394,6 +397,15 @@ Bounds boundsOf(const std::vector<const Mesh*>& meshes) {
 
 std::string cameraError(const std::string& text, const std::string& problem) {
   return "camera '" + oneLine(text) + "': " + problem;
+}
+
+// Whether a decimal that from_chars found beyond double's range is too small (strtod's 0) rather
+// than too large: a negative exponent, or no exponent and a zero integer part ("0.000...1").
+bool tooSmall(const char* first, const char* last) {
+  const char* e = std::find_if(first, last, [](char c) { return c == 'e' || c == 'E'; });
+  if (e != last) return e + 1 < last && e[1] == '-';
+  if (first != last && *first == '-') ++first;
+  return std::all_of(first, std::find(first, last, '.'), [](char c) { return c == '0'; });
 }
 
 }  // namespace
@@ -795,13 +807,20 @@ Camera parseCamera(const std::string& text) {
     const auto first = p.find_first_not_of(" \t");
     const auto last = p.find_last_not_of(" \t");
     p = first == std::string::npos ? "" : p.substr(first, last - first + 1);
-    // Plain decimal notation only: strtod would also take "inf", "nan" and hex floats.
+    // Plain decimal notation only ("inf", "nan" and hex floats are refused), read by from_chars,
+    // which ignores the locale (strtod under a German locale stops at the '.'). from_chars takes
+    // no leading '+'; a leading '+' is skipped here.
     const bool plain = !p.empty() && p.find_first_not_of("0123456789+-.eE") == std::string::npos;
-    char* end = nullptr;
-    const double x = plain ? std::strtod(p.c_str(), &end) : 0.0;
-    if (!plain || end != p.c_str() + p.size())
+    const char* begin = p.c_str() + (p.size() > 1 && p[0] == '+' && p[1] != '-' ? 1 : 0);
+    const char* const stop = p.c_str() + p.size();
+    double x = 0.0;
+    const auto [end, ec] =
+        plain ? std::from_chars(begin, stop, x) : std::from_chars_result{begin, std::errc::invalid_argument};
+    if (ec == std::errc::invalid_argument || end != stop)
       badInput(cameraError(text, "value " + std::to_string(i + 1) + " ('" + oneLine(parts[i]) +
                                      "') is not a number"));
+    // out of range: beyond double's range (too small a value reads as 0, as strtod gives it)
+    if (ec == std::errc::result_out_of_range) x = tooSmall(begin, stop) ? 0.0 : HUGE_VAL;
     if (!std::isfinite(x) || std::fabs(x) > std::numeric_limits<float>::max())
       badInput(
           cameraError(text, "value " + std::to_string(i + 1) + " ('" + p + "') is not finite"));
