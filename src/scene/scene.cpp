@@ -22,6 +22,7 @@
 
 #include "penumbra/error.hpp"
 #include "core/contained.hpp"
+#include "core/number_text.hpp"
 #include "core/vec3.hpp"
 #include "scene/mesh_declarations.hpp"
 
@@ -441,7 +442,7 @@ constexpr float kBounceHeight = 0.8f;
 constexpr float kSlabTurnPeriod = 10.0f;
 
 Scene builtinScene(float t) {
-  if (!std::isfinite(t)) badInput("builtin scene time must be finite, got " + std::to_string(t));
+  if (!std::isfinite(t)) badInput("builtin scene time must be finite, got " + detail::numberText(t));
   Scene s;
   // 12 m square, 16 x 16 cells of 0.75 m: it reaches well past the objects (all within about
   // |x|,|z| < 3) so that long shadows from low lights still land on it.
@@ -646,7 +647,7 @@ detail::ContainLimits meshLoadLimits(const LoadOptions& opt, std::uintmax_t file
 void checkLoadOptions(const LoadOptions& opt) {
   if (!(opt.timeoutSeconds >= 0) || !std::isfinite(opt.timeoutSeconds))
     badInput("LoadOptions::timeoutSeconds must be a finite number of seconds >= 0 (0: automatic), "
-             "got " + std::to_string(opt.timeoutSeconds));
+             "got " + detail::numberText(opt.timeoutSeconds));
 }
 
 }  // namespace
@@ -723,7 +724,7 @@ Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt) {
 Camera frameCamera(const Scene& scene, float aspect) {
   if (!std::isfinite(aspect) || aspect <= 0)
     badInput("frameCamera: the aspect ratio must be positive and finite, got " +
-             std::to_string(aspect));
+             detail::numberText(aspect));
   // The ground plane is several times larger than what stands on it; framing it would leave the
   // objects tiny. Frame everything else when there is anything else.
   std::vector<const Mesh*> objects, all;
@@ -757,7 +758,7 @@ CameraBasis cameraBasis(const Camera& c, int width, int height) {
              std::to_string(height));
   if (!std::isfinite(c.fovyDeg) || c.fovyDeg <= 0 || c.fovyDeg >= 180)
     badInput("camera: vertical field of view must be in (0, 180) degrees, got " +
-             std::to_string(c.fovyDeg));
+             detail::numberText(c.fovyDeg));
   if (!isFinite(c.eye) || !isFinite(c.target) || !isFinite(c.up))
     badInput("camera: eye, target and up must be finite");
   const Vec3 toTarget = c.target - c.eye;
