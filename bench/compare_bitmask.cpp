@@ -32,6 +32,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -40,6 +41,7 @@ using namespace penumbra;
 using penumbra::bench::renderTimed;
 using penumbra::bench::shadowStageMs;
 namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
 
 namespace {
 
@@ -68,11 +70,12 @@ double totalMs(const Frame& f) { return f.timingsMs.empty() ? 0 : f.timingsMs.ba
 
 // A square polygon light from a light-set file's "rect" entry, unit power per steradian.
 LightSet squareLight(float halfAngleDeg) {
-  std::ostringstream js;
-  js << "{\"lights\": [{\"shape\": \"rect\", \"direction\": [0.35, 1.0, 0.25], \"up\": [0, 0, 1], "
-        "\"half_angles_deg\": ["
-     << halfAngleDeg << ", " << halfAngleDeg << "], \"radiance\": [1, 1, 1]}]}";
-  return lightSetFromJson(js.str(), "compare_bitmask square light");
+  const Json light = {{"shape", "rect"},
+                      {"direction", {0.35, 1.0, 0.25}},
+                      {"up", {0, 0, 1}},
+                      {"half_angles_deg", {halfAngleDeg, halfAngleDeg}},
+                      {"radiance", {1, 1, 1}}};
+  return lightSetFromJson(Json{{"lights", {light}}}.dump(), "compare_bitmask square light");
 }
 
 struct AreaRow {
@@ -95,32 +98,33 @@ struct BenchRow {
   std::map<std::string, double> v;
 };
 
-// Google Benchmark writes one "key": value per line; that is all this reads.
+// Google Benchmark's --benchmark_out JSON: {"context": ..., "benchmarks": [{"name": ..., numbers
+// and counters}, ...]}; every numeric field of a BM_ run is kept.
 std::vector<BenchRow> readBenchJson(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw Error(ErrorKind::BadInput, "--bench: cannot read " + path);
+  Json doc;
+  try {
+    doc = Json::parse(f);
+  } catch (const Json::exception& e) {
+    throw Error(ErrorKind::BadInput, "--bench: " + path + ": " + e.what());
+  }
   std::vector<BenchRow> rows;
-  for (std::string line; std::getline(f, line);) {
-    std::size_t q0 = line.find('"'), q1 = q0 == std::string::npos ? q0 : line.find('"', q0 + 1);
-    if (q1 == std::string::npos) continue;
-    std::string key = line.substr(q0 + 1, q1 - q0 - 1);
-    std::size_t colon = line.find(':', q1);
-    if (colon == std::string::npos) continue;
-    std::string value = line.substr(colon + 1);
-    if (key == "name" && line.find("BM_") != std::string::npos) {
-      std::size_t a = value.find('"'), b = value.rfind('"');
-      std::string name = value.substr(a + 1, b - a - 1);
+  const auto list = doc.find("benchmarks");
+  if (doc.is_object() && list != doc.end() && list->is_array())
+    for (const Json& b : *list) {
+      const auto nameIt = b.find("name");
+      if (!b.is_object() || nameIt == b.end() || !nameIt->is_string()) continue;
+      std::string name = nameIt->get<std::string>();
+      if (name.find("BM_") == std::string::npos) continue;
       name = name.substr(0, name.find("/iterations:"));
       BenchRow r;
       r.family = name.substr(0, name.find('/'));
       r.args = name.find('/') == std::string::npos ? "" : name.substr(name.find('/') + 1);
+      for (const auto& [key, value] : b.items())
+        if (value.is_number()) r.v[key] = value.get<double>();
       rows.push_back(r);
-    } else if (!rows.empty()) {
-      char* end = nullptr;
-      double d = std::strtod(value.c_str(), &end);
-      if (end != value.c_str()) rows.back().v[key] = d;
     }
-  }
   if (rows.empty()) throw Error(ErrorKind::BadInput, "--bench: no benchmarks in " + path);
   return rows;
 }
@@ -193,17 +197,19 @@ std::string benchMarkdown(const std::vector<BenchRow>& rows, const std::string& 
   return md.str();
 }
 
-std::string benchJsonOut(const std::vector<BenchRow>& rows) {
-  std::ostringstream js;
-  js << "[\n";
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    js << "    {\"family\": \"" << rows[i].family << "\", \"args\": \"" << rows[i].args
-       << "\", \"shadow_ms\": " << benchShadowMs(rows[i]);
-    for (auto& [k, v] : rows[i].v) js << ", \"" << k << "\": " << v;
-    js << "}" << (i + 1 < rows.size() ? "," : "") << "\n";
+Json benchJsonOut(const std::vector<BenchRow>& rows) {
+  Json list = Json::array();
+  for (const BenchRow& r : rows) {
+    Json j = {{"family", r.family}, {"args", r.args}, {"shadow_ms", benchShadowMs(r)}};
+    for (const auto& [k, v] : r.v) j[k] = v;
+    list.push_back(j);
   }
-  js << "  ]";
-  return js.str();
+  return list;
+}
+
+// One part's JSON, {name: value}, to OUT/bitmask_parts/<file>; bitmask.json merges them.
+void writePart(const fs::path& file, const std::string& name, const Json& value) {
+  std::ofstream(file) << Json{{name, value}}.dump(2) << "\n";
 }
 
 }  // namespace
@@ -415,17 +421,19 @@ int main(int argc, char** argv) {
   fs::create_directories(parts);
   char buf[4096];
   if (!areaRows.empty()) {
-    std::ostringstream js, md;
-    js << "{\"width\": " << aw << ", \"height\": " << ah << ", \"rows\": [\n";
-    for (std::size_t i = 0; i < areaRows.size(); ++i) {
-      const AreaRow& r = areaRows[i];
-      js << "    {\"lights\": \"" << r.lights << "\", \"technique\": \"" << r.technique << "\", \"edge_samples\": "
-         << r.edgeSamples << ", \"mean_abs_dv\": " << r.vis.mean << ", \"p99_abs_dv\": " << r.vis.p99
-         << ", \"max_abs_dv\": " << r.vis.max << ", \"relative_rmse_frame\": " << r.relFrame
-         << ", \"total_ms\": " << r.totalMs << ", \"shadow_ms\": " << r.shadowMs << ", \"process_cpu_ms\": " << r.cpuMs
-         << "}" << (i + 1 < areaRows.size() ? "," : "") << "\n";
-    }
-    js << "  ]}";
+    std::ostringstream md;
+    Json js = {{"width", aw}, {"height", ah}, {"rows", Json::array()}};
+    for (const AreaRow& r : areaRows)
+      js["rows"].push_back({{"lights", r.lights},
+                            {"technique", r.technique},
+                            {"edge_samples", r.edgeSamples},
+                            {"mean_abs_dv", r.vis.mean},
+                            {"p99_abs_dv", r.vis.p99},
+                            {"max_abs_dv", r.vis.max},
+                            {"relative_rmse_frame", r.relFrame},
+                            {"total_ms", r.totalMs},
+                            {"shadow_ms", r.shadowMs},
+                            {"process_cpu_ms", r.cpuMs}});
     md << "## 1. Area approximation (seed 002) against the bitmask technique with 1024 light samples\n\n"
           "Built-in scene and sky, "
        << aw << "x" << ah
@@ -447,22 +455,27 @@ int main(int argc, char** argv) {
       md << buf;
     }
     std::ofstream(parts / "1.md") << md.str();
-    std::ofstream(parts / "1.json") << "\"area_approx_vs_bitmask1024\": " << js.str();
+    writePart(parts / "1.json", "area_approx_vs_bitmask1024", js);
   }
   if (!errRows.empty()) {
-    std::ostringstream js, md;
-    js << "{\"width\": " << W << ", \"height\": " << H << ", \"reference_spp\": " << refSpp
-       << ", \"reference_noise_lights\": " << noiseLights << ", \"reference_noise_env\": " << noiseEnv
-       << ", \"reference_lights_ms\": " << refLightsMs << ", \"reference_env_ms\": " << refEnvMs << ", \"rows\": [\n";
-    for (std::size_t i = 0; i < errRows.size(); ++i) {
-      const ErrRow& r = errRows[i];
-      js << "    {\"technique\": \"" << r.technique << "\", \"light_samples\": " << r.samples
-         << ", \"frames\": " << r.frames << ", \"relative_rmse_lights\": " << r.relLights
-         << ", \"relative_rmse_env\": " << r.relEnv << ", \"total_ms\": " << r.totalMs
-         << ", \"shadow_ms\": " << r.shadowMs << ", \"process_cpu_ms\": " << r.cpuMs << "}"
-         << (i + 1 < errRows.size() ? "," : "") << "\n";
-    }
-    js << "  ]}";
+    std::ostringstream md;
+    Json js = {{"width", W},
+               {"height", H},
+               {"reference_spp", refSpp},
+               {"reference_noise_lights", noiseLights},
+               {"reference_noise_env", noiseEnv},
+               {"reference_lights_ms", refLightsMs},
+               {"reference_env_ms", refEnvMs},
+               {"rows", Json::array()}};
+    for (const ErrRow& r : errRows)
+      js["rows"].push_back({{"technique", r.technique},
+                            {"light_samples", r.samples},
+                            {"frames", r.frames},
+                            {"relative_rmse_lights", r.relLights},
+                            {"relative_rmse_env", r.relEnv},
+                            {"total_ms", r.totalMs},
+                            {"shadow_ms", r.shadowMs},
+                            {"process_cpu_ms", r.cpuMs}});
     const ErrRow* m6 = nullptr;
     for (const ErrRow& r : errRows)
       if (r.technique == "mssm6") m6 = &r;
@@ -520,17 +533,16 @@ int main(int argc, char** argv) {
     }
     const std::string size = std::to_string(W) + "x" + std::to_string(H);
     std::ofstream(parts / ("2_" + size + ".md")) << md.str();
-    std::ofstream(parts / ("2_" + size + ".json")) << "\"equal_error_" << size << "\": " << js.str();
+    writePart(parts / ("2_" + size + ".json"), "equal_error_" + size, js);
   }
   if (!bench.empty()) {
     std::ofstream(parts / "3.md") << benchMarkdown(bench, benchJson);
-    std::ofstream(parts / "3.json") << "\"cost\": " << benchJsonOut(bench);
+    writePart(parts / "3.json", "cost", benchJsonOut(bench));
   }
-  std::ofstream md(out / "bitmask.md"), js(out / "bitmask.json");
+  std::ofstream md(out / "bitmask.md");
   md << "# The bitmask technique (seed 001): area approximation, equal error, cost\n\n"
         "Written by `compare_bitmask` (bench/compare_bitmask.cpp); see its header for the method.\n";
-  js << "{";
-  bool first = true;
+  Json js = Json::object();
   std::vector<std::string> sections;  // "1", "2_<W>x<H>" (one per frame size run), "3"
   for (const auto& e : fs::directory_iterator(parts))
     if (e.path().extension() == ".md") sections.push_back(e.path().stem().string());
@@ -538,11 +550,16 @@ int main(int argc, char** argv) {
   for (const std::string& n : sections) {
     std::ifstream mf(parts / (n + ".md")), jf(parts / (n + ".json"));
     if (!mf || !jf) continue;
+    try {
+      js.update(Json::parse(jf));
+    } catch (const Json::exception& e) {
+      std::cerr << "compare_bitmask: " << (parts / (n + ".json")).string() << ": " << e.what()
+                << " (a part from an older compare_bitmask? run that part again)\n";
+      return 1;
+    }
     md << "\n" << mf.rdbuf();
-    js << (first ? "\n" : ",\n") << "  " << jf.rdbuf();
-    first = false;
   }
-  js << "\n}\n";
+  std::ofstream(out / "bitmask.json") << js.dump(2) << "\n";
   std::cerr << "compare_bitmask: wrote " << fs::absolute(out / "bitmask.md").string() << "\n";
   return 0;
 }

@@ -22,6 +22,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@ using namespace penumbra;
 using penumbra::bench::median;
 using penumbra::bench::shadowStageMs;
 namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
 
 namespace {
 
@@ -293,31 +295,34 @@ int main(int argc, char** argv) {
     }
   }
   {
-    std::ofstream sj(out / "sweep.json");
-    sj << "[\n";
-    for (std::size_t i = 0; i < sweep.size(); ++i)
-      sj << "  {\"technique\": \"" << sweep[i].technique << "\", \"half_angle_deg\": " << sweep[i].deg
-         << ", \"visibility_ms\": " << sweep[i].visMs << ", \"shadow_ms\": " << sweep[i].shadowMs
-         << ", \"shadowed_fraction\": " << sweep[i].shadowedFraction
-         << ", \"scene\": \"" << (sweep[i].config ? "floor under roof" : "builtin") << "\"}"
-         << (i + 1 < sweep.size() ? "," : "") << "\n";
-    sj << "]\n";
+    Json sj = Json::array();
+    for (const SweepRow& r : sweep)
+      sj.push_back({{"technique", r.technique},
+                    {"half_angle_deg", r.deg},
+                    {"visibility_ms", r.visMs},
+                    {"shadow_ms", r.shadowMs},
+                    {"shadowed_fraction", r.shadowedFraction},
+                    {"scene", r.config ? "floor under roof" : "builtin"}});
+    std::ofstream(out / "sweep.json") << sj.dump(2) << "\n";
   }
 
-  std::ofstream js(out / "table.json");
-  js << "[\n";
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    auto& r = rows[i];
-    js << "  {\"map\": \"" << r.map << "\", \"technique\": \"" << r.technique << "\", \"lights\": " << r.lights
-       << ", \"shadow_map_size\": " << r.mapSize << ", \"relative_rmse_env\": " << r.relEnv
-       << ", \"relative_rmse_lights\": " << r.relLights << ", \"total_ms\": " << r.totalMs
-       << ", \"shadow_ms\": " << r.shadowMs << ", \"shadow_map_bytes\": " << r.bytes
-       << ", \"bytes_per_texel\": " << r.bytesPerTexel << ", \"stages_ms\": {";
-    for (std::size_t k = 0; k < r.stages.size(); ++k)
-      js << (k ? ", " : "") << "\"" << r.stages[k].first << "\": " << r.stages[k].second;
-    js << "}}" << (i + 1 < rows.size() ? "," : "") << "\n";
+  Json table = Json::array();
+  for (const Row& r : rows) {
+    Json stages = Json::object();
+    for (const auto& [stage, ms] : r.stages) stages[stage] = ms;
+    table.push_back({{"map", r.map},
+                     {"technique", r.technique},
+                     {"lights", r.lights},
+                     {"shadow_map_size", r.mapSize},
+                     {"relative_rmse_env", r.relEnv},
+                     {"relative_rmse_lights", r.relLights},
+                     {"total_ms", r.totalMs},
+                     {"shadow_ms", r.shadowMs},
+                     {"shadow_map_bytes", r.bytes},
+                     {"bytes_per_texel", r.bytesPerTexel},
+                     {"stages_ms", stages}});
   }
-  js << "]\n";
+  std::ofstream(out / "table.json") << table.dump(2) << "\n";
   std::ofstream md(out / "table.md");
   md << "| map | technique | lights | map size | rel. RMSE vs env | rel. RMSE vs lights | shadow ms | total ms | bytes/texel | shadow-map MiB |\n";
   md << "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n";

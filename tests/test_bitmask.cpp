@@ -22,6 +22,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "shadows/bitmask.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "common.hpp"
@@ -600,9 +602,11 @@ TEST(BitmaskReport, StatsAndBytes) {
   EXPECT_GT(st["view_samples"], 0.0);
   const std::size_t pairs = std::size_t(40 * 30), texels = 64 * 64;
   EXPECT_EQ(r.frame.shadowMapBytes, texels * 16 + pairs * 8 + pairs * 2 * 4);
-  const std::string json = renderReportJson("dev", lights, Environment{builtinEnvironment()}, ro, r.frame);
-  EXPECT_NE(json.find("\"occupied_texels\": " + std::to_string(r.cap.stats.occupiedTexels)),
-            std::string::npos);
+  const nlohmann::json report = nlohmann::json::parse(
+      renderReportJson("dev", lights, Environment{builtinEnvironment()}, ro, r.frame));
+  ASSERT_TRUE(report["stats"]["occupied_texels"].is_number_integer()) << report.dump(2);
+  EXPECT_EQ(report["stats"]["occupied_texels"].get<std::size_t>(), r.cap.stats.occupiedTexels);
+  EXPECT_EQ(report["bitmask"]["light_samples"], 64) << report.dump(2);
 }
 
 // Under oclgrind (--check-api --data-races): a tiny frame of each variant, every kernel of the

@@ -16,6 +16,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -227,18 +228,29 @@ class CliRenderOptions : public CliOptions {
 // What every field not under test must still say.
 const RenderOptions kDefaults;
 
+// The report holds the shared "shadow" block and the option blocks of exactly the techniques
+// named, as renderReportJson writes only those of the techniques used: an option block of another
+// technique is absent.
+void expectBlocks(const json& report, const std::vector<std::string>& blocks) {
+  EXPECT_TRUE(report.contains("shadow")) << report.dump(2);
+  for (const char* b : {"mssm", "cssm", "pcss", "brute", "bitmask", "area_approx", "auto"}) {
+    const bool want = std::find(blocks.begin(), blocks.end(), b) != blocks.end();
+    EXPECT_EQ(report.contains(b), want) << "block \"" << b << "\" in\n" << report.dump(2);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Biases.
 
 // --depth-bias moves the receiver towards the light in the depth test of hard (and the other depth
 // map techniques): a large bias (0.2 of the light's depth range, 100x the default) lets light leak
-// under occluders, so the frame gets brighter. The report says it went to shadow.depth_bias and
-// not to MSSM's slope bias, its nearest sibling.
+// under occluders, so the frame gets brighter. The report says it went to shadow.depth_bias; hard
+// shadows have no option block of their own.
 TEST_F(CliRenderOptions, DepthBiasLeaksLight) {
   const Rendered depth = render("depth", {"--shadows", "hard", "--depth-bias", "0.2"});
   ASSERT_FALSE(depth.image.empty());
   EXPECT_FLOAT_EQ(depth.report["shadow"]["depth_bias"].get<float>(), 0.2f);
-  EXPECT_FLOAT_EQ(depth.report["mssm"]["slope_bias"].get<float>(), kDefaults.mssm.slopeBias);
+  expectBlocks(depth.report, {});
   const double b = geometryMean(hard().image), d = geometryMean(depth.image);
   RecordProperty("depth_bias_gain", std::to_string(d / b));
   // Measured: the frame without any shadow is 6.6% brighter than the hard one, and bias 0.2 gives
@@ -259,6 +271,8 @@ TEST_F(CliRenderOptions, SlopeBiasBrightensMssmOnly) {
   EXPECT_FLOAT_EQ(slope.report["mssm"]["slope_bias"].get<float>(), 5.0f);
   EXPECT_FLOAT_EQ(slope.report["shadow"]["depth_bias"].get<float>(), kDefaults.shadow.depthBias);
   EXPECT_FLOAT_EQ(slope.report["mssm"]["moment_bias"].get<float>(), kDefaults.mssm.momentBias);
+  expectBlocks(slope.report, {"mssm"});
+  expectBlocks(hardSlope.report, {});  // MSSM's options did not reach the hard frame
   const double gain = geometryMean(slope.image) / geometryMean(mssm4().image);
   RecordProperty("slope_bias_gain", std::to_string(gain));
   // Measured gain 1.024; 0.1% is well above round-off and far below it.
@@ -312,6 +326,7 @@ TEST_F(CliRenderOptions, UpperBoundSwitches) {
   ASSERT_FALSE(off.image.empty() || tilt.image.empty());
   ASSERT_TRUE(kDefaults.mssm.upperBoundBlocker);
   EXPECT_EQ(mssm4().report["mssm"]["upper_bound_blocker"], true);
+  expectBlocks(mssm4().report, {"mssm"});
   EXPECT_EQ(off.report["mssm"]["upper_bound_blocker"], false);
   EXPECT_FLOAT_EQ(tilt.report["mssm"]["upper_bound_tilt"].get<float>(), 0.0f);
   EXPECT_EQ(tilt.report["mssm"]["upper_bound_blocker"], true);
@@ -342,6 +357,7 @@ TEST_F(CliRenderOptions, ShadowMapSizeScalesTheMaps) {
   const Rendered big = render("big", {"--shadows", "hard", "--shadow-map-size", "128"});
   ASSERT_FALSE(big.image.empty());
   EXPECT_EQ(hard().report["shadow_map_size"], 64);
+  expectBlocks(hard().report, {});
   EXPECT_EQ(big.report["shadow_map_size"], 128);
   EXPECT_EQ(big.report["shadow_map_bytes"].get<double>(),
             4.0 * hard().report["shadow_map_bytes"].get<double>());
@@ -364,6 +380,7 @@ TEST_F(CliRenderOptions, CssmOrderAndSharpening) {
   EXPECT_FLOAT_EQ(b.report["cssm"]["sharpen_b"].get<float>(), 5.0f);
   EXPECT_FLOAT_EQ(b.report["cssm"]["sharpen_a"].get<float>(), kDefaults.cssm.sharpenA);
   EXPECT_EQ(b.report["cssm"]["order"], kDefaults.cssm.order);
+  expectBlocks(b.report, {"cssm"});
   // Sharpening moves little on this frame (measured: A = 0 by 8.5e-6 relative RMSE), so the
   // frames are only required to differ; the report fields above tell A from B.
   EXPECT_FALSE(samePixels(order.image, base.image));
@@ -386,6 +403,7 @@ TEST_F(CliRenderOptions, PcssTaps) {
   EXPECT_EQ(blocker.report["pcss"]["filter_taps"], kDefaults.pcss.filterTaps);
   EXPECT_EQ(filter.report["pcss"]["filter_taps"], 4);
   EXPECT_EQ(filter.report["pcss"]["blocker_taps"], kDefaults.pcss.blockerTaps);
+  expectBlocks(filter.report, {"pcss"});
   EXPECT_GT(rel(blocker.image, base.image), 1e-5);
   EXPECT_GT(rel(filter.image, base.image), 1e-4);
   EXPECT_FALSE(samePixels(blocker.image, filter.image));
@@ -400,6 +418,7 @@ TEST_F(CliRenderOptions, BruteSamples) {
   ASSERT_FALSE(base.image.empty() || one.image.empty());
   EXPECT_EQ(base.report["brute"]["samples"], kDefaults.brute.samples);
   EXPECT_EQ(one.report["brute"]["samples"], 1);
+  expectBlocks(one.report, {"brute"});
   const double oneToSoft = rel(one.image, mssm4().image), baseToSoft = rel(base.image, mssm4().image);
   RecordProperty("one_sample_to_mssm4", std::to_string(oneToSoft));
   RecordProperty("default_to_mssm4", std::to_string(baseToSoft));
@@ -418,6 +437,7 @@ TEST_F(CliRenderOptions, BitmaskSamplesAndAccumulate) {
   ASSERT_FALSE(many.image.empty() || few.image.empty() || acc.image.empty());
   EXPECT_EQ(many.report["bitmask"]["light_samples"], 1024);
   EXPECT_EQ(few.report["bitmask"]["light_samples"], 128);
+  expectBlocks(few.report, {"bitmask"});
   const double fewErr = rel(few.image, many.image), accErr = rel(acc.image, many.image);
   RecordProperty("few_vs_1024", std::to_string(fewErr));
   RecordProperty("accumulated_vs_1024", std::to_string(accErr));
@@ -428,8 +448,8 @@ TEST_F(CliRenderOptions, BitmaskSamplesAndAccumulate) {
 }
 
 // Area-approx: each of its three options changes the frame, and differently from the others. The
-// report has no block for them; the maps' bytes count the samples instead: one depth map per
-// sample, vertices x (edge samples + 1) of them per light (options.hpp), 4 bytes a texel.
+// report's "area_approx" block echoes each, and the maps' bytes count the samples: one depth map
+// per sample, vertices x (edge samples + 1) of them per light (options.hpp), 4 bytes a texel.
 TEST_F(CliRenderOptions, AreaApproxOptions) {
   const Rendered base = render("base", {"--shadows", "area-approx"});
   const Rendered samples = render("samples", {"--shadows", "area-approx", "--area-samples", "3"});
@@ -444,14 +464,25 @@ TEST_F(CliRenderOptions, AreaApproxOptions) {
   EXPECT_EQ(depthMaps(samples), kDefaults.areaApprox.capVertices * (3 + 1));
   EXPECT_EQ(depthMaps(vertices), 4 * (kDefaults.areaApprox.edgeSamples + 1));
   EXPECT_EQ(depthMaps(taps), depthMaps(base));
+  expectBlocks(base.report, {"area_approx"});
+  EXPECT_EQ(base.report["area_approx"]["edge_samples"], kDefaults.areaApprox.edgeSamples);
+  EXPECT_EQ(base.report["area_approx"]["cap_vertices"], kDefaults.areaApprox.capVertices);
+  EXPECT_EQ(base.report["area_approx"]["taps"], kDefaults.areaApprox.taps);
+  EXPECT_EQ(samples.report["area_approx"]["edge_samples"], 3);
+  EXPECT_EQ(samples.report["area_approx"]["cap_vertices"], kDefaults.areaApprox.capVertices);
+  EXPECT_EQ(vertices.report["area_approx"]["cap_vertices"], 4);
+  EXPECT_EQ(vertices.report["area_approx"]["edge_samples"], kDefaults.areaApprox.edgeSamples);
+  EXPECT_EQ(taps.report["area_approx"]["taps"], 0);
+  EXPECT_EQ(taps.report["area_approx"]["cap_vertices"], kDefaults.areaApprox.capVertices);
   for (const Rendered* r : {&samples, &vertices, &taps}) EXPECT_GT(rel(r->image, base.image), 1e-5);
   EXPECT_FALSE(samePixels(samples.image, vertices.image));
   EXPECT_FALSE(samePixels(samples.image, taps.image));
   EXPECT_FALSE(samePixels(vertices.image, taps.image));
 }
 
-// Auto: the report lists each light's technique. --auto-exact 0 gives no light exact (bitmask)
-// visibility; --auto-pcss-texels large sends every filtered light to PCSS.
+// Auto: the report lists each light's technique, and holds the "auto" block and those of the
+// techniques it picked. --auto-exact 0 gives no light exact (bitmask) visibility;
+// --auto-pcss-texels large sends every filtered light to PCSS.
 TEST_F(CliRenderOptions, AutoChoices) {
   auto countOf = [](const json& report, const std::string& t) {
     int n = 0;
@@ -472,6 +503,15 @@ TEST_F(CliRenderOptions, AutoChoices) {
   EXPECT_EQ(countOf(base.report, "mssm4") + countOf(base.report, "pcss"),
             countOf(pcss.report, "pcss"))
       << base.report.dump() << pcss.report.dump();
+  for (const Rendered* r : {&base, &none, &pcss}) {
+    std::vector<std::string> blocks = {"auto"};
+    if (countOf(r->report, "mssm4") > 0) blocks.push_back("mssm");
+    if (countOf(r->report, "pcss") > 0) blocks.push_back("pcss");
+    if (countOf(r->report, "bitmask") > 0) blocks.push_back("bitmask");
+    expectBlocks(r->report, blocks);
+  }
+  EXPECT_GT(countOf(pcss.report, "pcss"), 0) << pcss.report.dump();
+  EXPECT_EQ(pcss.report["pcss"]["filter_taps"], kDefaults.pcss.filterTaps);
 }
 
 // Bent normals only darken (kernels/render/shade.cl); a larger c narrows the fade, keeping more of
@@ -485,6 +525,7 @@ TEST_F(CliRenderOptions, BentNormals) {
   EXPECT_EQ(base.report["bent_normals"], false);
   EXPECT_EQ(bent.report["bent_normals"], true);
   EXPECT_FLOAT_EQ(c10.report["bent_normals_scale"].get<float>(), 10.0f);
+  expectBlocks(base.report, {"bitmask"});  // bitmask-hard reads bitmask.listSize
   bool darker = false, neverBrighter = true;
   for (std::size_t i = 0; i < base.image.pixels.size(); ++i) {
     if (i % 4 == 3) continue;

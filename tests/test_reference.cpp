@@ -15,6 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
@@ -613,18 +615,32 @@ TEST(CompareImages, IdenticalImagesAndJson) {
   EXPECT_EQ(m.rmse, 0.0);
   EXPECT_EQ(m.relativeRmse, 0.0);
   EXPECT_TRUE(std::isinf(m.psnr) && m.psnr > 0);
-  EXPECT_EQ(toJson(m),
-            "{\"rmse\": 0, \"relative_rmse\": 0, \"psnr\": null, \"max_abs_error\": 0, "
-            "\"pixels\": 2}");
+  // One line of JSON (`penumbra compare` prints it), keys in this order; the infinite PSNR of
+  // identical images is null, as JSON has no infinity.
+  const std::string text = toJson(m);
+  EXPECT_EQ(text.find('\n'), std::string::npos) << text;
+  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(text);
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : j.items()) keys.push_back(key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"rmse", "relative_rmse", "psnr", "max_abs_error", "pixels"}));
+  EXPECT_EQ(j["rmse"].get<double>(), 0.0);
+  EXPECT_EQ(j["relative_rmse"].get<double>(), 0.0);
+  EXPECT_TRUE(j["psnr"].is_null()) << text;
+  EXPECT_EQ(j["max_abs_error"].get<double>(), 0.0);
+  EXPECT_TRUE(j["pixels"].is_number_integer()) << text;
+  EXPECT_EQ(j["pixels"], 2);
   ImageMetrics n;
   n.rmse = 0.125;
   n.relativeRmse = 0.5;
   n.psnr = 18.0625;
   n.maxAbsError = 3;
   n.pixels = 12;
-  EXPECT_EQ(toJson(n),
-            "{\"rmse\": 0.125, \"relative_rmse\": 0.5, \"psnr\": 18.0625, \"max_abs_error\": 3, "
-            "\"pixels\": 12}");
+  const nlohmann::json k = nlohmann::json::parse(toJson(n));
+  EXPECT_EQ(k["rmse"].get<double>(), 0.125);
+  EXPECT_EQ(k["relative_rmse"].get<double>(), 0.5);
+  EXPECT_EQ(k["psnr"].get<double>(), 18.0625);
+  EXPECT_EQ(k["max_abs_error"].get<double>(), 3.0);
+  EXPECT_EQ(k["pixels"], 12);
 }
 
 TEST(CompareImages, RejectsMismatchEmptyMaskAndNonFinite) {

@@ -474,7 +474,7 @@ TEST(TexturedLights, LightSetJsonRoundTripAndBadInput) {
       {R"({"shape": "ellipse", "direction": [0, 1, 0], "up": [0, 2, 0], "half_angles_deg": [30, 10], "radiance": [1, 1, 1]})", "parallel"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 2, "height": 2, "radiance": [1, 1, 1]}})", "needs 12 radiance values"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1, "height": 1, "radiance": [1, -1, 1]}})", "finite number >= 0"},
-      {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1, "height": 1, "radiance": [1, 1e999, 1]}})", "finite number >= 0"},
+      {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1, "height": 1, "radiance": [1, 1e39, 1]}})", "finite number >= 0"},  // beyond float; 1e999, beyond double, is a JSON error (test_json.cpp)
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1.5, "height": 1, "radiance": [1, 1, 1]}})", "integers"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 0, "height": 1, "radiance": []}})", "integers"},
       {R"({"shape": "rect", "direction": [0, 1, 0], "up": [0, 0, 1], "half_angles_deg": [30, 10], "texture": {"width": 1, "height": 1, "radiance": [0, 0, 0]}})", "black"},

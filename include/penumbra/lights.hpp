@@ -195,7 +195,8 @@ struct LightSet {
   // "vertices", rects and ellipses are written as such with "up" and "half_angles_deg", textured
   // lights add "texture"), ambient, ambient_sh, ambient_power, and "ambient_map" {"width",
   // "height", "irradiance": [height * width * 3 numbers, row-major RGB]} when the map is present.
-  // loadLightSet reads it back.
+  // loadLightSet reads it back. Valid UTF-8 JSON (text that is not UTF-8 is written with U+FFFD),
+  // floats as the shortest decimal that reads back as the same float, whatever the locale.
   std::string toJson() const;
 };
 
@@ -222,9 +223,13 @@ void validateLightSet(const LightSet& set);
 // Cap, rect and ellipse lights may carry "texture": {"width": w, "height": h, "radiance":
 // [r, g, b, ...]} (3 w h values, row 0 at the top; LightTexture): "radiance" and "power" are then
 // optional, computed from the texture (setLightTexture) where not given.
-// What LightSet::toJson writes loads back. Throws Error(BadInput) naming the file and the light's
-// index for unreadable files, invalid JSON, missing fields, non-finite or negative values,
-// non-convex polygons or too many vertices.
+// What LightSet::toJson writes loads back (its derived "count", "solid_angle_sr" and
+// "ambient_power", and the "sanitized_pixels" `penumbra lights` adds, are accepted and not read).
+// Throws Error(BadInput) naming the file and the light's index for unreadable files, invalid JSON
+// ("<file>: invalid JSON at line L, column C: ...": syntax, numbers beyond double's range, a key
+// twice in one object, nesting deeper than 64), an unknown field (with "did you mean" when one is
+// close), a field of the wrong type, missing fields, non-finite or negative values, non-convex
+// polygons or too many vertices.
 LightSet loadLightSet(const std::string& path);
 LightSet lightSetFromJson(const std::string& text, const std::string& source = "light set");
 

@@ -67,7 +67,10 @@ struct ReportInfo {
 };
 
 // The JSON report of a render (UTF-8, valid JSON whatever the names hold): penumbra's version,
-// the command and inputs (when given), device, lights, sanitized pixels, timings and the options.
+// the command and inputs (when given), device, lights, sanitized pixels, timings, the shared
+// shadow options ("shadow") and the option block of each technique used ("mssm" for mssm4 and
+// mssm6, "cssm", "pcss", "brute", "bitmask" for bitmask and bitmask-hard, "area_approx"; `auto`
+// adds "auto" and the blocks of the techniques it picked; hard and none have none).
 std::string renderReportJson(const std::string& device, const LightSet& lights,
                              const Environment& env, const RenderOptions& opt, const Frame& f,
                              const ReportInfo& info = {});

@@ -1,136 +1,60 @@
 // Light-set files (lights.hpp): LightSet::toJson writes them, loadLightSet / lightSetFromJson read
 // them back, and users write them by hand: caps, convex polygons, rectangles and ellipses,
-// optionally textured. A small JSON reader of our own (the library has no JSON dependency),
-// strict about what it accepts: every problem is an Error(BadInput) naming the file, the light's
-// index and the field.
+// optionally textured. nlohmann-json parses and writes (core/json.hpp); this file checks what the
+// document holds: every problem, an unknown field included, is an Error(BadInput) naming the file,
+// the light's index and the field.
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <fstream>
-#include <map>
-#include <memory>
 #include <sstream>
+#include <vector>
 
+#include "core/json.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/lights.hpp"
+#include "penumbra/suggest.hpp"
 #include "common/shared.h"
 
 namespace penumbra {
 namespace {
 
+using detail::Json;
+
 constexpr double kPi = 3.14159265358979323846;
-// Radians per degree as a float, the divisor toJson has always written angles with, so that the
-// files stay byte for byte what they were.
+// Radians per degree as a float, the divisor toJson has always written angles with.
 constexpr float kDeg = float(kPi / 180.0);
 
-struct Json {
-  enum Kind { Null, Bool, Number, String, Array, Object } kind = Null;
-  bool b = false;
-  double num = 0;
-  std::string str;
-  std::vector<Json> items;
-  std::map<std::string, Json> fields;
-  const Json* get(const std::string& k) const {
-    auto it = fields.find(k);
-    return it == fields.end() ? nullptr : &it->second;
-  }
-};
+// The keys each object of a light-set file may hold. Besides what the reader uses, the derived
+// values toJson writes ("count", "solid_angle_sr", "ambient_power") and the "sanitized_pixels"
+// that `penumbra lights` adds, so that every file penumbra writes loads back.
+const std::vector<std::string> kSetKeys = {"method",     "face_size",  "count",
+                                           "lights",     "ambient",    "ambient_sh",
+                                           "ambient_power", "ambient_map", "sanitized_pixels"};
+const std::vector<std::string> kLightKeys = {"shape",          "direction",       "cos_alpha",
+                                             "half_angle_deg", "solid_angle_sr",  "vertices",
+                                             "up",             "half_angles_deg", "radiance",
+                                             "power",          "texture",         "regions"};
+const std::vector<std::string> kTextureKeys = {"width", "height", "radiance"};
+const std::vector<std::string> kAmbientMapKeys = {"width", "height", "irradiance"};
 
-class Reader {
- public:
-  Reader(const std::string& text, const std::string& source) : s_(text), src_(source) {}
-  Json document() {
-    Json v = value(0);
-    skip();
-    if (i_ != s_.size()) fail("unexpected text after the JSON value");
-    return v;
-  }
+const Json* field(const Json& o, const char* key) {
+  const auto it = o.find(key);
+  return it == o.end() ? nullptr : &*it;
+}
 
- private:
-  [[noreturn]] void fail(const std::string& what) {
-    // line of the error, for a hand-written file
-    int line = 1;
-    for (std::size_t k = 0; k < i_ && k < s_.size(); ++k) line += s_[k] == '\n';
-    badInput(src_ + ": invalid JSON at line " + std::to_string(line) + ": " + what);
-  }
-  void skip() {
-    while (i_ < s_.size() && (s_[i_] == ' ' || s_[i_] == '\t' || s_[i_] == '\n' || s_[i_] == '\r'))
-      ++i_;
-  }
-  bool eat(char c) {
-    skip();
-    if (i_ < s_.size() && s_[i_] == c) {
-      ++i_;
-      return true;
-    }
-    return false;
-  }
-  Json value(int depth) {
-    if (depth > 64) fail("nested too deeply");
-    skip();
-    if (i_ >= s_.size()) fail("unexpected end of file");
-    Json v;
-    char c = s_[i_];
-    if (c == '{') {
-      ++i_;
-      v.kind = Json::Object;
-      if (eat('}')) return v;
-      do {
-        skip();
-        if (i_ >= s_.size() || s_[i_] != '"') fail("expected a field name");
-        std::string k = string();
-        if (!eat(':')) fail("expected ':' after \"" + k + "\"");
-        v.fields[k] = value(depth + 1);
-      } while (eat(','));
-      if (!eat('}')) fail("expected ',' or '}'");
-    } else if (c == '[') {
-      ++i_;
-      v.kind = Json::Array;
-      if (eat(']')) return v;
-      do v.items.push_back(value(depth + 1));
-      while (eat(','));
-      if (!eat(']')) fail("expected ',' or ']'");
-    } else if (c == '"') {
-      v.kind = Json::String;
-      v.str = string();
-    } else if (s_.compare(i_, 4, "true") == 0) {
-      v.kind = Json::Bool, v.b = true, i_ += 4;
-    } else if (s_.compare(i_, 5, "false") == 0) {
-      v.kind = Json::Bool, i_ += 5;
-    } else if (s_.compare(i_, 4, "null") == 0) {
-      i_ += 4;
-    } else {
-      // numbers; NaN and Infinity are not JSON and are refused here
-      const char* b = s_.c_str() + i_;
-      char* e = nullptr;
-      if (!(c == '-' || (c >= '0' && c <= '9'))) fail(std::string("unexpected character '") + c + "'");
-      v.num = std::strtod(b, &e);
-      if (e == b) fail("bad number");
-      i_ += std::size_t(e - b);
-      v.kind = Json::Number;
-    }
-    return v;
-  }
-  std::string string() {
-    ++i_;  // opening quote
-    std::string out;
-    while (i_ < s_.size() && s_[i_] != '"') {
-      if (s_[i_] == '\\' && i_ + 1 < s_.size()) {
-        ++i_;
-        char e = s_[i_];
-        out += e == 'n' ? '\n' : e == 't' ? '\t' : e;
-      } else {
-        out += s_[i_];
-      }
-      ++i_;
-    }
-    if (i_ >= s_.size()) fail("unterminated string");
-    ++i_;
-    return out;
-  }
-  const std::string& s_;
-  std::string src_;
-  std::size_t i_ = 0;
-};
+// The first key of object `o` not in `known`, given to `fail` as `unknown field "powr"` + `where`
+// + ` (did you mean "power"?)`; nothing when every key is known.
+template <class Fail>
+void refuseUnknownFields(const Json& o, const std::vector<std::string>& known,
+                         const std::string& where, Fail fail) {
+  for (const auto& item : o.items())
+    if (std::find(known.begin(), known.end(), item.key()) == known.end())
+      fail("unknown field \"" + item.key() + "\"" + where + didYouMean(item.key(), known));
+}
+
+// A finite number: nlohmann keeps integers apart (is_number covers all three kinds).
+bool finiteNumber(const Json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
 
 struct LightReader {
   const std::string& src;
@@ -139,26 +63,23 @@ struct LightReader {
     badInput(src + ": light " + std::to_string(index) + ": " + what);
   }
   double number(const Json& o, const char* key) const {
-    const Json* v = o.get(key);
+    const Json* v = field(o, key);
     if (!v) fail(std::string("missing \"") + key + "\"");
-    if (v->kind != Json::Number || !std::isfinite(v->num))
-      fail(std::string("\"") + key + "\" must be a finite number");
-    return v->num;
+    if (!finiteNumber(*v)) fail(std::string("\"") + key + "\" must be a finite number");
+    return v->get<double>();
   }
   std::array<float, 3> vec3(const Json& v, const std::string& key) const {
-    if (v.kind != Json::Array || v.items.size() != 3)
-      fail("\"" + key + "\" must be an array of 3 numbers");
+    if (!v.is_array() || v.size() != 3) fail("\"" + key + "\" must be an array of 3 numbers");
     std::array<float, 3> r;
     for (int c = 0; c < 3; ++c) {
-      if (v.items[c].kind != Json::Number || !std::isfinite(v.items[c].num) ||
-          !std::isfinite(float(v.items[c].num)))
+      if (!finiteNumber(v[c]) || !std::isfinite(float(v[c].get<double>())))
         fail("\"" + key + "\" must hold finite numbers");
-      r[c] = float(v.items[c].num);
+      r[c] = float(v[c].get<double>());
     }
     return r;
   }
   std::array<float, 3> vec3(const Json& o, const char* key, bool required) const {
-    const Json* v = o.get(key);
+    const Json* v = field(o, key);
     if (!v) {
       if (required) fail(std::string("missing \"") + key + "\"");
       return {0, 0, 0};
@@ -173,33 +94,51 @@ struct LightReader {
   }
 };
 
+// "ambient": true when absent, else it must say.
+bool ambientFlag(const Json& doc, const std::string& source) {
+  const Json* flag = field(doc, "ambient");
+  if (flag && !flag->is_boolean()) badInput(source + ": \"ambient\" must be true or false");
+  return !flag || flag->get<bool>();
+}
+
 }  // namespace
 
 LightSet lightSetFromJson(const std::string& text, const std::string& source) {
-  Json doc = Reader(text, source).document();
-  if (doc.kind != Json::Object) badInput(source + ": a light set must be a JSON object");
-  const Json* lights = doc.get("lights");
-  if (!lights || lights->kind != Json::Array)
+  const Json doc = detail::parseJson(text, source);
+  if (!doc.is_object()) badInput(source + ": a light set must be a JSON object");
+  refuseUnknownFields(doc, kSetKeys, " in the light set",
+                      [&](const std::string& what) { badInput(source + ": " + what); });
+  const Json* lights = field(doc, "lights");
+  if (!lights || !lights->is_array())
     badInput(source + ": missing \"lights\" (an array of lights)");
-  if (lights->items.size() > PB_MAX_LIGHTS)
-    badInput(source + ": " + std::to_string(lights->items.size()) + " lights, at most " +
+  if (lights->size() > PB_MAX_LIGHTS)
+    badInput(source + ": " + std::to_string(lights->size()) + " lights, at most " +
              std::to_string(PB_MAX_LIGHTS));
   LightSet set;
   set.method = "user";
-  if (const Json* m = doc.get("method"); m && m->kind == Json::String) set.method = m->str;
-  if (const Json* f = doc.get("face_size"); f && f->kind == Json::Number && f->num >= 0 && f->num < 1e6)
-    set.faceSize = int(f->num);
-  for (std::size_t i = 0; i < lights->items.size(); ++i) {
-    const Json& o = lights->items[i];
+  if (const Json* m = field(doc, "method")) {
+    if (!m->is_string()) badInput(source + ": \"method\" must be a string");
+    set.method = m->get<std::string>();
+  }
+  if (const Json* f = field(doc, "face_size")) {
+    const double v = f->is_number() ? f->get<double>() : -1.0;
+    if (!(v >= 0 && v < 1e6) || v != std::floor(v))
+      badInput(source + ": \"face_size\" must be an integer in 0..999999");
+    set.faceSize = int(v);
+  }
+  const bool ambientOn = ambientFlag(doc, source);
+  for (std::size_t i = 0; i < lights->size(); ++i) {
+    const Json& o = (*lights)[i];
     LightReader r{source, int(i)};
-    if (o.kind != Json::Object) r.fail("must be a JSON object");
+    if (!o.is_object()) r.fail("must be a JSON object");
+    refuseUnknownFields(o, kLightKeys, "", [&](const std::string& what) { r.fail(what); });
     std::string shape = "cap";
-    if (const Json* s = o.get("shape")) {
-      if (s->kind != Json::String) r.fail("\"shape\" must be \"cap\", \"polygon\", \"rect\" or \"ellipse\"");
-      shape = s->str;
+    if (const Json* s = field(o, "shape")) {
+      if (!s->is_string()) r.fail("\"shape\" must be \"cap\", \"polygon\", \"rect\" or \"ellipse\"");
+      shape = s->get<std::string>();
     }
-    const bool hasRad = o.get("radiance") != nullptr, hasPow = o.get("power") != nullptr;
-    const bool hasTex = o.get("texture") != nullptr;
+    const bool hasRad = field(o, "radiance") != nullptr, hasPow = field(o, "power") != nullptr;
+    const bool hasTex = field(o, "texture") != nullptr;
     if (!hasRad && !hasPow && !hasTex) r.fail("needs \"radiance\", \"power\" or \"texture\"");
     std::array<float, 3> rad = r.vec3(o, "radiance", false), pow = r.vec3(o, "power", false);
     for (int c = 0; c < 3; ++c)
@@ -209,7 +148,7 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
       if (shape == "cap") {
         l.direction = r.unitDir(o, "direction");
         double ca;
-        if (o.get("cos_alpha")) {
+        if (field(o, "cos_alpha")) {
           ca = r.number(o, "cos_alpha");
         } else {
           const double a = r.number(o, "half_angle_deg");
@@ -219,10 +158,10 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
         if (!(ca > 0 && ca < 1)) r.fail("the cap's half-angle must be in (0, 90) degrees");
         l.cosAlpha = float(ca);
       } else if (shape == "polygon") {
-        const Json* v = o.get("vertices");
-        if (!v || v->kind != Json::Array) r.fail("missing \"vertices\" (an array of directions)");
+        const Json* v = field(o, "vertices");
+        if (!v || !v->is_array()) r.fail("missing \"vertices\" (an array of directions)");
         std::vector<std::array<float, 3>> verts;
-        for (auto& item : v->items) verts.push_back(r.vec3(item, "vertices"));
+        for (const Json& item : *v) verts.push_back(r.vec3(item, "vertices"));
         l = makePolygonLight(verts, {0, 0, 0});
       } else if (shape == "rect" || shape == "ellipse") {
         // A rectangle seen from afar, or the ellipse inscribed in it (an ellipsoid's silhouette):
@@ -230,39 +169,42 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
         // right = d x up and up (makeRectLight, makeEllipseLight).
         auto d = r.unitDir(o, "direction");
         auto up = r.unitDir(o, "up");
-        const Json* h = o.get("half_angles_deg");
-        if (!h || h->kind != Json::Array || h->items.size() != 2)
+        const Json* h = field(o, "half_angles_deg");
+        if (!h || !h->is_array() || h->size() != 2)
           r.fail("\"half_angles_deg\" must be an array of 2 numbers");
         std::array<double, 2> ha;
-        for (int k = 0; k < 2; ++k) {
-          if (h->items[k].kind != Json::Number || !(h->items[k].num > 0 && h->items[k].num < 90))
+        for (std::size_t k = 0; k < 2; ++k) {
+          const Json& x = (*h)[k];
+          if (!x.is_number() || !(x.get<double>() > 0 && x.get<double>() < 90))
             r.fail("\"half_angles_deg\" must be in (0, 90), got " +
-                   (h->items[k].kind == Json::Number ? std::to_string(h->items[k].num) : std::string("a non-number")));
-          ha[k] = h->items[k].num * kPi / 180;
+                   (x.is_number() ? detail::numberText(x.get<double>()) : std::string("a non-number")));
+          ha[k] = x.get<double>() * kPi / 180;
         }
         l = shape == "rect" ? makeRectLight(d, up, ha, {0, 0, 0}) : makeEllipseLight(d, up, ha, {0, 0, 0});
       } else {
         r.fail("unknown \"shape\" \"" + shape + "\" (accepted: cap, polygon, rect, ellipse)");
       }
-      if (const Json* t = o.get("texture")) {
-        if (t->kind != Json::Object) r.fail("\"texture\" must be an object {width, height, radiance}");
+      if (const Json* t = field(o, "texture")) {
+        if (!t->is_object()) r.fail("\"texture\" must be an object {width, height, radiance}");
+        refuseUnknownFields(*t, kTextureKeys, " in \"texture\"",
+                            [&](const std::string& what) { r.fail(what); });
         LightTexture tex;
         const double w = r.number(*t, "width"), hgt = r.number(*t, "height");
         if (!(w >= 1 && w <= 4096 && w == std::floor(w)) || !(hgt >= 1 && hgt <= 4096 && hgt == std::floor(hgt)))
           r.fail("texture \"width\" and \"height\" must be integers in [1, 4096], got " +
-                 std::to_string(w) + " x " + std::to_string(hgt));
+                 detail::numberText(w) + " x " + detail::numberText(hgt));
         tex.width = int(w);
         tex.height = int(hgt);
-        const Json* rv = t->get("radiance");
-        if (!rv || rv->kind != Json::Array) r.fail("texture needs \"radiance\" (an array of 3 w h numbers)");
-        tex.radiance.reserve(rv->items.size());
-        for (std::size_t k = 0; k < rv->items.size(); ++k) {
-          const Json& x = rv->items[k];
-          if (x.kind != Json::Number || !std::isfinite(x.num) || !std::isfinite(float(x.num)) || x.num < 0)
+        const Json* rv = field(*t, "radiance");
+        if (!rv || !rv->is_array()) r.fail("texture needs \"radiance\" (an array of 3 w h numbers)");
+        tex.radiance.reserve(rv->size());
+        for (std::size_t k = 0; k < rv->size(); ++k) {
+          const Json& x = (*rv)[k];
+          if (!finiteNumber(x) || !std::isfinite(float(x.get<double>())) || x.get<double>() < 0)
             r.fail("texture \"radiance\" value " + std::to_string(k) + " must be a finite number >= 0");
-          tex.radiance.push_back(float(x.num));
+          tex.radiance.push_back(float(x.get<double>()));
         }
-        if (shape == "cap" && o.get("up")) {
+        if (shape == "cap" && field(o, "up")) {
           // the texture's up: axisU = direction x up
           auto up = r.unitDir(o, "up");
           const double dd[3] = {l.direction[0], l.direction[1], l.direction[2]};
@@ -299,68 +241,72 @@ LightSet lightSetFromJson(const std::string& text, const std::string& source) {
     } else {
       l.setPower(pow);
     }
-    if (const Json* g = o.get("regions"); g && g->kind == Json::Array)
-      for (auto& reg : g->items) {
-        if (reg.kind != Json::Array || reg.items.size() != 5) r.fail("\"regions\" entries must be 5 integers");
+    if (const Json* g = field(o, "regions")) {
+      if (!g->is_array()) r.fail("\"regions\" must be an array of entries of 5 integers");
+      for (const Json& reg : *g) {
+        if (!reg.is_array() || reg.size() != 5) r.fail("\"regions\" entries must be 5 integers");
         std::array<int, 5> q;
-        for (int k = 0; k < 5; ++k) {
+        for (std::size_t k = 0; k < 5; ++k) {
           // Checked before the conversion: a double outside int's range converts undefinedly.
-          const Json& v = reg.items[k];
-          if (v.kind != Json::Number || !(v.num >= 0 && v.num <= INT_MAX) || v.num != std::floor(v.num))
+          const Json& v = reg[k];
+          const double x = v.is_number() ? v.get<double>() : -1.0;
+          if (!(x >= 0 && x <= INT_MAX) || x != std::floor(x))
             r.fail("\"regions\" entries must be 5 integers in 0.." + std::to_string(INT_MAX));
-          q[k] = int(v.num);
+          q[k] = int(x);
         }
         l.regions.push_back(q);
       }
+    }
     set.lights.push_back(l);
   }
-  if (const Json* a = doc.get("ambient_sh"); a && a->kind == Json::Array) {
-    if (a->items.size() != 9) badInput(source + ": \"ambient_sh\" must hold 9 RGB coefficients");
-    for (int k = 0; k < 9; ++k) {
-      if (a->items[k].kind != Json::Array || a->items[k].items.size() != 3)
+  if (const Json* a = field(doc, "ambient_sh")) {
+    if (!a->is_array() || a->size() != 9)
+      badInput(source + ": \"ambient_sh\" must hold 9 RGB coefficients");
+    for (std::size_t k = 0; k < 9; ++k) {
+      const Json& coefficient = (*a)[k];
+      if (!coefficient.is_array() || coefficient.size() != 3)
         badInput(source + ": \"ambient_sh\" must hold 9 RGB coefficients");
-      for (int c = 0; c < 3; ++c) {
-        const Json& x = a->items[k].items[c];
-        if (x.kind != Json::Number || !std::isfinite(x.num))
+      for (std::size_t c = 0; c < 3; ++c) {
+        if (!finiteNumber(coefficient[c]))
           badInput(source + ": \"ambient_sh\" must hold finite numbers");
-        set.ambientSH[k][c] = float(x.num);
+        set.ambientSH[k][c] = float(coefficient[c].get<double>());
       }
     }
-    const Json* flag = doc.get("ambient");
-    set.hasAmbient = !flag || flag->kind != Json::Bool || flag->b;
+    set.hasAmbient = ambientOn;
   }
   // The pre-integrated irradiance map (LightSet::ambientMap); without it the SH9 above shades.
-  if (const Json* a = doc.get("ambient_map")) {
-    if (a->kind != Json::Object)
+  if (const Json* a = field(doc, "ambient_map")) {
+    if (!a->is_object())
       badInput(source + ": \"ambient_map\" must be an object with width, height, irradiance");
-    auto size = [&](const char* field) {
-      const Json* v = a->get(field);
-      if (!v || v->kind != Json::Number || !(v->num >= 1 && v->num <= 1024) ||
-          v->num != std::floor(v->num))
-        badInput(source + ": \"ambient_map." + field + "\" must be an integer in 1..1024" +
-                 (v && v->kind == Json::Number ? ", got " + std::to_string(v->num) : ""));
-      return int(v->num);
+    refuseUnknownFields(*a, kAmbientMapKeys, " in \"ambient_map\"",
+                        [&](const std::string& what) { badInput(source + ": " + what); });
+    auto size = [&](const char* name) {
+      const Json* v = field(*a, name);
+      const double x = v && v->is_number() ? v->get<double>() : 0.0;
+      if (!(x >= 1 && x <= 1024) || x != std::floor(x))
+        badInput(source + ": \"ambient_map." + name + "\" must be an integer in 1..1024" +
+                 (v && v->is_number() ? ", got " + detail::numberText(x) : ""));
+      return int(x);
     };
     AmbientMap m;
     m.width = size("width");
     m.height = size("height");
-    const Json* e = a->get("irradiance");
+    const Json* e = field(*a, "irradiance");
     const std::size_t want = std::size_t(m.width) * m.height * 3;
-    if (!e || e->kind != Json::Array || e->items.size() != want)
+    if (!e || !e->is_array() || e->size() != want)
       badInput(source + ": \"ambient_map.irradiance\" must hold width * height * 3 = " +
                std::to_string(want) + " numbers" +
-               (e && e->kind == Json::Array ? ", got " + std::to_string(e->items.size()) : ""));
+               (e && e->is_array() ? ", got " + std::to_string(e->size()) : ""));
     m.rgb.resize(want);
     for (std::size_t i = 0; i < want; ++i) {
-      const Json& x = e->items[i];
-      if (x.kind != Json::Number || !std::isfinite(x.num) || !std::isfinite(float(x.num)))
+      const Json& x = (*e)[i];
+      if (!finiteNumber(x) || !std::isfinite(float(x.get<double>())))
         badInput(source + ": \"ambient_map.irradiance\" must hold finite numbers (entry " +
                  std::to_string(i) + ")");
-      m.rgb[i] = float(x.num);
+      m.rgb[i] = float(x.get<double>());
     }
     set.ambientMap = std::move(m);
-    const Json* flag = doc.get("ambient");
-    set.hasAmbient = !flag || flag->kind != Json::Bool || flag->b;
+    set.hasAmbient = ambientOn;
   }
   return set;
 }
@@ -373,67 +319,68 @@ LightSet loadLightSet(const std::string& path) {
   return lightSetFromJson(ss.str(), path);
 }
 
+namespace {
+
+// Floats as the shortest decimal that reads back as the same float.
+Json floats(const float* v, std::size_t n) {
+  Json a = Json::array();
+  for (std::size_t i = 0; i < n; ++i) a.push_back(detail::shortestDecimal(v[i]));
+  return a;
+}
+Json floats(const std::array<float, 3>& v) { return floats(v.data(), 3); }
+
+}  // namespace
+
 std::string LightSet::toJson() const {
-  std::ostringstream o;
-  o.precision(9);
-  o << "{\n  \"method\": \"" << method << "\",\n  \"face_size\": " << faceSize
-    << ",\n  \"count\": " << lights.size() << ",\n  \"lights\": [";
-  for (std::size_t i = 0; i < lights.size(); ++i) {
-    auto& l = lights[i];
+  Json o;
+  o["method"] = method;
+  o["face_size"] = faceSize;
+  o["count"] = lights.size();
+  Json list = Json::array();
+  for (const AreaLight& l : lights) {
+    Json j;
     const bool framed = l.shape == LightShape::Polygon && l.outline != AreaLight::Outline::Vertices;
-    const char* shape = !framed ? toString(l.shape) : l.outline == AreaLight::Outline::Rect ? "rect" : "ellipse";
-    o << (i ? ",\n" : "\n") << "    {\"shape\": \"" << shape << "\", ";
+    j["shape"] = !framed ? toString(l.shape) : l.outline == AreaLight::Outline::Rect ? "rect" : "ellipse";
     if (framed || !l.texture.empty()) {
       // the frame: rects and ellipses load from it; a textured cap keeps its texture's orientation
-      const auto up = l.axisV();
-      o << "\"up\": [" << up[0] << ", " << up[1] << ", " << up[2] << "], ";
+      j["up"] = floats(l.axisV());
       if (framed)
-        o << "\"half_angles_deg\": [" << std::atan(double(l.tanHalf[0])) / kDeg << ", "
-          << std::atan(double(l.tanHalf[1])) / kDeg << "], ";
+        j["half_angles_deg"] = {detail::shortestDecimal(float(std::atan(double(l.tanHalf[0])) / kDeg)),
+                                detail::shortestDecimal(float(std::atan(double(l.tanHalf[1])) / kDeg))};
     }
-    if (!l.texture.empty()) {
-      o << "\"texture\": {\"width\": " << l.texture.width << ", \"height\": " << l.texture.height
-        << ", \"radiance\": [";
-      for (std::size_t k = 0; k < l.texture.radiance.size(); ++k) o << (k ? ", " : "") << l.texture.radiance[k];
-      o << "]}, ";
-    }
+    if (!l.texture.empty())
+      j["texture"] = {{"width", l.texture.width},
+                      {"height", l.texture.height},
+                      {"radiance", floats(l.texture.radiance.data(), l.texture.radiance.size())}};
     if (l.shape == LightShape::Polygon) {
-      o << "\"vertices\": [";
-      for (std::size_t k = 0; k < l.vertices.size(); ++k)
-        o << (k ? ", " : "") << "[" << l.vertices[k][0] << ", " << l.vertices[k][1] << ", "
-          << l.vertices[k][2] << "]";
-      o << "], ";
+      Json vertices = Json::array();
+      for (const auto& v : l.vertices) vertices.push_back(floats(v));
+      j["vertices"] = vertices;
     }
-    o << "\"direction\": [" << l.direction[0] << ", " << l.direction[1]
-      << ", " << l.direction[2] << "], \"half_angle_deg\": " << l.halfAngle() / kDeg
-      << ", \"cos_alpha\": " << l.cosAlpha << ", \"solid_angle_sr\": " << l.solidAngle()
-      << ", \"radiance\": [" << l.radiance[0] << ", " << l.radiance[1] << ", " << l.radiance[2]
-      << "], \"power\": [" << l.power[0] << ", " << l.power[1] << ", " << l.power[2]
-      << "], \"regions\": [";
-    for (std::size_t r = 0; r < l.regions.size(); ++r) {
-      auto& g = l.regions[r];
-      o << (r ? ", " : "") << "[" << g[0] << ", " << g[1] << ", " << g[2] << ", " << g[3] << ", "
-        << g[4] << "]";
-    }
-    o << "]}";
+    j["direction"] = floats(l.direction);
+    j["half_angle_deg"] = detail::shortestDecimal(l.halfAngle() / kDeg);
+    j["cos_alpha"] = detail::shortestDecimal(l.cosAlpha);
+    j["solid_angle_sr"] = detail::shortestDecimal(l.solidAngle());
+    j["radiance"] = floats(l.radiance);
+    j["power"] = floats(l.power);
+    j["regions"] = l.regions;
+    list.push_back(j);
   }
+  o["lights"] = list;
   // The ambient residual: 9 RGB SH coefficients of radiance (order in lights.hpp), and its power.
-  auto ap = ambientPower();
-  o << "\n  ],\n  \"ambient\": " << (hasAmbient ? "true" : "false") << ",\n  \"ambient_sh\": [";
-  for (int i = 0; i < 9; ++i)
-    o << (i ? ", " : "") << "[" << ambientSH[i][0] << ", " << ambientSH[i][1] << ", "
-      << ambientSH[i][2] << "]";
-  o << "],\n  \"ambient_power\": [" << ap[0] << ", " << ap[1] << ", " << ap[2] << "]";
+  o["ambient"] = hasAmbient;
+  Json sh = Json::array();
+  for (const auto& c : ambientSH) sh.push_back(floats(c));
+  o["ambient_sh"] = sh;
+  const auto ap = ambientPower();
+  o["ambient_power"] = {detail::shortestDecimal(float(ap[0])), detail::shortestDecimal(float(ap[1])),
+                        detail::shortestDecimal(float(ap[2]))};
   // The pre-integrated irradiance map (lights.hpp AmbientMap), when the set has one.
-  if (!ambientMap.empty()) {
-    o << ",\n  \"ambient_map\": {\"width\": " << ambientMap.width
-      << ", \"height\": " << ambientMap.height << ", \"irradiance\": [";
-    for (std::size_t i = 0; i < ambientMap.rgb.size(); ++i)
-      o << (i ? (i % 3 ? ", " : ",\n    ") : "") << ambientMap.rgb[i];
-    o << "]}";
-  }
-  o << "\n}\n";
-  return o.str();
+  if (!ambientMap.empty())
+    o["ambient_map"] = {{"width", ambientMap.width},
+                        {"height", ambientMap.height},
+                        {"irradiance", floats(ambientMap.rgb.data(), ambientMap.rgb.size())}};
+  return detail::dumpJson(o, 2) + "\n";
 }
 
 }  // namespace penumbra

@@ -13,11 +13,11 @@
 #include <cstring>
 #include <exception>
 #include <limits>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "core/number_text.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra {
@@ -71,9 +71,8 @@ const double kLumaWeights[3] = {0.2126, 0.7152, 0.0722};  // Rec. 709 luminance 
 using Plane = std::vector<float>;
 
 std::string sizeOf(const Image& im) {
-  std::ostringstream s;
-  s << im.width << "x" << im.height;
-  return s.str();
+  // std::to_string, not a stream: a global locale's digit grouping would give "1.920x1.080"
+  return std::to_string(im.width) + "x" + std::to_string(im.height);
 }
 
 // --- filters ------------------------------------------------------------------------------------
@@ -424,7 +423,7 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
   // screen 10 m away) is already 15x the papers' setup.
   if (!std::isfinite(opt.pixelsPerDegree) || opt.pixelsPerDegree <= 0 || opt.pixelsPerDegree > 1000)
     badInput("flip: pixelsPerDegree must be in (0, 1000] (got " +
-             std::to_string(opt.pixelsPerDegree) + ")");
+             detail::numberText(opt.pixelsPerDegree) + ")");
   if (mask) {
     if (mask->width != reference.width || mask->height != reference.height || mask->channels < 1 ||
         mask->pixels.size() != std::size_t(mask->width) * mask->height * mask->channels)
@@ -483,13 +482,13 @@ FlipResult flip(const Image& test, const Image& reference, const FlipOptions& op
       if (std::isnan(stop)) stop = black ? 0.0 : std::log2(x / yMedian);
     }
     if (start > stop)
-      badInput("flip: startExposure (" + std::to_string(start) + ") exceeds stopExposure (" +
-               std::to_string(stop) + ")");
+      badInput("flip: startExposure (" + detail::numberText(start) + ") exceeds stopExposure (" +
+               detail::numberText(stop) + ")");
     // One exposure per stop costs one LDR-FLIP each: a range wider than kMaxExposureStops (a
     // reference whose median is 2^-128 of its maximum, or a caller's typo) would run for hours.
     if (stop - start > kMaxExposureStops)
-      badInput("flip: the exposure range startExposure..stopExposure (" + std::to_string(start) +
-               ".." + std::to_string(stop) + ") spans more than " +
+      badInput("flip: the exposure range startExposure..stopExposure (" + detail::numberText(start) +
+               ".." + detail::numberText(stop) + ") spans more than " +
                std::to_string(int(kMaxExposureStops)) + " stops");
     // Andersson et al. 2021, HDR-FLIP: max(2, ceil(stop - start)) exposures, evenly spaced.
     const int count = int(std::max(2.0, std::ceil(stop - start)));

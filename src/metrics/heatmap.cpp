@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -122,9 +123,11 @@ double roundedScale(std::vector<float>& mags) {
 }
 
 std::string percentLabel(double v, bool sign) {
+  // to_chars ignores the locale (snprintf's %g would write "2,5%" under a German one)
   char s[32];
-  std::snprintf(s, sizeof s, sign ? "%+g%%" : "%g%%", 100.0 * v);
-  return s;
+  auto r = std::to_chars(s, s + sizeof s, 100.0 * v, std::chars_format::general, 6);
+  std::string text(s, r.ptr);
+  return (sign && v >= 0 ? "+" : "") + text + "%";
 }
 
 bool drawText(Image& image, int x, int y, const std::string& text, int size,

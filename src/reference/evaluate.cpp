@@ -4,13 +4,13 @@
 #include "penumbra/evaluate.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <nlohmann/json.hpp>
-#include <sstream>
 
+#include "core/json.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/heatmap.hpp"
@@ -126,7 +126,8 @@ double luminance(const float* p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB
 std::string truthKey(const Scene& scene, const Camera& camera, const Environment& env,
                      const LightSet* lights, const ReferenceOptions& opt) {
   Digest d;
-  d.text("penumbra truth 1");
+  // 2: light sets are hashed as nlohmann-json writes them (LightSet::toJson), since issue 16.
+  d.text("penumbra truth 2");
   d.value(scene.meshes.size());
   for (const Mesh& m : scene.meshes) {
     d.vec(m.positions);
@@ -315,9 +316,10 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
 
 namespace {
 
-nlohmann::ordered_json number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
+using detail::Json;
+Json number(double v) { return detail::finiteOrNull(v); }
 
-nlohmann::ordered_json lineJson(const BudgetLine& l) {
+Json lineJson(const BudgetLine& l) {
   return {{"relative_rmse", number(l.relativeRmse)},
           {"relative_rmse_penumbra", number(l.relativeRmsePenumbra)},
           {"flip", number(l.flip)},
@@ -330,14 +332,14 @@ nlohmann::ordered_json lineJson(const BudgetLine& l) {
           {"below_noise_penumbra", l.belowNoisePenumbra()}};
 }
 
-nlohmann::ordered_json rgb(const std::array<double, 3>& v) {
-  return nlohmann::ordered_json::array({number(v[0]), number(v[1]), number(v[2])});
+Json rgb(const std::array<double, 3>& v) {
+  return Json::array({number(v[0]), number(v[1]), number(v[2])});
 }
 
 }  // namespace
 
 std::string toJson(const ErrorBudget& b) {
-  nlohmann::ordered_json j;
+  Json j;
   j["shadows"] = b.shadows;
   j["lights"] = b.lights;
   j["frame_ms"] = number(b.frameMs);
@@ -359,66 +361,69 @@ std::string toJson(const ErrorBudget& b) {
                       {"lights_shadowed_ambient", number(b.noiseShadowedAmbient)}};
   j["bias_total"] = rgb(b.biasTotal);
   j["bias_technique"] = rgb(b.biasTechnique);
-  return j.dump(2) + "\n";
+  return detail::dumpJson(j, 2) + "\n";
 }
 
+namespace {
+
+// printf's %<width>.<precision><f|g> as in the C locale, whatever the process's locale is:
+// to_chars formats as printf does in the C locale. `plus` writes the sign of positive values too.
+std::string format(double v, std::chars_format form, int precision, int width = 0,
+                   bool plus = false) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, form, precision);
+  std::string s(buf, r.ptr);
+  if (plus && s[0] != '-') s.insert(s.begin(), '+');
+  if (int(s.size()) < width) s.insert(0, std::size_t(width) - s.size(), ' ');
+  return s;
+}
+std::string fixed(double v, int precision, int width = 0) {
+  return format(v, std::chars_format::fixed, precision, width);
+}
+
+}  // namespace
+
 std::string toText(const ErrorBudget& b) {
-  std::ostringstream o;
-  char buf[256];
+  constexpr auto general = std::chars_format::general;
   auto pct = [](double v) {
-    char s[32];
-    if (!std::isfinite(v)) return std::string("    -  ");
-    std::snprintf(s, sizeof s, "%6.2f%%", 100.0 * v);
-    return std::string(s);
+    return std::isfinite(v) ? fixed(100.0 * v, 2, 6) + "%" : std::string("    -  ");
   };
-  auto flipText = [](double v) {
-    char s[32];
-    if (!std::isfinite(v)) return std::string("   -  ");
-    std::snprintf(s, sizeof s, "%6.4f", v);
-    return std::string(s);
-  };
-  std::snprintf(buf, sizeof buf, "frame: %s, %zu lights, %.2f ms (render, warm)\n",
-                b.shadows.c_str(), b.lights, b.frameMs);
-  o << buf;
-  std::snprintf(buf, sizeof buf,
-                "truths: %d spp, seed %llu; pixels: %zu geometry, %zu penumbra (%g%%..%g%% of the "
-                "lights' irradiance arrives)\n",
-                b.spp, static_cast<unsigned long long>(b.seed), b.geometryPixels, b.penumbraPixels,
-                100.0 * b.penumbraLow, 100.0 * b.penumbraHigh);
-  o << buf;
-  o << "           whole frame: rel. RMSE (noise) w/o noise | penumbra: rel. RMSE (noise) w/o "
+  auto flipText = [](double v) { return std::isfinite(v) ? fixed(v, 4, 6) : std::string("   -  "); };
+  std::string o = "frame: " + b.shadows + ", " + std::to_string(b.lights) + " lights, " +
+                  fixed(b.frameMs, 2) + " ms (render, warm)\n";
+  o += "truths: " + std::to_string(b.spp) + " spp, seed " + std::to_string(b.seed) + "; pixels: " +
+       std::to_string(b.geometryPixels) + " geometry, " + std::to_string(b.penumbraPixels) +
+       " penumbra (" + format(100.0 * b.penumbraLow, general, 6) + "%.." +
+       format(100.0 * b.penumbraHigh, general, 6) + "% of the lights' irradiance arrives)\n";
+  o += "           whole frame: rel. RMSE (noise) w/o noise | penumbra: rel. RMSE (noise) w/o "
        "noise | FLIP, penumbra\n";
-  auto row = [&](const char* name, const BudgetLine& l) {
-    std::snprintf(buf, sizeof buf, "%-10s %s (%s)%s %s | %s (%s)%s %s | %s %s\n", name,
-                  pct(l.relativeRmse).c_str(), pct(l.noise).c_str(), l.belowNoise() ? "~" : " ",
-                  pct(l.withoutNoise()).c_str(), pct(l.relativeRmsePenumbra).c_str(),
-                  pct(l.noisePenumbra).c_str(), l.belowNoisePenumbra() ? "~" : " ",
-                  pct(l.withoutNoisePenumbra()).c_str(), flipText(l.flip).c_str(),
-                  flipText(l.flipPenumbra).c_str());
-    o << buf;
+  auto row = [&](std::string name, const BudgetLine& l) {
+    name.resize(std::max<std::size_t>(name.size(), 10), ' ');
+    o += name + " " + pct(l.relativeRmse) + " (" + pct(l.noise) + ")" +
+         (l.belowNoise() ? "~" : " ") + " " + pct(l.withoutNoise()) + " | " +
+         pct(l.relativeRmsePenumbra) + " (" + pct(l.noisePenumbra) + ")" +
+         (l.belowNoisePenumbra() ? "~" : " ") + " " + pct(l.withoutNoisePenumbra()) + " | " +
+         flipText(l.flip) + " " + flipText(l.flipPenumbra) + "\n";
   };
   row("total", b.total);
   row("floor", b.floor);
   row("technique", b.technique);
   row("ambient", b.ambient);
-  o << "(~: below twice the noise it sits in, not resolved by these truths)\n";
+  o += "(~: below twice the noise it sits in, not resolved by these truths)\n";
   const double t = b.total.relativeRmse, f = b.floor.relativeRmse, q = b.technique.relativeRmse;
-  std::snprintf(buf, sizeof buf,
-                "sum: total^2 %.6g = floor^2 + technique^2 + 2 cross = %.6g + %.6g + 2 x %.6g = "
-                "%.6g\n",
-                t * t, f * f, q * q, b.cross, f * f + q * q + 2 * b.cross);
-  o << buf;
-  std::snprintf(buf, sizeof buf,
-                "truth noise: environment %s, lights %s, lights shadowed ambient %s\n",
-                pct(b.noiseEnvironment).c_str(), pct(b.noiseLights).c_str(),
-                pct(b.noiseShadowedAmbient).c_str());
-  o << buf;
-  std::snprintf(buf, sizeof buf, "bias (mean signed error / truth mean, RGB): total %+.4f %+.4f %+.4f, "
-                "technique %+.4f %+.4f %+.4f\n",
-                b.biasTotal[0], b.biasTotal[1], b.biasTotal[2], b.biasTechnique[0],
-                b.biasTechnique[1], b.biasTechnique[2]);
-  o << buf;
-  return o.str();
+  o += "sum: total^2 " + format(t * t, general, 6) + " = floor^2 + technique^2 + 2 cross = " +
+       format(f * f, general, 6) + " + " + format(q * q, general, 6) + " + 2 x " +
+       format(b.cross, general, 6) + " = " + format(f * f + q * q + 2 * b.cross, general, 6) + "\n";
+  o += "truth noise: environment " + pct(b.noiseEnvironment) + ", lights " + pct(b.noiseLights) +
+       ", lights shadowed ambient " + pct(b.noiseShadowedAmbient) + "\n";
+  auto bias = [](const std::array<double, 3>& v) {
+    return format(v[0], std::chars_format::fixed, 4, 0, true) + " " +
+           format(v[1], std::chars_format::fixed, 4, 0, true) + " " +
+           format(v[2], std::chars_format::fixed, 4, 0, true);
+  };
+  o += "bias (mean signed error / truth mean, RGB): total " + bias(b.biasTotal) + ", technique " +
+       bias(b.biasTechnique) + "\n";
+  return o;
 }
 
 std::vector<std::string> writeHeatMaps(const ErrorBudget& b, const Image& frame,

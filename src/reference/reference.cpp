@@ -25,6 +25,7 @@
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "common/shared.h"
+#include "core/json.hpp"
 #include "core/vec3.hpp"
 #include "reference/embree_scene.hpp"
 
@@ -890,18 +891,15 @@ ImageMetrics compareImages(const Image& a, const Image& b) {
 }
 
 std::string toJson(const ImageMetrics& m) {
-  // Shortest round-trip formatting, independent of the C locale. JSON has no infinities or NaN:
-  // those are written as null (e.g. the PSNR of identical images).
-  auto num = [](double v) -> std::string {
-    if (!std::isfinite(v)) return "null";
-    char buf[64];
-    auto res = std::to_chars(buf, buf + sizeof buf, v);
-    return std::string(buf, res.ptr);
-  };
-  std::string s = "{\"rmse\": " + num(m.rmse) + ", \"relative_rmse\": " + num(m.relativeRmse) +
-                  ", \"psnr\": " + num(m.psnr) + ", \"max_abs_error\": " + num(m.maxAbsError) +
-                  ", \"pixels\": " + std::to_string(m.pixels) + "}";
-  return s;
+  // One line, numbers in their shortest round-trip form (nlohmann's, independent of the locale).
+  // JSON has no infinities or NaN: those are written as null (e.g. the PSNR of identical images).
+  detail::Json j;
+  j["rmse"] = detail::finiteOrNull(m.rmse);
+  j["relative_rmse"] = detail::finiteOrNull(m.relativeRmse);
+  j["psnr"] = detail::finiteOrNull(m.psnr);
+  j["max_abs_error"] = detail::finiteOrNull(m.maxAbsError);
+  j["pixels"] = m.pixels;
+  return detail::dumpJson(j, -1);
 }
 
 }  // namespace penumbra

@@ -1,12 +1,14 @@
 // The JSON report of a rendered frame (renderReportJson, include/penumbra/renderer.hpp), written
 // with nlohmann-json so names with quotes, backslashes or non-ASCII text stay valid JSON. Option
-// blocks follow RenderOptions: "shadow" the shared settings, "mssm", "cssm", ... each technique's.
-#include <charconv>
+// blocks follow RenderOptions: "shadow" the shared settings, then "mssm", "cssm", ... only for the
+// techniques the frame used (for `auto`, those it picked per light).
 #include <cmath>
-#include <nlohmann/json.hpp>
+#include <initializer_list>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "core/json.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/version.hpp"
@@ -14,24 +16,26 @@
 namespace penumbra {
 namespace {
 
-using Json = nlohmann::ordered_json;
-
-// A float option as the shortest decimal that reads back as the same float (0.1f is 0.1, not
-// 0.10000000149011612), through to_chars/from_chars, which ignore the locale.
-double decimal(float v) {
-  if (!std::isfinite(v)) return double(v);
-  char buf[32];
-  auto r = std::to_chars(buf, buf + sizeof buf, v);
-  double d = 0.0;
-  std::from_chars(buf, r.ptr, d);
-  return d;
-}
+using detail::Json;
+using detail::shortestDecimal;
 
 Json number(double v) {
   if (!std::isfinite(v)) return nullptr;  // JSON has no NaN or infinity
   // counts stay integers, not 1e+06
   if (v == std::floor(v) && std::fabs(v) < 9e15) return static_cast<long long>(v);
   return v;
+}
+
+// The techniques whose options shaped the frame: the one asked for, and for `auto` also those it
+// picked per light (the stats "auto/light_<i>", a ShadowTechnique value each).
+std::set<ShadowTechnique> techniquesUsed(const RenderOptions& opt, const Frame& f,
+                                         const std::string& perLight) {
+  std::set<ShadowTechnique> used = {opt.shadows};
+  if (opt.shadows == ShadowTechnique::Auto)
+    for (const auto& [name, v] : f.stats)
+      if (name.compare(0, perLight.size(), perLight) == 0)
+        used.insert(static_cast<ShadowTechnique>(int(v)));
+  return used;
 }
 
 }  // namespace
@@ -60,31 +64,58 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
   o["shadow_map_bytes_per_texel"] =
       f.shadowMapBytes /
       std::max<std::size_t>(1, std::size_t(opt.shadowMapSize) * opt.shadowMapSize * lights.lights.size());
-  o["shadow"] = {{"depth_bias", decimal(opt.shadow.depthBias)},
-                 {"light_size_scale", decimal(opt.shadow.lightSizeScale)},
-                 {"max_filter_texels", decimal(opt.shadow.maxFilterTexels)},
-                 {"min_filter_texels", decimal(opt.shadow.minFilterTexels)}};
-  o["mssm"] = {{"moment_bias", decimal(opt.mssm.momentBias)},
-               {"slope_bias", decimal(opt.mssm.slopeBias)},
-               {"blocker_epsilon", decimal(opt.mssm.blockerEpsilon)},
-               {"upper_bound_blocker", opt.mssm.upperBoundBlocker},
-               {"upper_bound_tilt", decimal(opt.mssm.upperBoundTilt)}};
+  // The shared settings, then only the blocks of the techniques that ran: an option of another
+  // technique did not touch this frame.
+  const std::string perLight = "auto/light_";
+  const std::set<ShadowTechnique> used = techniquesUsed(opt, f, perLight);
+  auto uses = [&](std::initializer_list<ShadowTechnique> ts) {
+    for (ShadowTechnique t : ts)
+      if (used.count(t)) return true;
+    return false;
+  };
+  o["shadow"] = {{"depth_bias", shortestDecimal(opt.shadow.depthBias)},
+                 {"light_size_scale", shortestDecimal(opt.shadow.lightSizeScale)},
+                 {"max_filter_texels", shortestDecimal(opt.shadow.maxFilterTexels)},
+                 {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)}};
+  if (uses({ShadowTechnique::MSSM4, ShadowTechnique::MSSM6}))
+    o["mssm"] = {{"moment_bias", shortestDecimal(opt.mssm.momentBias)},
+                 {"slope_bias", shortestDecimal(opt.mssm.slopeBias)},
+                 {"blocker_epsilon", shortestDecimal(opt.mssm.blockerEpsilon)},
+                 {"upper_bound_blocker", opt.mssm.upperBoundBlocker},
+                 {"upper_bound_tilt", shortestDecimal(opt.mssm.upperBoundTilt)},
+                 {"delta1", shortestDecimal(opt.mssm.delta1)},
+                 {"delta2", shortestDecimal(opt.mssm.delta2)}};
   o["prefilter"] = toString(opt.prefilter);
   o["front_back_faces"] = opt.frontBackFaces;
   o["bent_normals"] = opt.bentNormals;
-  o["bent_normals_scale"] = decimal(opt.bentNormalsScale);
-  o["cssm"] = {{"order", opt.cssm.order},
-               {"sharpen_a", decimal(opt.cssm.sharpenA)},
-               {"sharpen_b", decimal(opt.cssm.sharpenB)}};
-  o["pcss"] = {{"blocker_taps", opt.pcss.blockerTaps}, {"filter_taps", opt.pcss.filterTaps}};
-  o["brute"] = {{"samples", opt.brute.samples}};
-  o["bitmask"] = {{"light_samples", opt.bitmask.lightSamples}, {"list_size", opt.bitmask.listSize}};
-  o["auto"] = {{"exact_lights", opt.autoChoice.exactLights},
-               {"hard_pixels", decimal(opt.autoChoice.hardPixels)},
-               {"pcss_texels", decimal(opt.autoChoice.pcssTexels)}};
+  o["bent_normals_scale"] = shortestDecimal(opt.bentNormalsScale);
+  if (uses({ShadowTechnique::CSSM}))
+    o["cssm"] = {{"order", opt.cssm.order},
+                 {"sharpen_a", shortestDecimal(opt.cssm.sharpenA)},
+                 {"sharpen_b", shortestDecimal(opt.cssm.sharpenB)},
+                 {"ringing_offset", shortestDecimal(opt.cssm.ringingOffset)},
+                 {"damping", shortestDecimal(opt.cssm.damping)},
+                 {"depth_bias", shortestDecimal(opt.cssm.depthBias)},
+                 {"slope_bias", shortestDecimal(opt.cssm.slopeBias)}};
+  if (uses({ShadowTechnique::PCSS}))
+    o["pcss"] = {{"blocker_taps", opt.pcss.blockerTaps},
+                 {"filter_taps", opt.pcss.filterTaps},
+                 {"receiver_plane_bias", opt.pcss.receiverPlaneBias}};
+  if (uses({ShadowTechnique::Brute})) o["brute"] = {{"samples", opt.brute.samples}};
+  if (uses({ShadowTechnique::Bitmask, ShadowTechnique::BitmaskHard}))
+    o["bitmask"] = {{"light_samples", opt.bitmask.lightSamples},
+                    {"list_size", opt.bitmask.listSize},
+                    {"jitter", opt.bitmask.jitter}};
+  if (uses({ShadowTechnique::AreaApprox}))
+    o["area_approx"] = {{"edge_samples", opt.areaApprox.edgeSamples},
+                        {"cap_vertices", opt.areaApprox.capVertices},
+                        {"taps", opt.areaApprox.taps}};
+  if (uses({ShadowTechnique::Auto}))
+    o["auto"] = {{"exact_lights", opt.autoChoice.exactLights},
+                 {"hard_pixels", shortestDecimal(opt.autoChoice.hardPixels)},
+                 {"pcss_texels", shortestDecimal(opt.autoChoice.pcssTexels)}};
   // `auto` reports each light's technique as the stat "auto/light_<i>" (a ShadowTechnique value,
   // lights in order): listed by name in "auto_lights" instead.
-  const std::string perLight = "auto/light_";
   Json stats = Json::object(), autoLights = Json::array();
   for (const auto& [name, v] : f.stats) {
     if (name.compare(0, perLight.size(), perLight) == 0)
@@ -95,11 +126,11 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
   o["stats"] = stats;
   if (!autoLights.empty()) o["auto_lights"] = autoLights;
   Json timings = Json::object();
-  for (const auto& [stage, ms] : f.timingsMs) timings[stage] = std::isfinite(ms) ? Json(ms) : Json(nullptr);
+  for (const auto& [stage, ms] : f.timingsMs) timings[stage] = detail::finiteOrNull(ms);
   o["timings_ms"] = timings;
   // replace: a name that is not valid UTF-8 (a Latin-1 file name) is written with U+FFFD instead
   // of throwing, so the report is still valid JSON.
-  return o.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
+  return detail::dumpJson(o, 2) + "\n";
 }
 
 }  // namespace penumbra

@@ -10,16 +10,19 @@
 #include <assimp/Importer.hpp>
 #include <assimp/LogStream.hpp>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <locale>
 #include <new>
 #include <sstream>
 
 #include "penumbra/error.hpp"
 #include "core/contained.hpp"
+#include "core/number_text.hpp"
 #include "core/vec3.hpp"
 #include "scene/mesh_declarations.hpp"
 
@@ -40,6 +43,7 @@ constexpr float kMinLength = 1e-20f;
 
 std::string vecText(const Vec3& v) {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "0.5", whatever the global locale
   s << "(" << v[0] << ", " << v[1] << ", " << v[2] << ")";
   return s.str();
 }
@@ -396,6 +400,15 @@ std::string cameraError(const std::string& text, const std::string& problem) {
   return "camera '" + oneLine(text) + "': " + problem;
 }
 
+// Whether a decimal that from_chars found beyond double's range is too small (strtod's 0) rather
+// than too large: a negative exponent, or no exponent and a zero integer part ("0.000...1").
+bool tooSmall(const char* first, const char* last) {
+  const char* e = std::find_if(first, last, [](char c) { return c == 'e' || c == 'E'; });
+  if (e != last) return e + 1 < last && e[1] == '-';
+  if (first != last && *first == '-') ++first;
+  return std::all_of(first, std::find(first, last, '.'), [](char c) { return c == '0'; });
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -429,7 +442,7 @@ constexpr float kBounceHeight = 0.8f;
 constexpr float kSlabTurnPeriod = 10.0f;
 
 Scene builtinScene(float t) {
-  if (!std::isfinite(t)) badInput("builtin scene time must be finite, got " + std::to_string(t));
+  if (!std::isfinite(t)) badInput("builtin scene time must be finite, got " + detail::numberText(t));
   Scene s;
   // 12 m square, 16 x 16 cells of 0.75 m: it reaches well past the objects (all within about
   // |x|,|z| < 3) so that long shadows from low lights still land on it.
@@ -634,7 +647,7 @@ detail::ContainLimits meshLoadLimits(const LoadOptions& opt, std::uintmax_t file
 void checkLoadOptions(const LoadOptions& opt) {
   if (!(opt.timeoutSeconds >= 0) || !std::isfinite(opt.timeoutSeconds))
     badInput("LoadOptions::timeoutSeconds must be a finite number of seconds >= 0 (0: automatic), "
-             "got " + std::to_string(opt.timeoutSeconds));
+             "got " + detail::numberText(opt.timeoutSeconds));
 }
 
 }  // namespace
@@ -711,7 +724,7 @@ Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt) {
 Camera frameCamera(const Scene& scene, float aspect) {
   if (!std::isfinite(aspect) || aspect <= 0)
     badInput("frameCamera: the aspect ratio must be positive and finite, got " +
-             std::to_string(aspect));
+             detail::numberText(aspect));
   // The ground plane is several times larger than what stands on it; framing it would leave the
   // objects tiny. Frame everything else when there is anything else.
   std::vector<const Mesh*> objects, all;
@@ -745,7 +758,7 @@ CameraBasis cameraBasis(const Camera& c, int width, int height) {
              std::to_string(height));
   if (!std::isfinite(c.fovyDeg) || c.fovyDeg <= 0 || c.fovyDeg >= 180)
     badInput("camera: vertical field of view must be in (0, 180) degrees, got " +
-             std::to_string(c.fovyDeg));
+             detail::numberText(c.fovyDeg));
   if (!isFinite(c.eye) || !isFinite(c.target) || !isFinite(c.up))
     badInput("camera: eye, target and up must be finite");
   const Vec3 toTarget = c.target - c.eye;
@@ -795,13 +808,20 @@ Camera parseCamera(const std::string& text) {
     const auto first = p.find_first_not_of(" \t");
     const auto last = p.find_last_not_of(" \t");
     p = first == std::string::npos ? "" : p.substr(first, last - first + 1);
-    // Plain decimal notation only: strtod would also take "inf", "nan" and hex floats.
+    // Plain decimal notation only ("inf", "nan" and hex floats are refused), read by from_chars,
+    // which ignores the locale (strtod under a German locale stops at the '.'). from_chars takes
+    // no leading '+'; a leading '+' is skipped here.
     const bool plain = !p.empty() && p.find_first_not_of("0123456789+-.eE") == std::string::npos;
-    char* end = nullptr;
-    const double x = plain ? std::strtod(p.c_str(), &end) : 0.0;
-    if (!plain || end != p.c_str() + p.size())
+    const char* begin = p.c_str() + (p.size() > 1 && p[0] == '+' && p[1] != '-' ? 1 : 0);
+    const char* const stop = p.c_str() + p.size();
+    double x = 0.0;
+    const auto [end, ec] =
+        plain ? std::from_chars(begin, stop, x) : std::from_chars_result{begin, std::errc::invalid_argument};
+    if (ec == std::errc::invalid_argument || end != stop)
       badInput(cameraError(text, "value " + std::to_string(i + 1) + " ('" + oneLine(parts[i]) +
                                      "') is not a number"));
+    // out of range: beyond double's range (too small a value reads as 0, as strtod gives it)
+    if (ec == std::errc::result_out_of_range) x = tooSmall(begin, stop) ? 0.0 : HUGE_VAL;
     if (!std::isfinite(x) || std::fabs(x) > std::numeric_limits<float>::max())
       badInput(
           cameraError(text, "value " + std::to_string(i + 1) + " ('" + p + "') is not finite"));

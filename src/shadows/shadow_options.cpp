@@ -3,6 +3,7 @@
 #include "shadows/shadow_options.hpp"
 
 #include <cmath>
+#include <locale>
 #include <sstream>
 
 #include "penumbra/error.hpp"
@@ -13,6 +14,7 @@ namespace {
 // 6 significant digits: 3e-05, 0.002, 40.
 std::string show(double v) {
   std::ostringstream o;
+  o.imbue(std::locale::classic());  // "0.002", not "0,002", whatever the global locale
   o << v;
   return o.str();
 }
