@@ -124,15 +124,31 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
     opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
     opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
-    r = json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))
+    # The report holds the shared "shadow" block and only the block of the technique used.
+    def report_for(technique):
+        opt.technique = technique
+        return json.loads(penumbra.render_report_json(ctx, lights, env, opt, frame))
+    blocks = {"mssm", "cssm", "pcss", "brute", "bitmask", "auto", "area_approx"}
+    r = report_for("cssm")
     assert r["shadows"] == "cssm" and r["prefilter"] == "mip" and r["front_back_faces"] is True
     assert (r["shadow"]["depth_bias"], r["shadow"]["light_size_scale"],
             r["shadow"]["max_filter_texels"]) == (0.0125, 0.5, 9)
+    assert (r["cssm"]["order"], r["cssm"]["sharpen_a"], r["cssm"]["sharpen_b"]) == (7, 11, 13)
+    assert blocks & set(r) == {"cssm"}
+    r = report_for("mssm4")
     assert (r["mssm"]["moment_bias"], r["mssm"]["slope_bias"], r["mssm"]["upper_bound_tilt"]) == \
         (1.5e-4, 0.75, 1.25)
-    assert (r["cssm"]["order"], r["cssm"]["sharpen_a"], r["cssm"]["sharpen_b"]) == (7, 11, 13)
-    assert (r["pcss"]["blocker_taps"], r["pcss"]["filter_taps"], r["brute"]["samples"]) == (9, 25, 3)
+    assert blocks & set(r) == {"mssm"}
+    r = report_for("pcss")
+    assert (r["pcss"]["blocker_taps"], r["pcss"]["filter_taps"]) == (9, 25)
+    assert blocks & set(r) == {"pcss"}
+    r = report_for("brute")
+    assert r["brute"]["samples"] == 3 and blocks & set(r) == {"brute"}
+    r = report_for("auto")  # this frame holds no per-light picks: the auto block alone
     assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
+    assert blocks & set(r) == {"auto"}
+    r = report_for("hard")
+    assert blocks & set(r) == set() and "shadow" in r
     with pytest.raises(penumbra.BadInput):
         renderer.last_visibility(7, 3)
 
