@@ -467,7 +467,7 @@ Progress::~Progress() {
   if (tty_)
     std::fprintf(stderr, "\r%s [##########] 100%% in %s\033[K\n", label_.c_str(), took.c_str());
   else
-    std::fprintf(stderr, "%s: 100%% (%s)\n", label_.c_str(), took.c_str());
+    std::fprintf(stderr, "%s: 100%% in %s\n", label_.c_str(), took.c_str());
 }
 
 std::function<void(double)> Progress::callback() {

@@ -158,7 +158,7 @@ std::string oneLine(std::string s);
 // Progress of a long job on stderr. A terminal gets a bar rewritten in place
 // ("reference [#####.....]  43% ETA 1m12s"); a log gets a line per 10% ("reference: 50% (ETA
 // 12 s)"), so a long run under a script still shows that it advances. The last line,
-// "LABEL: 100% (N s)", is written when the object goes out of scope. quiet: nothing at all.
+// "LABEL: 100% in N s", is written when the object goes out of scope. quiet: nothing at all.
 class Progress {
  public:
   Progress(std::string label, bool quiet);
