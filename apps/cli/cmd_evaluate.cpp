@@ -24,9 +24,8 @@ CLI::App* addEvaluateCommand(CLI::App& root, Registry& reg) {
       "cross; the mean signed error per RGB; the frame's warm render time.");
   const RenderOptions R;
   const EvaluateOptions E;
-  addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"});
-  reg.real(*app, "--env-rotate", "turn the map by DEG about +y, counter-clockwise from above",
-           Bounds::any(), "0", kGroupScene);
+  addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"},
+                  true);
   addExtractOptions(*app, reg);
   addLightSetOption(*app, reg);
   addRenderOptions(*app, reg);

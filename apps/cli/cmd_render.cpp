@@ -46,9 +46,8 @@ CLI::App* addRenderCommand(CLI::App& root, Registry& reg) {
       "env_rotation_deg, out, lights, stage timings). Each frame prints a line on stderr with "
       "its time and the estimated time left (--quiet: none).");
   const RenderOptions R;
-  addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"});
-  reg.real(*app, "--env-rotate", "turn the map by DEG about +y, counter-clockwise from above",
-           Bounds::any(), "0", kGroupScene);
+  addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"},
+                  true);
   addExtractOptions(*app, reg);
   addLightSetOption(*app, reg);
   reg.integer(*app, "-n,--frames", "render an animation of N frames (see above)", 1, 100000, "",

@@ -14,10 +14,11 @@
 
 namespace penumbra::cli {
 
-// --scene --env --size --camera --no-ground --load-timeout --load-memory --device; the default
-// size is (width, height). sizeFields: the library fields --size sets.
+// --scene --env --size --camera --no-ground --load-timeout --load-memory --device, and
+// --env-rotate when `rotatable`; the default size is (width, height). sizeFields: the library
+// fields --size sets.
 void addSceneOptions(CLI::App& app, Registry& reg, int width, int height,
-                     std::vector<std::string> sizeFields);
+                     std::vector<std::string> sizeFields, bool rotatable = false);
 // --extract and its methods' options, --no-ambient, --ambient, --ambient-size, --light-shape,
 // --light-texture.
 void addExtractOptions(CLI::App& app, Registry& reg);

@@ -8,7 +8,7 @@
 namespace penumbra::cli {
 
 void addSceneOptions(CLI::App& app, Registry& reg, int width, int height,
-                     std::vector<std::string> sizeFields) {
+                     std::vector<std::string> sizeFields, bool rotatable) {
   reg.text(app, "--scene", "PATH", "mesh file (OBJ, PLY, glTF/GLB, ...) or 'builtin'", "builtin",
            kGroupScene);
   reg.text(app, "-e,--env", "PATH",
@@ -27,6 +27,9 @@ void addSceneOptions(CLI::App& app, Registry& reg, int width, int height,
   reg.text(app, "-d,--device", "INDEX|NAME", "OpenCL device: index or name substring (see "
            "`penumbra devices`); also $PENUMBRA_DEVICE", "0", kGroupScene)
       ->envname("PENUMBRA_DEVICE");
+  if (rotatable)
+    reg.real(app, "--env-rotate", "turn the map by DEG about +y, counter-clockwise from above",
+             Bounds::any(), num(Environment{}.rotationYDeg), kGroupScene);
 }
 
 void addExtractOptions(CLI::App& app, Registry& reg) {
