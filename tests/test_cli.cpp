@@ -10,6 +10,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <pty.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -1468,9 +1469,10 @@ std::map<std::string, std::string> textAttributes(const std::string& file) {
 // Every image the CLI writes says what made it: penumbra's version, the command line (shell
 // quoted) and the technique; render's report names the command and its inputs.
 TEST_F(CliConventions, OutputsDescribeThemselves) {
-  const std::vector<std::string> args =
-      cat({"render", "-s", "32x18", "--shadows", "hard", "-o", "it's.exr", "--report", "r.json"},
-          kFast);
+  const std::string lightSet = kData + "/../../examples/lights/window_and_sun.json";
+  const std::vector<std::string> args = {"render", "-s", "32x18", "--shadows", "hard",
+                                         "--shadow-map-size", "64", "--light-set", lightSet,
+                                         "-o", "it's.exr", "--report", "r.json"};
   Result r = run(args);
   ASSERT_EQ(r.code, 0) << describe(r);
   const auto text = textAttributes(path("it's.exr"));
@@ -1483,6 +1485,8 @@ TEST_F(CliConventions, OutputsDescribeThemselves) {
   const nlohmann::json report = nlohmann::json::parse(readText(dir_ / "r.json"));
   EXPECT_EQ(report["command"], nlohmann::json(cat({kCli}, args)));
   EXPECT_EQ(report["version"], PENUMBRA_VERSION);
+  EXPECT_EQ(report["inputs"]["light_set"], lightSet);
+  EXPECT_EQ(report["inputs"]["environment"], "");  // the built-in map
 
   Result ref = run({"reference", "-s", "16x9", "--spp", "2", "-o", "ref.exr", "-q"});
   ASSERT_EQ(ref.code, 0) << describe(ref);
@@ -1492,6 +1496,53 @@ TEST_F(CliConventions, OutputsDescribeThemselves) {
   EXPECT_EQ(refText.count("penumbra:technique"), 1u);
   // the numeric attribute is still there beside them
   EXPECT_EQ(readImageAttributes(path("ref.exr")).count(kRelativeNoiseAttribute), 1u);
+}
+
+// On a terminal, reference's progress is one line redrawn in place ('\r'): a bar with the
+// percentage and the time left, ending with the 100% line. The child's stderr is a
+// pseudo-terminal here; stdout stays a pipe.
+TEST_F(CliConventions, ProgressBarOnATerminal) {
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0) << std::strerror(errno);
+  std::vector<std::string> store = {kCli, "reference", "-s", "16x40", "--spp", "1", "-j", "1",
+                                    "-o", "ref.exr"};
+  std::vector<char*> argv;
+  for (auto& a : store) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const std::string dir = dir_.string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (chdir(dir.c_str()) != 0) _exit(126);
+    const int devnull = open("/dev/null", O_RDWR);
+    dup2(devnull, 0);
+    dup2(devnull, 1);
+    dup2(slave, 2);
+    close(master);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  close(slave);
+  std::string err;
+  char buf[4096];
+  for (;;) {  // EIO once the child's side is closed
+    const ssize_t got = read(master, buf, sizeof buf);
+    if (got > 0) err.append(buf, std::size_t(got));
+    else if (got < 0 && errno == EINTR) continue;
+    else break;
+  }
+  close(master);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  EXPECT_TRUE(std::regex_search(err, std::regex("\r?reference \\[#*\\.*\\] +[0-9]+% ETA [0-9]")))
+      << err;
+  EXPECT_TRUE(std::regex_search(err, std::regex("reference \\[##########\\] 100% in [0-9]")))
+      << err;
+  // redrawn in place: one line, however many updates
+  EXPECT_GT(std::count(err.begin(), err.end(), '\r'), 2) << err;
+  EXPECT_LE(std::count(err.begin(), err.end(), '\n'), 1) << err;
 }
 
 }  // namespace
