@@ -1288,6 +1288,7 @@ TEST_F(CliConventions, StrayAndUnknownArgumentsAreRefused) {
                 {"unknown option --sise", "(did you mean --size?)"});
   expectFailure({"lights", "--overlai", "o.png"}, {"--overlai", "did you mean --overlay?"});
   expectFailure({"render", "--zzzzzz"}, {"--zzzzzz", "penumbra render --help"});
+  expectFailure({"lights", "--rect=banana"}, {"--rect", "banana"});
   Result r = run({"rendr", "--size", "64x36"});
   EXPECT_EQ(r.code, 2) << describe(r);
   EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);

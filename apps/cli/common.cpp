@@ -200,7 +200,14 @@ const CLI::Option* findOption(const CLI::App& app, const std::string& name) {
 
 bool Args::has(const std::string& name) const {
   const CLI::Option* o = findOption(app_, name);
-  return o && o->count() > 0;
+  if (!o || o->count() == 0) return false;
+  if (o->get_expected_max() > 0 || o->results().empty()) return true;
+  // A flag given a value (--rect=false): the last one decides.
+  std::string v = o->results().back();
+  for (char& c : v) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (v == "true" || v == "1" || v == "yes" || v == "on") return true;
+  if (v == "false" || v == "0" || v == "no" || v == "off") return false;
+  badInput("--" + name + " is a flag: true or false, got '" + o->results().back() + "'");
 }
 
 std::string Args::get(const std::string& name, const std::string& def) const {
