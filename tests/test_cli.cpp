@@ -460,6 +460,13 @@ TEST_F(CliParams, OutputIsADirectory) {
   }
 }
 TEST_F(CliParams, UnknownOption) { expectBad({"--bogus"}, "--bogus"); }
+// The library checks the field (RenderOptions.mssm.upperBoundTilt); the message names the option
+// the user typed instead.
+TEST_F(CliParams, LibraryFieldErrorsNameTheOption) {
+  expectBad({"--upper-bound-tilt", "-1"}, "--upper-bound-tilt must be finite and >= 0");
+  Result r = run({"render", "--size", "16x9", "--upper-bound-tilt", "-1"});
+  EXPECT_EQ(r.err.find("RenderOptions"), std::string::npos) << describe(r);
+}
 TEST_F(CliParams, OptionWithoutValue) {
   // --lights as the last argument has no value.
   expectFailure({"render", "--out", path("out.png"), "--lights"}, {"--lights"});

@@ -121,8 +121,7 @@ CLI::Option* Registry::real(CLI::App& app, const std::string& names, const std::
 }
 
 const OptionInfo& Registry::info(const CLI::App& app, const std::string& name) const {
-  auto it = options_.find({&app, "--" + name});
-  if (it == options_.end()) it = options_.find({&app, name});
+  const auto it = options_.find({&app, name});
   if (it == options_.end()) throw std::logic_error("penumbra CLI: unregistered option " + name);
   return it->second;
 }
@@ -141,8 +140,7 @@ std::string Registry::withOptionNames(std::string message) const {
         if ((at > 0 && (letter(at - 1) || message[at - 1] == '.')) || letter(end) ||
             (end < message.size() && message[end] == '.' && letter(end + 1)))
           continue;
-        const std::string option = key.second.rfind("--", 0) == 0 ? key.second : "--" + key.second;
-        message.replace(at, field.size(), option);
+        message.replace(at, field.size(), "--" + key.second);
       }
   return message;
 }
