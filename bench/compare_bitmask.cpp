@@ -18,6 +18,7 @@
 // Times: medians of 3 renders after a warm-up for MSSM and area approximation, one render after
 // a warm-up for the bitmask technique (seconds per frame on a CPU device); device stage times from
 // OpenCL profiling events, "total" is render()'s wall clock.
+#include <CLI/CLI.hpp>
 #include <penumbra/penumbra.hpp>
 
 #include "compare_common.hpp"
@@ -205,55 +206,34 @@ std::string benchJsonOut(const std::vector<BenchRow>& rows) {
   return js.str();
 }
 
-void usage(std::ostream& o) {
-  o << "usage: compare_bitmask [OUT_DIR] [--size WxH] [--ref-spp N] [--part 1|2|3] [--bench FILE]\n"
-       "  OUT_DIR      where bitmask.md and bitmask.json go (default compare-out)\n"
-       "  --size WxH   frame of part 2 (default 320x180; part 1 is always 160x90)\n"
-       "  --ref-spp N  samples per pixel of each Embree reference of part 2 (default 1024)\n"
-       "  --part P     only part 1 (area approximation vs bitmask), 2 (equal error) or 3 (--bench)\n"
-       "  --bench FILE bench_bitmask's --benchmark_out JSON: add its cost tables (part 3)\n";
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   fs::path out = "compare-out";
   int W = 320, H = 180, refSpp = 1024, part = 0;
-  std::string benchJson;
+  std::string size = "320x180", benchJson;
+  CLI::App app{"Bitmask visibility against area approximation and equal-error timing (issue 6)",
+               "compare_bitmask"};
+  app.add_option("out_dir", out, "where bitmask.md and bitmask.json go")->capture_default_str();
+  app.add_option("--size", size, "frame of part 2 (part 1 is always 160x90)")
+      ->capture_default_str();
+  app.add_option("--ref-spp", refSpp, "samples per pixel of each Embree reference of part 2")
+      ->check(CLI::Range(1, 1 << 20))->capture_default_str();
+  app.add_option("--part", part,
+                 "only part 1 (area approximation vs bitmask), 2 (equal error) or 3 (--bench)")
+      ->check(CLI::IsMember({1, 2, 3}));
+  app.add_option("--bench", benchJson, "bench_bitmask's --benchmark_out JSON: add its cost tables "
+                                       "(part 3)")->check(CLI::ExistingFile);
   try {
-    for (int i = 1; i < argc; ++i) {
-      std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw Error(ErrorKind::BadInput, a + " needs a value");
-        return argv[++i];
-      };
-      if (a == "--help" || a == "-h") {
-        usage(std::cout);
-        return 0;
-      } else if (a == "--size") {
-        std::string v = value();
-        if (std::sscanf(v.c_str(), "%dx%d", &W, &H) != 2 || W < 1 || H < 1 || W > 4096 || H > 4096)
-          throw Error(ErrorKind::BadInput, "--size must be WxH with each side in 1..4096, got " + v);
-      } else if (a == "--ref-spp") {
-        std::string v = value();
-        refSpp = std::atoi(v.c_str());
-        if (refSpp < 1) throw Error(ErrorKind::BadInput, "--ref-spp must be >= 1, got " + v);
-      } else if (a == "--part") {
-        std::string v = value();
-        if (v != "1" && v != "2" && v != "3")
-          throw Error(ErrorKind::BadInput, "--part must be 1, 2 or 3, got " + v);
-        part = std::atoi(v.c_str());
-      } else if (a == "--bench") {
-        benchJson = value();
-      } else if (!a.empty() && a[0] == '-') {
-        throw Error(ErrorKind::BadInput, "unknown option " + a);
-      } else {
-        out = a;
-      }
-    }
-  } catch (const Error& e) {
-    std::cerr << "compare_bitmask: " << e.what() << "\n";
-    usage(std::cerr);
+    app.parse(argc, argv);
+    char x = 0, rest = 0;
+    if (std::sscanf(size.c_str(), "%d%c%d%c", &W, &x, &H, &rest) != 3 || x != 'x' || W < 1 ||
+        H < 1 || W > 4096 || H > 4096)
+      throw CLI::ValidationError("--size", "must be WxH with each side in 1..4096, got " + size);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "compare_bitmask: " << e.what() << " (--help lists the options)\n";
     return 2;
   }
   fs::create_directories(out);

@@ -10,6 +10,7 @@
 // Usage: compare_techniques [OUT_DIR] [--quick] [--maps builtin,PATH,...] [--sweep-only] [--claims]
 // Timings are medians of 3 renders after a warm-up (brute force: 1), device time from OpenCL
 // profiling events.
+#include <CLI/CLI.hpp>
 #include <penumbra/penumbra.hpp>
 
 #include "compare_common.hpp"
@@ -76,15 +77,6 @@ std::pair<double, double> visibilityMs(const std::vector<std::pair<std::string, 
   return {vis, shadowStageMs(t)};
 }
 
-void usage(std::ostream& o) {
-  o << "usage: compare_techniques [OUT_DIR] [--quick] [--maps builtin,PATH,...] [--sweep-only] [--claims]\n"
-       "  OUT_DIR       where table.json, table.md, sweep.json and crops_<map>.png go (default compare-out)\n"
-       "  --quick       32 lights, 256^2, fewer reference samples (minutes instead of an hour)\n"
-       "  --maps LIST   comma-separated environment maps; 'builtin' is the built-in sky\n"
-       "  --sweep-only  only the light-size sweep (table.md then holds just that section)\n"
-       "  --claims      only 32 lights and 256^2, at full reference quality (the claims rows, ~10 min)\n";
-}
-
 // Per-pixel relative error heat map (|A - B| luminance / mean of B), blue -> red.
 Image heat(const Image& a, const Image& b) {
   double mean = 0;
@@ -130,26 +122,22 @@ int main(int argc, char** argv) {
   std::vector<std::string> maps = {"builtin", std::string(PENUMBRA_SOURCE_DIR) + "/tests/data/envmaps/courtyard.exr",
                                    std::string(PENUMBRA_SOURCE_DIR) + "/tests/data/envmaps/interior.exr",
                                    std::string(PENUMBRA_SOURCE_DIR) + "/tests/data/envmaps/studio.exr"};
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    if (a == "--quick") quick = true;
-    else if (a == "--sweep-only") sweepOnly = true;
-    else if (a == "--claims") claims = true;
-    else if (a == "--help" || a == "-h") {
-      usage(std::cout);
-      return 0;
-    } else if (!a.empty() && a[0] == '-' && a != "--maps") {
-      std::cerr << "compare_techniques: unknown option " << a << "\n";
-      usage(std::cerr);
-      return 2;
-    } else if (a == "--maps" && i + 1 >= argc) {
-      std::cerr << "compare_techniques: --maps needs a comma-separated list\n";
-      return 2;
-    } else if (a == "--maps" && i + 1 < argc) {
-      maps.clear();
-      std::stringstream ss(argv[++i]);
-      for (std::string m; std::getline(ss, m, ',');) maps.push_back(m);
-    } else out = a;
+  CLI::App app{"Techniques against the Embree truth: error, time and crops per map (bench/results)",
+               "compare_techniques"};
+  app.add_option("out_dir", out, "where table.json, table.md, sweep.json and crops_<map>.png go")
+      ->capture_default_str();
+  app.add_flag("--quick", quick, "32 lights, 256^2, fewer reference samples (minutes, not an hour)");
+  app.add_option("--maps", maps, "environment maps, comma-separated; 'builtin' is the built-in sky")
+      ->delimiter(',');
+  app.add_flag("--sweep-only", sweepOnly, "only the light-size sweep (table.md holds just that)");
+  app.add_flag("--claims", claims, "only 32 lights and 256^2, full reference quality (~10 min)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "compare_techniques: " << e.what() << " (--help lists the options)\n";
+    return 2;
   }
   fs::create_directories(out);
   const int W = 320, H = 180;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -410,9 +411,11 @@ TEST(ReferenceCommon, ProgressIsMonotonicAndEndsAtOne) {
     };
     referenceEnvironment(groundScene(), obliqueCamera(), constantEnv(1, 1, 1, 1, 1), o);
     ASSERT_GE(seen.size(), threads == 1 ? 40u : 1u);
-    for (std::size_t i = 1; i < seen.size(); ++i) EXPECT_GT(seen[i], seen[i - 1]);
-    EXPECT_GT(seen.front(), 0.0);
+    // Every poll reports, so a value may repeat when no pixel finished in between.
+    for (std::size_t i = 1; i < seen.size(); ++i) EXPECT_GE(seen[i], seen[i - 1]);
+    EXPECT_EQ(seen.front(), 0.0);  // the poll before any work
     EXPECT_EQ(seen.back(), 1.0);
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1.0), 1);
     EXPECT_FALSE(otherThread);
   }
 }
@@ -425,6 +428,111 @@ TEST(ReferenceCommon, ExceptionFromProgressPropagates) {
     EXPECT_THROW(
         referenceEnvironment(groundScene(), obliqueCamera(), constantEnv(1, 1, 1, 1, 1), o),
         std::runtime_error);
+  }
+}
+
+// A frame of long pixels (131072 samples, about 17 ms each on an idle core here; two rows of 80,
+// each about 1.4 s, the frame 2.8 s on one thread). The stops below come at 15%, early in the
+// rows: a stop that waited for the end of a row, not of a pixel, would miss the half-second
+// bound, and polls only at the ends of rows would first come at 50%.
+struct LongFrame {
+  Scene scene = groundScene();
+  Environment env = constantEnv(8, 4, 0.5f, 0.5f, 0.5f);
+  Camera camera = obliqueCamera();
+  ReferenceOptions opt = smallOptions(131072, 2);
+  LongFrame() {
+    scene.meshes.push_back(quad(0.6f, 0.5f));
+    opt.width = 80;
+    camera.fovyDeg = 1.0f;  // 40:1, so the whole row still sees the ground and the quad
+  }
+};
+
+using Clock = std::chrono::steady_clock;
+
+TEST(ReferenceCommon, CancelStopsWithinHalfASecond) {
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(threads);
+    LongFrame f;
+    f.opt.threads = threads;
+    double fraction = 0;
+    std::vector<Clock::time_point> asked;
+    f.opt.progress = [&](double x) { fraction = x; };
+    f.opt.cancel = [&] {
+      asked.push_back(Clock::now());
+      return fraction >= 0.15;
+    };
+    ErrorKind kind = ErrorKind::Internal;
+    std::string what;
+    try {
+      referenceEnvironment(f.scene, f.camera, f.env, f.opt);
+    } catch (const Error& e) {
+      kind = e.kind();
+      what = e.what();
+    }
+    const Clock::time_point returned = Clock::now();
+    EXPECT_EQ(kind, ErrorKind::Cancelled) << what;
+    EXPECT_NE(what.find("reference: cancelled after 1"), std::string::npos) << what;
+    EXPECT_STREQ(toString(ErrorKind::Cancelled), "cancelled");
+    ASSERT_GE(asked.size(), 2u);
+    EXPECT_LT(std::chrono::duration<double>(returned - asked.back()).count(), 0.5);
+    // Polled at least every 100 ms (plus a pixel and a loaded machine's slack).
+    for (std::size_t i = 1; i < asked.size(); ++i)
+      EXPECT_LT(std::chrono::duration<double>(asked[i] - asked[i - 1]).count(), 0.25) << i;
+    // Stopped at the first poll past 15%, 100 ms (some 3%) later at most.
+    EXPECT_GE(fraction, 0.15);
+    EXPECT_LT(fraction, 0.3);
+  }
+}
+
+TEST(ReferenceCommon, ExceptionFromProgressStopsWithinHalfASecond) {
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(threads);
+    LongFrame f;
+    f.opt.threads = threads;
+    Clock::time_point thrown;
+    double thrownAt = 1;
+    f.opt.progress = [&](double x) {
+      if (x < 0.15) return;
+      thrown = Clock::now();
+      thrownAt = x;
+      throw std::domain_error("stop here");
+    };
+    std::string what;
+    try {
+      referenceLights(f.scene, f.camera, [] {
+        LightSet ls;
+        ls.lights.push_back(capLight({0.3f, 1, 0}, 15.0f, 3.0f));
+        return ls;
+      }(), f.env, f.opt);
+    } catch (const std::domain_error& e) {
+      what = e.what();
+    }
+    EXPECT_EQ(what, "stop here");
+    EXPECT_LT(thrownAt, 0.3);  // called within 100 ms of passing 15%, not at the end of a row
+    EXPECT_LT(std::chrono::duration<double>(Clock::now() - thrown).count(), 0.5);
+  }
+}
+
+TEST(ReferenceCommon, CallbacksLeavePixelsUnchanged) {
+  Scene scene = groundScene();
+  scene.meshes.push_back(quad(0.6f, 0.5f));
+  Environment env = constantEnv(32, 16, 0.2f, 0.3f, 0.4f);
+  env.equirect.at(20, 4, 0) = 500.0f;
+  for (int threads : {1, 3}) {
+    SCOPED_TRACE(threads);
+    ReferenceOptions o = smallOptions(16, 24);
+    o.threads = threads;
+    const ReferenceImage plain = referenceEnvironmentWithNoise(scene, obliqueCamera(), env, o);
+    int polls = 0;
+    o.progress = [](double) {};
+    o.cancel = [&] { return ++polls < 0; };
+    const ReferenceImage watched = referenceEnvironmentWithNoise(scene, obliqueCamera(), env, o);
+    EXPECT_GT(polls, 0);
+    for (const auto& [a, b] : {std::pair{&plain.image, &watched.image},
+                              std::pair{&plain.halfA, &watched.halfA}}) {
+      ASSERT_EQ(a->pixels.size(), b->pixels.size());
+      EXPECT_EQ(0, std::memcmp(a->pixels.data(), b->pixels.data(), a->pixels.size() * sizeof(float)));
+    }
   }
 }
 

@@ -577,7 +577,7 @@ TEST(SceneCamera, ParseBad) {
   };
   for (const std::string& text : bad) {
     SCOPED_TRACE(text);
-    expectBadInput([&] { parseCamera(text); }, {"--camera", "'" + text + "'"});
+    expectBadInput([&] { parseCamera(text); }, {"camera '" + text + "'"});
   }
 }
 

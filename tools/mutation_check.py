@@ -172,7 +172,8 @@ FAULTS = [
           pytest=["bindings/python/tests"]),
     Fault("py-write-image-exposure", "Python write_image ignores its exposure",
           "bindings/python/penumbra_module.cpp",
-          "        writeImage(path, img, exposure);", "        writeImage(path, img, 1.0f);",
+          "        writeImage(path.string(), img, exposure, numbers, text);",
+          "        writeImage(path.string(), img, 1.0f, numbers, text);",
           pytest=["bindings/python/tests"]),
 ]
 
@@ -238,9 +239,10 @@ class Scratch:
                    self.root, 3600)
 
     def python_dir(self) -> Path:
-        for p in self.build.rglob("penumbra*.so"):
-            if "python" in p.name or p.parent.name == "python":
-                return p.parent
+        # the directory that holds the built package penumbra/ (its extension _penumbra*.so)
+        p = self.build / "bindings" / "python"
+        if any((p / "penumbra").glob("_penumbra*.so")):
+            return p
         sys.exit("mutation_check: the Python module was not built (is pybind11 installed?)")
 
     def tests(self, fault: Fault, timeout: float) -> subprocess.CompletedProcess:

@@ -1,21 +1,31 @@
-// The `penumbra` Python module: the public C++ API (include/penumbra/*.hpp) through pybind11.
+// The `penumbra._penumbra` extension: the public C++ API (include/penumbra/*.hpp) through
+// pybind11. The package `penumbra` (penumbra/__init__.py) re-exports it; penumbra/__init__.pyi
+// holds its type stubs, written by hand.
 //
 // Images cross as NumPy float32 arrays of shape (H, W, C). Going out, an array is a view of the
 // C++ pixels, not a copy: Frame.image and Environment.equirect keep their owner alive as the
 // array's base, and functions that return a fresh Image (read_image, the references) move it into
 // a capsule that the array owns. Coming in, an array is copied once into an Image (the C++ API
-// takes Image by const reference and owns its pixels). penumbra::Error surfaces as penumbra.Error
-// or one of its subclasses, by kind, with the C++ message unchanged but for the RenderOptions
-// fields it names, which it names as Python attributes (keywords). Option docstrings read their
-// defaults from the C++ structs. The low-level pieces that
+// takes Image by const reference and owns its pixels). Paths are str or any os.PathLike.
+// penumbra::Error surfaces as penumbra.Error or one of its subclasses, by kind, with the C++
+// message unchanged but for the options fields it names, which it names as Python attributes
+// (keywords). Option docstrings read their defaults from the C++ structs, and option objects
+// print as `RenderOptions(width=640, ...)`, generated from their properties. The long calls
+// release the GIL; the references check for Ctrl-C while they run. The low-level pieces that
 // need raw OpenCL objects (scan.hpp's summedAreaTable, Context::kernel/launch) are not bound.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
 
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -23,6 +33,7 @@
 
 #include "penumbra/penumbra.hpp"
 
+namespace fs = std::filesystem;
 namespace py = pybind11;
 using namespace pybind11::literals;
 using namespace penumbra;
@@ -132,26 +143,175 @@ std::string bytesDefault(const std::string& text, std::size_t bytes) {
   return text + " Default " + std::to_string(bytes >> 20) + " MiB.";
 }
 
+// `exposure=None` means automatic (autoExposure, as the CLI does); a number must be finite and
+// > 0. Returns what toneMap/writeImage take: 0 for automatic.
+float exposureArg(const py::object& exposure, const char* function) {
+  if (exposure.is_none()) return 0.0f;
+  const double e = exposure.cast<double>();
+  if (!(std::isfinite(e) && e > 0.0))
+    badInput(std::string(function) + ": exposure must be a finite number > 0 (None: automatic), "
+             "got " + std::string(py::str(exposure)));
+  return float(e);
+}
+
+// toneMap's bytes as a uint8 (H, W, 3) array.
+py::array_t<std::uint8_t> toneMapped(const Image& img, float exposure) {
+  std::vector<unsigned char> px;
+  {
+    py::gil_scoped_release release;
+    px = toneMap(img, exposure);
+  }
+  py::array_t<std::uint8_t> out({py::ssize_t(img.height), py::ssize_t(img.width), py::ssize_t(3)});
+  std::memcpy(out.mutable_data(), px.data(), px.size());
+  return out;
+}
+
+// The PNG file writeImage would write for `img` (8-bit RGB through toneMap), in memory.
+py::bytes pngBytes(const Image& img, float exposure) {
+  std::vector<unsigned char> png;
+  {
+    py::gil_scoped_release release;
+    const std::vector<unsigned char> px = toneMap(img, exposure);
+    OIIO::Filesystem::IOVecOutput memory(png);
+    auto out = OIIO::ImageOutput::create("png");
+    if (!out) badInput("_repr_png_: no PNG writer (" + OIIO::geterror() + ")");
+    OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
+    bool ok = out->set_ioproxy(&memory) && out->open("frame.png", spec) &&
+              out->write_image(OIIO::TypeDesc::UINT8, px.data());
+    ok = out->close() && ok;
+    if (!ok) badInput("_repr_png_: encoding failed (" + out->geterror() + ")");
+  }
+  return py::bytes(reinterpret_cast<const char*>(png.data()), png.size());
+}
+
+// A value as the generated reprs print it: floats that are exactly a float32 with the fewest
+// digits that give that float32 back (0.002, not 0.0020000000949949026), enums as
+// `ShadowTechnique.MSSM4`, arrays and long lists or dicts summarized, the rest as repr().
+std::string reprValue(const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "True" : "False";
+  if (py::isinstance<py::float_>(v)) {
+    const double d = v.cast<double>();
+    if (!std::isfinite(d)) return std::string(py::repr(v));
+    char buf[64];
+    const float f = float(d);
+    const auto r = double(f) == d ? std::to_chars(buf, buf + sizeof buf, f)
+                                  : std::to_chars(buf, buf + sizeof buf, d);
+    std::string s(buf, r.ptr);
+    if (s.find_first_of(".e") == std::string::npos) s += ".0";  // still a float to Python
+    return s;
+  }
+  if (py::isinstance<py::array>(v)) {
+    const auto a = py::reinterpret_borrow<py::array>(v);
+    std::string shape;
+    for (py::ssize_t k = 0; k < a.ndim(); ++k)
+      shape += (k ? ", " : "") + std::to_string(a.shape(k));
+    if (a.ndim() == 1) shape += ",";
+    return "<" + std::string(py::str(a.dtype())) + " array (" + shape + ")>";
+  }
+  if (py::hasattr(py::type::handle_of(v), "__members__") && py::hasattr(v, "name"))
+    return std::string(py::str(v));  // a pybind11 enum
+  constexpr std::size_t kLongest = 8;  // items shown of a list or dict
+  if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+    const auto seq = py::reinterpret_borrow<py::sequence>(v);
+    const bool list = py::isinstance<py::list>(v);
+    if (seq.size() > kLongest) return "<list of " + std::to_string(seq.size()) + ">";
+    std::string s = list ? "[" : "(";
+    for (std::size_t i = 0; i < seq.size(); ++i) s += (i ? ", " : "") + reprValue(seq[i]);
+    return s + (list ? "]" : seq.size() == 1 ? ",)" : ")");
+  }
+  if (py::isinstance<py::dict>(v)) {
+    const auto d = py::reinterpret_borrow<py::dict>(v);
+    if (d.size() > kLongest) return "<dict of " + std::to_string(d.size()) + ">";
+    std::string s = "{";
+    bool first = true;
+    for (const auto& [key, value] : d) {
+      s += (first ? "" : ", ") + std::string(py::repr(key)) + ": " + reprValue(value);
+      first = false;
+    }
+    return s + "}";
+  }
+  return std::string(py::repr(v));
+}
+
+// `Name(field=value, ...)` from the instance properties of self's class, in definition order.
+std::string propertyRepr(const py::handle& self) {
+  const py::handle type = py::type::handle_of(self);
+  const py::handle property(reinterpret_cast<PyObject*>(&PyProperty_Type));
+  std::string s = std::string(py::str(type.attr("__name__"))) + "(";
+  bool first = true;
+  for (const auto& [key, value] : py::reinterpret_borrow<py::dict>(
+           py::module_::import("builtins").attr("dict")(type.attr("__dict__")))) {
+    const std::string name = py::str(key);
+    if (name.empty() || name[0] == '_' || !py::isinstance(value, property)) continue;
+    s += (first ? "" : ", ") + name + "=" + reprValue(self.attr(key));
+    first = false;
+  }
+  return s + ")";
+}
+
+template <class Cls>
+void addRepr(Cls& cls) {
+  cls.def("__repr__", [](const py::object& self) { return propertyRepr(self); });
+}
+
+// The reference's progress callback: runs on the calling thread while the GIL is released, so it
+// takes the GIL, raises a pending Ctrl-C (PyErr_CheckSignals runs Python's SIGINT handler, which
+// raises KeyboardInterrupt) and then calls the user's callable with the fraction done, when it has
+// grown (the library may report on a timer, the same fraction again). An exception from either
+// leaves as py::error_already_set, which stops the reference (its documented contract: progress
+// may throw) and reaches Python unchanged. The state lives on the binding's stack for the call and
+// is held by pointer: the library may copy the std::function without the GIL.
+struct PythonProgress {
+  py::object callback;  // None or a callable taking the fraction
+  double last = -1.0;   // the fraction it was last given
+};
+std::function<void(double)> progressWithInterrupts(PythonProgress* state) {
+  if (!state->callback.is_none() && !PyCallable_Check(state->callback.ptr())) {
+    const std::string type = py::str(py::type::handle_of(state->callback).attr("__name__"));
+    throw py::type_error("progress must be a callable taking the fraction done, or None; got " +
+                         type);
+  }
+  return [state](double fraction) {
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    if (!state->callback.is_none() && fraction > state->last) {
+      state->last = fraction;
+      state->callback(fraction);
+    }
+  };
+}
+
 // The library names an options field as in C++ ("RenderOptions.areaApprox.edgeSamples",
-// "MedianCutOptions.faceSize"); Python users set it as an attribute or keyword: snake case
-// ("RenderOptions.area_approx.edge_samples"), and RenderOptions' `shadows` is `technique`.
+// "MedianCutOptions.faceSize", "ExtractOptions::lightTexture"); Python users set it as an
+// attribute or keyword: snake case ("RenderOptions.area_approx.edge_samples"), RenderOptions'
+// `shadows` is `technique`, and LoadOptions' fields are load_scene's keywords ("timeout_seconds").
 std::string pythonFieldNames(const std::string& message) {
-  static const char* const kHeads[] = {"RenderOptions.", "MedianCutOptions.", "GreedyOptions.",
-                                       "CenterSurroundOptions.", "ReferenceOptions."};
+  static const std::pair<const char*, const char*> kHeads[] = {
+      {"RenderOptions.", "RenderOptions."},
+      {"MedianCutOptions.", "MedianCutOptions."},
+      {"GreedyOptions.", "GreedyOptions."},
+      {"CenterSurroundOptions.", "CenterSurroundOptions."},
+      {"ReferenceOptions.", "ReferenceOptions."},
+      {"ExtractOptions.", "ExtractOptions."},
+      {"ExtractOptions::", "ExtractOptions."},
+      {"AmbientOptions.", "AmbientOptions."},
+      {"LoadOptions::", ""},
+      {"LoadOptions.", ""}};
   std::string out;
   std::size_t i = 0;
   for (;;) {
     std::size_t at = std::string::npos;
-    std::string head;
-    for (const char* h : kHeads) {
+    std::string head, shown;
+    for (const auto& [h, as] : kHeads) {
       const std::size_t k = message.find(h, i);
       if (k < at) {
         at = k;
         head = h;
+        shown = as;
       }
     }
     if (at == std::string::npos) break;
-    out += message.substr(i, at - i) + head;
+    out += message.substr(i, at - i) + shown;
     std::size_t end = at + head.size();
     std::string name;
     for (; end < message.size(); ++end) {
@@ -174,6 +334,15 @@ std::string pythonFieldNames(const std::string& message) {
   return out + message.substr(i);
 }
 
+// A Python sequence index into the set's lights: negative counts from the end; IndexError outside.
+std::size_t lightIndex(const LightSet& s, py::ssize_t i) {
+  const py::ssize_t n = py::ssize_t(s.lights.size());
+  if (i < -n || i >= n)
+    throw py::index_error("LightSet index " + std::to_string(i) + " out of range (" +
+                          std::to_string(n) + " lights)");
+  return std::size_t(i < 0 ? i + n : i);
+}
+
 // The exception classes, set when the module is initialised.
 struct Exceptions {
   py::object base, badInput, noPlatform, kernelBuild, outOfMemory, device, internal;
@@ -191,7 +360,7 @@ py::object makeException(py::module_& m, const char* name, py::tuple bases, cons
 
 }  // namespace
 
-PYBIND11_MODULE(penumbra, m) {
+PYBIND11_MODULE(_penumbra, m) {
   m.doc() =
       "penumbra: soft shadows from area lights and HDR environment maps, computed by OpenCL "
       "kernels (PoCL on the CPU or a GPU driver), with an Embree path tracer as ground truth.\n\n"
@@ -204,7 +373,11 @@ PYBIND11_MODULE(penumbra, m) {
       "    lights = penumbra.extract_lights(ctx, env, lights=32)\n"
       "    frame = penumbra.Renderer(ctx).render(scene, cam, lights, env,\n"
       "                                          penumbra.RenderOptions(width=320, height=180))\n"
-      "    penumbra.write_image('frame.exr', frame.image)\n\n"
+      "    penumbra.write_image('frame.exr', frame.image)\n"
+      "    shown = penumbra.tonemap(frame.image)  # uint8 (H, W, 3), for plt.imshow\n\n"
+      "Paths are str or os.PathLike. A LightSet is a sequence of AreaLight; option objects take "
+      "their fields as keywords and print them. Errors name the keyword or attribute at fault. "
+      "The references take progress= and stop on Ctrl-C.\n\n"
       "Threads: a Context and a Renderer may be shared by threads (see their docstrings); the "
       "long calls (loading, extraction, rendering, the references, waiting for the device) "
       "release the GIL, so threads run them at once. Objects passed to a call are used without "
@@ -248,6 +421,7 @@ PYBIND11_MODULE(penumbra, m) {
         case ErrorKind::Device: cls = exceptions.device; break;
         case ErrorKind::Internal: cls = exceptions.internal; break;
       }
+      if (!cls) cls = exceptions.base;  // a kind added to the library later
       PyErr_SetString(cls.ptr(), pythonFieldNames(e.what()).c_str());
     } catch (const cl::Error& e) {
       // The library converts OpenCL errors itself; this is a safety net.
@@ -314,26 +488,65 @@ PYBIND11_MODULE(penumbra, m) {
   // ---- images -----------------------------------------------------------------------------
   m.def(
       "read_image",
-      [](const std::string& path) { return imageToArray(readImage(path)); }, "path"_a,
+      [](const fs::path& path) {
+        Image img;
+        {
+          py::gil_scoped_release release;
+          img = readImage(path.string());
+        }
+        return imageToArray(std::move(img));
+      },
+      "path"_a,
       "Reads any image OpenImageIO understands (EXR, HDR, PFM, PNG, ...) as a float32 array of "
-      "shape (H, W, C). Raises BadInput naming the file when it is missing, unreadable, "
-      "truncated or empty.");
+      "shape (H, W, C). `path`: str or os.PathLike. Raises BadInput naming the file when it is "
+      "missing, unreadable, truncated or empty.");
   m.def(
       "write_image",
-      [](const std::string& path, const FloatArray& image, float exposure) {
+      [](const fs::path& path, const FloatArray& image, const py::object& exposureOrNone,
+         const py::object& metadata) {
         Image img = arrayToImage(image, "write_image");
+        const float exposure = exposureArg(exposureOrNone, "write_image");
+        ImageAttributes numbers;
+        ImageText text{{"penumbra:version", PENUMBRA_VERSION}, {"penumbra:command", "python"}};
+        if (!metadata.is_none())
+          for (const auto& [key, value] : metadata.cast<py::dict>()) {
+            const std::string name = py::str(key);
+            if (py::isinstance<py::str>(value))
+              text[name] = value.cast<std::string>();
+            else if (py::isinstance<py::int_>(value) || py::isinstance<py::float_>(value))
+              numbers[name] = value.cast<double>();
+            else
+              badInput("write_image: metadata['" + name + "'] must be a str or a number, got " +
+                       std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+          }
         py::gil_scoped_release release;
-        writeImage(path, img, exposure);
+        writeImage(path.string(), img, exposure, numbers, text);
       },
-      "path"_a, "image"_a, "exposure"_a = 1.0f,
-      "Writes a (H, W) or (H, W, C) array: .exr is linear (all channels), .png is tone-mapped "
-      "sRGB (alpha dropped) after multiplying by `exposure`. Written to a temporary file and "
-      "renamed, so a failure leaves no half-written file. Raises BadInput on an unknown "
-      "extension or unwritable path.");
+      "path"_a, "image"_a, "exposure"_a = py::none(), "metadata"_a = py::none(),
+      "Writes a (H, W) or (H, W, C) array in the format of path's extension (str or "
+      "os.PathLike): float formats (.exr, .hdr, .pfm) get the linear pixels (.exr all "
+      "channels); any other format OpenImageIO writes (.png, .jpg, .tif, ...) gets "
+      "tonemap(image, exposure) (alpha dropped). exposure None (the default) is automatic, "
+      "auto_exposure(image), as `penumbra render` does. The header records "
+      "'penumbra:version' and 'penumbra:command' ('python') plus `metadata` ({name: str or "
+      "number}) where the format has room (EXR, TIFF; PNG keeps text). Written to a temporary "
+      "file and renamed, so a failure leaves no half-written file. Raises BadInput on an "
+      "extension without a writer, an unwritable path or an exposure <= 0.");
+  m.def(
+      "tonemap",
+      [](const FloatArray& image, const py::object& exposure) {
+        return toneMapped(arrayToImage(image, "tonemap"), exposureArg(exposure, "tonemap"));
+      },
+      "image"_a, "exposure"_a = py::none(),
+      "The display image write_image puts in a PNG, as uint8 (H, W, 3): each channel times "
+      "`exposure` (None: auto_exposure(image), the CLI's rule), then x / (1 + x) (Reinhard et "
+      "al. 2002) and the sRGB transfer function. One- and two-channel images are grey; alpha is "
+      "dropped. For plt.imshow and notebooks.");
   m.def(
       "auto_exposure", [](const FloatArray& image) { return autoExposure(arrayToImage(image, "auto_exposure")); },
       "image"_a,
-      "Exposure mapping the log-average luminance (of the alpha > 0.5 pixels if any) to 0.25.");
+      "Exposure mapping the log-average luminance (of the alpha > 0.5 pixels if any) to 0.25: "
+      "what tonemap and write_image use when exposure is None.");
 
   // ---- environment ------------------------------------------------------------------------
   py::class_<Environment>(m, "Environment",
@@ -388,14 +601,16 @@ PYBIND11_MODULE(penumbra, m) {
         return "<penumbra.Environment '" + e.source + "' " + std::to_string(e.equirect.width) +
                "x" + std::to_string(e.equirect.height) + ">";
       });
-  m.def("load_environment", &loadEnvironment, "path"_a, py::call_guard<py::gil_scoped_release>(),
-        "Loads and sanitizes an EXR, Radiance HDR or PFM map. Raises BadInput naming the file "
-        "for unreadable, truncated, non-image or empty input.");
+  m.def("load_environment", [](const fs::path& path) { return loadEnvironment(path.string()); },
+        "path"_a, py::call_guard<py::gil_scoped_release>(),
+        "Loads and sanitizes an EXR, Radiance HDR or PFM map (path: str or os.PathLike). Raises "
+        "BadInput naming the file for unreadable, truncated, non-image or empty input.");
   m.def("builtin_environment", &builtinEnvironment, "width"_a = 512,
         "A procedural sky (sun, gradient, bright horizon patch, dark ground), width x width/2.");
-  m.def("environment_from", &environmentFrom, "path_or_builtin"_a,
-        py::call_guard<py::gil_scoped_release>(),
-        "'builtin' -> builtin_environment(), anything else -> load_environment(path).");
+  m.def("environment_from", [](const fs::path& path) { return environmentFrom(path.string()); },
+        "path_or_builtin"_a, py::call_guard<py::gil_scoped_release>(),
+        "'builtin' -> builtin_environment(), anything else (str or os.PathLike) -> "
+        "load_environment(path).");
   m.def(
       "cube_map_energy",
       [](Context& ctx, const Environment& env, int faceSize, int supersample) {
@@ -438,25 +653,23 @@ PYBIND11_MODULE(penumbra, m) {
               std::memcpy(me.triangles.data(), a.data(), me.triangles.size() * 12);
           },
           "Vertex indices, int32 (T, 3) (a copy; assign to change).")
-      .def_readwrite("albedo", &Mesh::albedo, "Diffuse reflectance (r, g, b) in [0, 1].");
+      .def_readwrite("albedo", &Mesh::albedo, "Diffuse reflectance (r, g, b) in [0, 1].")
+      .def("__repr__", [](const py::object& self) { return propertyRepr(self); });
 
   py::class_<Bounds>(m, "Bounds", "Axis-aligned bounding box.")
       .def_readwrite("lo", &Bounds::lo, "Lower corner.")
       .def_readwrite("hi", &Bounds::hi, "Upper corner.")
       .def("center", &Bounds::center, "Centre of the box.")
-      .def("radius", &Bounds::radius, "Half the diagonal.");
+      .def("radius", &Bounds::radius, "Half the diagonal.")
+      .def("__repr__", [](const py::object& self) { return propertyRepr(self); });
 
   py::class_<Camera> camera(m, "Camera", "A pinhole camera.");
   initFromFields<Camera>(camera);
+  addRepr(camera);
   camera.def_readwrite("eye", &Camera::eye, "Position (x, y, z).")
       .def_readwrite("target", &Camera::target, "Point looked at.")
       .def_readwrite("up", &Camera::up, "Up direction.")
-      .def_readwrite("fovy_deg", &Camera::fovyDeg, "Vertical field of view, degrees.")
-      .def("__repr__", [](const Camera& c) {
-        return "<penumbra.Camera eye=(" + std::to_string(c.eye[0]) + ", " +
-               std::to_string(c.eye[1]) + ", " + std::to_string(c.eye[2]) + ") fovy=" +
-               std::to_string(c.fovyDeg) + ">";
-      });
+      .def_readwrite("fovy_deg", &Camera::fovyDeg, "Vertical field of view, degrees.");
 
   py::class_<Scene>(m, "Scene", "Triangle meshes with diffuse albedos (metres, y up).")
       .def(py::init<>())
@@ -481,12 +694,13 @@ PYBIND11_MODULE(penumbra, m) {
   };
   m.def(
       "load_scene",
-      [loadOptions](const std::string& path, bool addGround, double timeout, std::size_t memory) {
-        return loadScene(path, loadOptions(addGround, timeout, memory));
+      [loadOptions](const fs::path& path, bool addGround, double timeout, std::size_t memory) {
+        return loadScene(path.string(), loadOptions(addGround, timeout, memory));
       },
       "path"_a, "add_ground"_a = true, "timeout_seconds"_a = 0.0, "memory_limit_bytes"_a = 0,
       py::call_guard<py::gil_scoped_release>(),
-      "Loads a mesh file through Assimp (OBJ, PLY, glTF/GLB, ...), with a ground plane under it "
+      "Loads a mesh file (str or os.PathLike) through Assimp (OBJ, PLY, glTF/GLB, ...), with a "
+      "ground plane under it "
       "unless add_ground is False. PLY/glTF/GLB sizes are checked against the file first, then "
       "Assimp runs in a child process limited to timeout_seconds and memory_limit_bytes (0: "
       "automatic, 20 s + 1 s per MB and 1 GiB + 64x the file), so a malformed file cannot crash "
@@ -494,12 +708,12 @@ PYBIND11_MODULE(penumbra, m) {
       "vertices, indices out of range, sizes beyond the file, a crash or a limit passed.");
   m.def(
       "scene_from",
-      [loadOptions](const std::string& path, bool addGround, double timeout, std::size_t memory) {
-        return sceneFrom(path, loadOptions(addGround, timeout, memory));
+      [loadOptions](const fs::path& path, bool addGround, double timeout, std::size_t memory) {
+        return sceneFrom(path.string(), loadOptions(addGround, timeout, memory));
       },
       "path_or_builtin"_a, "add_ground"_a = true, "timeout_seconds"_a = 0.0,
       "memory_limit_bytes"_a = 0, py::call_guard<py::gil_scoped_release>(),
-      "'builtin' -> builtin_scene(), else load_scene(path, ...).");
+      "'builtin' -> builtin_scene(), else (str or os.PathLike) load_scene(path, ...).");
   m.def("validate_scene", &validateScene, "scene"_a,
         "Raises BadInput naming the mesh and element for what Renderer.render would refuse: a "
         "triangle index out of range, non-finite positions, bad normals, albedo outside [0, 1].");
@@ -520,6 +734,7 @@ PYBIND11_MODULE(penumbra, m) {
                                    "(i, j) covers x in [-1 + 2i/w, -1 + 2(i+1)/w], y from the top "
                                    "row down; nearest texel. Give it to set_light_texture.");
   initFromFields<LightTexture>(texture);
+  addRepr(texture);
   texture.def_readwrite("width", &LightTexture::width, "Texels across (0: no texture).")
       .def_readwrite("height", &LightTexture::height, "Texels down.")
       .def_readwrite("radiance", &LightTexture::radiance,
@@ -530,13 +745,15 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readonly("dir", &LightSample::dir, "Unit direction towards the sample.")
       .def_readonly("weight", &LightSample::weight,
                     "Weight in [0, 1]: the sample's share of radiance x solid angle, up to a "
-                    "common factor.");
+                    "common factor.")
+      .def("__repr__", [](const py::object& self) { return propertyRepr(self); });
 
   py::class_<AreaLight> light(m, "AreaLight",
                               "A directional area light: a uniform spherical cap of half-angle "
                               "alpha around `direction` with radiance L; power M = L * solid "
                               "angle (seed 003 §4.1.3).");
   initFromFields<AreaLight>(light);
+  addRepr(light);
   light.def_readwrite("shape", &AreaLight::shape, "LightShape.CAP or LightShape.POLYGON.")
       .def_readwrite("vertices", &AreaLight::vertices,
                      "Polygon lights: unit vertex directions, counter-clockwise seen from the "
@@ -649,7 +866,38 @@ PYBIND11_MODULE(penumbra, m) {
       .def("ambient_irradiance", &LightSet::ambientIrradiance, "normal"_a,
            "Unshadowed irradiance of the ambient residual alone.")
       .def("to_json", &LightSet::toJson, "The set as JSON text (what `penumbra lights` writes).")
-      .def("__len__", [](const LightSet& s) { return s.lights.size(); })
+      .def("__len__", [](const LightSet& s) { return s.lights.size(); },
+           "The number of lights. A LightSet is a sequence of its lights: len(s), s[i] (negative "
+           "i from the end), s[a:b:c] (a list), iteration and `in` give AreaLight copies; "
+           "s[i] = light replaces one.")
+      .def(
+          "__getitem__",
+          [](const LightSet& s, py::ssize_t i) { return s.lights[lightIndex(s, i)]; }, "index"_a,
+          "A copy of light i (negative: from the end). IndexError outside the set.")
+      .def(
+          "__getitem__",
+          [](const LightSet& s, const py::slice& slice) {
+            std::size_t start = 0, stop = 0, step = 0, count = 0;
+            if (!slice.compute(s.lights.size(), &start, &stop, &step, &count))
+              throw py::error_already_set();
+            py::list out;
+            for (std::size_t k = 0; k < count; ++k) out.append(s.lights[start + k * step]);
+            return out;
+          },
+          "slice"_a, "The lights in the slice, as a list of copies.")
+      .def(
+          "__setitem__",
+          [](LightSet& s, py::ssize_t i, const AreaLight& light) {
+            s.lights[lightIndex(s, i)] = light;
+          },
+          "index"_a, "light"_a, "Replaces light i (negative: from the end).")
+      .def(
+          "__iter__",
+          [](const LightSet& s) {
+            return py::make_iterator<py::return_value_policy::copy>(s.lights.begin(),
+                                                                    s.lights.end());
+          },
+          py::keep_alive<0, 1>(), "Iterates over copies of the lights.")
       .def("__repr__", [](const LightSet& s) {
         return "<penumbra.LightSet " + s.method + ", " + std::to_string(s.lights.size()) +
                " lights" + (s.hasAmbient ? " + ambient>" : ">");
@@ -689,9 +937,11 @@ PYBIND11_MODULE(penumbra, m) {
         "Raises BadInput 'LightSet: light i: ...' for what Renderer.render would refuse: a "
         "direction that is not a finite unit vector, cos_alpha outside [-1, 1], non-finite or "
         "negative radiance or power, bad polygon vertices, textures or ambient.");
-  m.def("load_light_set", &loadLightSet, "path"_a,
-        "Reads a light-set JSON file (caps, polygons, rects, ellipses, textures; the format of `penumbra render "
-        "--light-set`). Raises BadInput naming the file and the light for bad input.");
+  m.def("load_light_set", [](const fs::path& path) { return loadLightSet(path.string()); },
+        "path"_a, py::call_guard<py::gil_scoped_release>(),
+        "Reads a light-set JSON file, path str or os.PathLike (caps, polygons, rects, ellipses, "
+        "textures; the format of `penumbra render --light-set`). Raises BadInput naming the "
+        "file and the light for bad input.");
   m.def("light_set_from_json", &lightSetFromJson, "text"_a, "source"_a = "light set",
         "Parses light-set JSON text; `source` names it in error messages.");
 
@@ -701,49 +951,77 @@ PYBIND11_MODULE(penumbra, m) {
       .value("CENTER_SURROUND", ExtractionMethod::CenterSurround,
              "Center-surround filter bank (seed 004 §3).");
 
+  // The defaults the docstrings print.
+  const MedianCutOptions MC;
+  const GreedyOptions GR;
+  const CenterSurroundOptions CS;
+  const AmbientOptions AM;
+  const ExtractOptions EX;
   py::class_<MedianCutOptions> mc(m, "MedianCutOptions", "Options of extract_median_cut.");
   initFromFields<MedianCutOptions>(mc);
-  mc.def_readwrite("lights", &MedianCutOptions::lights, "Regions/lights, >= 1. Default 32.")
-      .def_readwrite("face_size", &MedianCutOptions::faceSize, "Cube face size, 1..4096. Default 256.")
+  addRepr(mc);
+  mc.def_readwrite("lights", &MedianCutOptions::lights,
+                   withDefault("Regions/lights, >= 1.", MC.lights).c_str())
+      .def_readwrite("face_size", &MedianCutOptions::faceSize,
+                     withDefault("Cube face size, 1..4096.", MC.faceSize).c_str())
       .def_readwrite("supersample", &MedianCutOptions::supersample,
-                     "Sub-samples per texel side when splatting. Default 4.")
+                     withDefault("Sub-samples per texel side when splatting.",
+                                 MC.supersample).c_str())
       .def_readwrite("min_half_angle_deg", &MedianCutOptions::minHalfAngleDeg,
-                     "Lower clamp on the half-angle, degrees. Default 0.")
+                     withDefault("Lower clamp on the half-angle, degrees.",
+                                 MC.minHalfAngleDeg).c_str())
       .def_readwrite("max_half_angle_deg", &MedianCutOptions::maxHalfAngleDeg,
-                     "Upper clamp on the half-angle, degrees. Default 85.")
+                     withDefault("Upper clamp on the half-angle, degrees.",
+                                 MC.maxHalfAngleDeg).c_str())
       .def_readwrite("merge_across_faces", &MedianCutOptions::mergeAcrossFaces,
-                     "Merge compact lights split by a cube-face edge. Default True.")
+                     withDefault("Merge compact lights split by a cube-face edge.",
+                                 MC.mergeAcrossFaces).c_str())
       .def_readwrite("merge_compactness", &MedianCutOptions::mergeCompactness,
-                     "Largest cap/region solid-angle ratio merged, (0, 1]. Default 0.5.")
+                     withDefault("Largest cap/region solid-angle ratio merged, (0, 1].",
+                                 MC.mergeCompactness).c_str())
       .def_readwrite("shape", &MedianCutOptions::shape,
                      "LightShape.CAP (default) or POLYGON: a light from one region becomes that "
                      "region's cube-face quadrilateral.");
 
   py::class_<GreedyOptions> gr(m, "GreedyOptions", "Options of extract_greedy.");
   initFromFields<GreedyOptions>(gr);
+  addRepr(gr);
   gr.def_readwrite("threshold", &GreedyOptions::threshold,
-                   "A side grows while its added energy / the light's exceeds this. Default 0.02.")
-      .def_readwrite("square", &GreedyOptions::square, "Square lights (else rectangles). Default True.")
-      .def_readwrite("face_size", &GreedyOptions::faceSize, "Cube face size, 1..1024. Default 64.")
-      .def_readwrite("max_lights", &GreedyOptions::maxLights, "Strongest lights kept. Default 64.")
-      .def_readwrite("supersample", &GreedyOptions::supersample, "Splat sub-samples. Default 4.");
+                   withDefault("A side grows while its added energy / the light's exceeds this.",
+                               GR.threshold).c_str())
+      .def_readwrite("square", &GreedyOptions::square,
+                     withDefault("Square lights (else rectangles).", GR.square).c_str())
+      .def_readwrite("face_size", &GreedyOptions::faceSize,
+                     withDefault("Cube face size, 1..1024.", GR.faceSize).c_str())
+      .def_readwrite("max_lights", &GreedyOptions::maxLights,
+                     withDefault("Strongest lights kept.", GR.maxLights).c_str())
+      .def_readwrite("supersample", &GreedyOptions::supersample,
+                     withDefault("Splat sub-samples.", GR.supersample).c_str());
 
   py::class_<CenterSurroundOptions> cs(m, "CenterSurroundOptions",
                                        "Options of extract_center_surround.");
   initFromFields<CenterSurroundOptions>(cs);
-  cs.def_readwrite("width", &CenterSurroundOptions::width, "Working map width. Default 512.")
-      .def_readwrite("sizes", &CenterSurroundOptions::sizes, "Filter sizes. Default 20.")
-      .def_readwrite("min_deg", &CenterSurroundOptions::minDeg, "Smallest outer diameter. Default 4.5.")
-      .def_readwrite("max_deg", &CenterSurroundOptions::maxDeg, "Largest outer diameter. Default 45.")
+  addRepr(cs);
+  cs.def_readwrite("width", &CenterSurroundOptions::width,
+                   withDefault("Working map width.", CS.width).c_str())
+      .def_readwrite("sizes", &CenterSurroundOptions::sizes,
+                     withDefault("Filter sizes.", CS.sizes).c_str())
+      .def_readwrite("min_deg", &CenterSurroundOptions::minDeg,
+                     withDefault("Smallest outer diameter.", CS.minDeg).c_str())
+      .def_readwrite("max_deg", &CenterSurroundOptions::maxDeg,
+                     withDefault("Largest outer diameter.", CS.maxDeg).c_str())
       .def_readwrite("inner_ratio", &CenterSurroundOptions::innerRatio,
-                     "Inner / outer radius. Default 0.75.")
+                     withDefault("Inner / outer radius.", CS.innerRatio).c_str())
       .def_readwrite("surround_weight", &CenterSurroundOptions::surroundWeight,
-                     "Weight of the ring (centre +1). Default -10.")
+                     withDefault("Weight of the ring (centre +1).", CS.surroundWeight).c_str())
       .def_readwrite("candidate_fraction", &CenterSurroundOptions::candidateFraction,
-                     "Brightest fraction of texels that are candidates. Default 0.10.")
+                     withDefault("Brightest fraction of texels that are candidates.",
+                                 CS.candidateFraction).c_str())
       .def_readwrite("stop_fraction", &CenterSurroundOptions::stopFraction,
-                     "Stop when a light carries less than this of those so far. Default 0.02.")
-      .def_readwrite("max_lights", &CenterSurroundOptions::maxLights, "Most lights. Default 256.");
+                     withDefault("Stop when a light carries less than this of those so far.",
+                                 CS.stopFraction).c_str())
+      .def_readwrite("max_lights", &CenterSurroundOptions::maxLights,
+                     withDefault("Most lights.", CS.maxLights).c_str());
 
   py::enum_<AmbientModel>(m, "AmbientModel", "How the ambient residual is shaded.")
       .value("IRRADIANCE_MAP", AmbientModel::IrradianceMap,
@@ -752,15 +1030,17 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<AmbientOptions> ao(m, "AmbientOptions", "Options of the ambient residual.");
   initFromFields<AmbientOptions>(ao);
+  addRepr(ao);
   ao.def_readwrite("model", &AmbientOptions::model,
                    "AmbientModel.IRRADIANCE_MAP (default) or SH9.")
       .def_readwrite("map_width", &AmbientOptions::mapWidth,
-                     "Irradiance map width, 1..1024. Default 128.")
+                     withDefault("Irradiance map width, 1..1024.", AM.mapWidth).c_str())
       .def_readwrite("map_height", &AmbientOptions::mapHeight,
-                     "Irradiance map height, 1..1024. Default 64.");
+                     withDefault("Irradiance map height, 1..1024.", AM.mapHeight).c_str());
 
   py::class_<ExtractOptions> eo(m, "ExtractOptions", "Options of extract_lights.");
   initFromFields<ExtractOptions>(eo);
+  addRepr(eo);
   eo.def_property(
         "method", [](const ExtractOptions& o) { return o.method; },
         [](ExtractOptions& o, const py::object& v) { o.method = toMethod(v); },
@@ -768,7 +1048,8 @@ PYBIND11_MODULE(penumbra, m) {
       .def_readwrite("median_cut", &ExtractOptions::medianCut, "MedianCutOptions.")
       .def_readwrite("greedy", &ExtractOptions::greedy, "GreedyOptions.")
       .def_readwrite("center_surround", &ExtractOptions::centerSurround, "CenterSurroundOptions.")
-      .def_readwrite("ambient", &ExtractOptions::ambient, "Add the ambient residual. Default True.")
+      .def_readwrite("ambient", &ExtractOptions::ambient,
+                     withDefault("Add the ambient residual.", EX.ambient).c_str())
       .def_readwrite("ambient_options", &ExtractOptions::ambientOptions,
                      "AmbientOptions: its representation (default: a 128x64 irradiance map).")
       .def_readwrite("light_texture", &ExtractOptions::lightTexture,
@@ -812,9 +1093,14 @@ PYBIND11_MODULE(penumbra, m) {
         "Sets lights.ambient_sh to the map's SH9 minus the lights', lights.ambient_map to the "
         "residual's irradiance map (options.model IRRADIANCE_MAP, the default; emptied for SH9) "
         "and has_ambient to True. Raises BadInput for a map size outside 1..1024.");
-  m.def("write_light_overlay", &writeLightOverlay, "path"_a, "env"_a, "lights"_a,
-        py::call_guard<py::gil_scoped_release>(),
-        "Writes a PNG of the tone-mapped map with every light's region or cap outlined.");
+  m.def(
+      "write_light_overlay",
+      [](const fs::path& path, const Environment& env, const LightSet& lights) {
+        writeLightOverlay(path.string(), env, lights);
+      },
+      "path"_a, "env"_a, "lights"_a, py::call_guard<py::gil_scoped_release>(),
+      "Writes a PNG (path: str or os.PathLike) of the tone-mapped map with every light's "
+      "region or cap outlined.");
 
   // ---- rendering --------------------------------------------------------------------------
   py::enum_<ShadowTechnique>(m, "ShadowTechnique", "How light visibility is computed.")
@@ -846,6 +1132,7 @@ PYBIND11_MODULE(penumbra, m) {
                                "nor the bitmask techniques), light size and filter limits (pcss, "
                                "cssm, mssm4, mssm6).");
   initFromFields<ShadowOptions>(so);
+  addRepr(so);
   so.def_readwrite("depth_bias", &ShadowOptions::depthBias,
                    withDefault("Receiver depth bias, normalized depth.", R.shadow.depthBias).c_str())
       .def_readwrite("light_size_scale", &ShadowOptions::lightSizeScale,
@@ -859,6 +1146,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<MSSMOptions> mo(m, "MSSMOptions", "Moment soft shadow map options (MSSM4, MSSM6).");
   initFromFields<MSSMOptions>(mo);
+  addRepr(mo);
   mo.def_readwrite("moment_bias", &MSSMOptions::momentBias,
                    withDefault("Moment bias, in [0, 1).", R.mssm.momentBias).c_str())
       .def_readwrite("slope_bias", &MSSMOptions::slopeBias,
@@ -879,6 +1167,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (seed 000).");
   initFromFields<CSSMOptions>(co);
+  addRepr(co);
   co.def_readwrite("order", &CSSMOptions::order,
                    withDefault("Fourier order M, 1..32.", R.cssm.order).c_str())
       .def_readwrite("sharpen_a", &CSSMOptions::sharpenA,
@@ -899,6 +1188,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<PCSSOptions> po(m, "PCSSOptions", "Percentage-closer soft shadow options.");
   initFromFields<PCSSOptions>(po);
+  addRepr(po);
   po.def_readwrite("blocker_taps", &PCSSOptions::blockerTaps,
                    withDefault("Blocker search samples, 0..4096 (0: every texel).",
                                R.pcss.blockerTaps).c_str())
@@ -911,6 +1201,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<BruteOptions> bo(m, "BruteOptions", "Brute-force point-sample shadow map options.");
   initFromFields<BruteOptions>(bo);
+  addRepr(bo);
   bo.def_readwrite("samples", &BruteOptions::samples,
                    withDefault("Point lights per light, 1..4096.", R.brute.samples).c_str())
       .def_readwrite("batch_bytes", &BruteOptions::batchBytes,
@@ -918,6 +1209,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<BitmaskOptions> bm(m, "BitmaskOptions", "Sample-based visibility options (seed 001).");
   initFromFields<BitmaskOptions>(bm);
+  addRepr(bm);
   bm.def_readwrite("light_samples", &BitmaskOptions::lightSamples,
                    withDefault("Light samples: 128, 256, 512 or 1024.", R.bitmask.lightSamples).c_str())
       .def_readwrite("list_size", &BitmaskOptions::listSize,
@@ -927,6 +1219,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<AreaApproxOptions> aa(m, "AreaApproxOptions", "Area approximation options (seed 002).");
   initFromFields<AreaApproxOptions>(aa);
+  addRepr(aa);
   aa.def_readwrite("edge_samples", &AreaApproxOptions::edgeSamples,
                    withDefault("Samples per edge besides its vertices, 0..15.",
                                R.areaApprox.edgeSamples).c_str())
@@ -942,6 +1235,7 @@ PYBIND11_MODULE(penumbra, m) {
 
   py::class_<AutoOptions> au(m, "AutoOptions", "Per-light technique choice ('auto').");
   initFromFields<AutoOptions>(au);
+  addRepr(au);
   au.def_readwrite("exact_lights", &AutoOptions::exactLights,
                    withDefault("The most lights given exact (bitmask) visibility, 0..4096.",
                                R.autoChoice.exactLights).c_str())
@@ -957,6 +1251,7 @@ PYBIND11_MODULE(penumbra, m) {
                                "RenderOptions(width=64, height=32, technique='pcss'). Errors name "
                                "a field as RenderOptions.<attribute path>.");
   initFromFields<RenderOptions>(ro);
+  addRepr(ro);
   ro.def_readwrite("width", &RenderOptions::width,
                    withDefault("Image width, 1..16384.", R.width).c_str())
       .def_readwrite("height", &RenderOptions::height,
@@ -1009,7 +1304,11 @@ PYBIND11_MODULE(penumbra, m) {
           "Device milliseconds per stage since the Context's last reset_timings(), plus 'total' "
           "(render's wall clock), as a dict.")
       .def_readonly("shadow_map_bytes", &Frame::shadowMapBytes,
-                    "Device bytes of the filterable shadow maps.");
+                    "Device bytes of the filterable shadow maps.")
+      .def("_repr_png_", [](const Frame& f) { return pngBytes(f.image, 0.0f); },
+           "The frame as PNG bytes, tonemap(image) with automatic exposure (what Jupyter "
+           "shows).")
+      .def("__repr__", [](const py::object& self) { return propertyRepr(self); });
 
   py::class_<Renderer>(m, "Renderer",
                        "Renders frames on a Context. Keep one: device buffers are reused between "
@@ -1052,18 +1351,28 @@ PYBIND11_MODULE(penumbra, m) {
       "The JSON report `penumbra render --report` writes for a frame.");
 
   // ---- reference and comparison -----------------------------------------------------------
+  const ReferenceOptions RF;  // the defaults the docstrings print
   py::class_<ReferenceOptions> rf(m, "ReferenceOptions", "Options of the Embree reference.");
   initFromFields<ReferenceOptions>(rf);
-  rf.def_readwrite("width", &ReferenceOptions::width, "Image width. Default 640.")
-      .def_readwrite("height", &ReferenceOptions::height, "Image height. Default 360.")
-      .def_readwrite("spp", &ReferenceOptions::spp, "Shadow-ray samples per pixel. Default 256.")
+  addRepr(rf);
+  rf.def_readwrite("width", &ReferenceOptions::width, withDefault("Image width.", RF.width).c_str())
+      .def_readwrite("height", &ReferenceOptions::height,
+                     withDefault("Image height.", RF.height).c_str())
+      .def_readwrite("spp", &ReferenceOptions::spp,
+                     withDefault("Shadow-ray samples per pixel.", RF.spp).c_str())
       .def_readwrite("seed", &ReferenceOptions::seed, "Random seed (same seed, same image).")
-      .def_readwrite("threads", &ReferenceOptions::threads, "Threads, 0: all. Default 0.")
+      .def_readwrite("threads", &ReferenceOptions::threads,
+                     withDefault("Threads, 0: all.", RF.threads).c_str())
       .def_readwrite("environment_background", &ReferenceOptions::environmentBackground,
-                     "Show the map behind the geometry. Default True.");
+                     withDefault("Show the map behind the geometry.",
+                                 RF.environmentBackground).c_str());
   m.def(
       "reference_environment",
-      [](const Scene& s, const Camera& c, const Environment& e, const ReferenceOptions& o) {
+      [](const Scene& s, const Camera& c, const Environment& e, const ReferenceOptions& options,
+         const py::object& progress) {
+        ReferenceOptions o = options;
+        PythonProgress state{progress};
+        o.progress = progressWithInterrupts(&state);
         Image img;
         {
           py::gil_scoped_release release;
@@ -1072,12 +1381,19 @@ PYBIND11_MODULE(penumbra, m) {
         return imageToArray(std::move(img));
       },
       "scene"_a, "camera"_a, "env"_a, "options"_a = ReferenceOptions{},
+      "progress"_a = py::none(),
       "Embree ground truth lit by the whole map (MIS of map and cosine), float32 (H, W, 4). "
-      "Raises BadInput for sizes outside 1..16384, spp < 1, a bad scene or an empty map.");
+      "`progress`: None or a callable taking the fraction done (0..1), called now and then "
+      "from the calling thread; an exception it raises stops the reference and propagates. "
+      "Ctrl-C (KeyboardInterrupt) stops it too. Raises BadInput for sizes outside 1..16384, "
+      "spp < 1, a bad scene or an empty map.");
   m.def(
       "reference_lights",
       [](const Scene& s, const Camera& c, const LightSet& l, const Environment& e,
-         const ReferenceOptions& o) {
+         const ReferenceOptions& options, const py::object& progress) {
+        ReferenceOptions o = options;
+        PythonProgress state{progress};
+        o.progress = progressWithInterrupts(&state);
         Image img;
         {
           py::gil_scoped_release release;
@@ -1086,8 +1402,10 @@ PYBIND11_MODULE(penumbra, m) {
         return imageToArray(std::move(img));
       },
       "scene"_a, "camera"_a, "lights"_a, "env"_a, "options"_a = ReferenceOptions{},
+      "progress"_a = py::none(),
       "Embree ground truth lit by the light set (plus its ambient, unshadowed), float32 "
-      "(H, W, 4): isolates a shadow technique's error from the extraction's.");
+      "(H, W, 4): isolates a shadow technique's error from the extraction's. `progress` and "
+      "Ctrl-C as in reference_environment.");
 
   py::class_<ImageMetrics>(m, "ImageMetrics", "Errors of an image against a reference.")
       .def_readonly("rmse", &ImageMetrics::rmse, "RMSE over compared pixels and RGB.")

@@ -13,6 +13,7 @@ enum class ErrorKind {
   OutOfMemory,  // the device could not allocate a buffer
   Device,       // any other OpenCL failure
   Internal,     // a bug in penumbra
+  Cancelled,    // the caller asked a long call to stop (ReferenceOptions::cancel); not a failure
 };
 
 const char* toString(ErrorKind kind);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "penumbra/ambient.hpp"
+#include "penumbra/image.hpp"
 #include "penumbra/lights.hpp"
 
 namespace penumbra {
@@ -94,9 +95,14 @@ struct ExtractOptions {
 // residual when opt.ambient.
 LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt = {});
 
-// Draws the map (tone-mapped) with each light's region(s) outlined and its centre marked; a light
-// without regions (center-surround) gets its cap's outline, the circle at its half-angle.
-// Writes PNG atomically.
+// The map (tone-mapped, automatic exposure) with each light's region(s) outlined and its centre
+// marked; a light without regions (center-surround) gets its cap's outline, the circle at its
+// half-angle. With `labels`, each centre is labelled "i  p%": the light's index in the set and its
+// share of the set's power (luminance of AreaLight::power), in DejaVuSans (fonts-dejavu-core; no
+// labels when the font is missing). Small maps are enlarged (nearest texel) to at least 1024
+// pixels wide. A display image: RGB, values k/255 in [0,1], the bytes writeLightOverlay writes.
+Image lightOverlay(const Environment& env, const LightSet& lights, bool labels = true);
+// lightOverlay with labels, written atomically (PNG usually; any 8-bit format writeImage takes).
 void writeLightOverlay(const std::string& path, const Environment& env, const LightSet& lights);
 
 }  // namespace penumbra

@@ -6,6 +6,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/extraction.hpp"
 #include "penumbra/flip.hpp"
+#include "penumbra/heatmap.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/lights.hpp"
 #include "penumbra/reference.hpp"

@@ -24,8 +24,20 @@ struct ReferenceOptions {
   // referenceLights only: shadow the ambient residual with traced visibility instead of adding it
   // unshadowed (see referenceLights). Isolates the residual's missing shadows as an error source.
   bool shadowAmbient = false;
-  // Called now and then with the fraction done (0..1); may be empty.
+  // Progress and cancellation; either may be empty. Both are called from the calling thread
+  // only, never concurrently, at every poll: once before any work, after each finished row and
+  // at least every 100 ms while the work goes on (between pixels: a pixel at thousands of samples
+  // takes milliseconds).
+  // At each poll `progress` gets the fraction of pixels done (0..1, non-decreasing; the same
+  // value may come again when no pixel finished since the last poll), then `cancel` is asked
+  // whether to stop (true: stop). A finished render calls progress(1.0) once at the end, without
+  // asking `cancel`. On a stop the workers finish the pixel they are on and the call throws
+  // Error(ErrorKind::Cancelled, "reference: cancelled after X% (N of M pixels)"); an exception
+  // thrown by either callback stops the render the same way and is rethrown as it is. Either way
+  // the call returns within about a pixel's time, and nothing is returned. The callbacks never
+  // change the pixels: a finished render is the same, bit for bit, with or without them.
   std::function<void(double)> progress;
+  std::function<bool()> cancel;
 };
 
 // A reference with an estimate of its own Monte Carlo noise. Every pixel's samples are split by

@@ -230,7 +230,7 @@ std::string runContained(const std::string& label, const ContainLimits& limits,
   if (result[0] == kResult) return result.substr(1);
   if (result[0] == kFailure && result.size() >= 2) {
     const auto code = static_cast<unsigned char>(result[1]);
-    const auto kind = code <= static_cast<unsigned char>(ErrorKind::Internal)
+    const auto kind = code <= static_cast<unsigned char>(ErrorKind::Cancelled)
                           ? static_cast<ErrorKind>(code)
                           : ErrorKind::Internal;
     throw Error(kind, result.substr(2));

@@ -22,6 +22,7 @@ const char* toString(ErrorKind kind) {
     case ErrorKind::OutOfMemory: return "out of device memory";
     case ErrorKind::Device: return "OpenCL error";
     case ErrorKind::Internal: return "internal error";
+    case ErrorKind::Cancelled: return "cancelled";
   }
   return "error";
 }

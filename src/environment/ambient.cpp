@@ -259,7 +259,7 @@ void subtractPolygon(const AreaLight& l, SH9& sh) {
 AmbientModel parseAmbientModel(const std::string& name) {
   for (AmbientModel m : {AmbientModel::IrradianceMap, AmbientModel::SH9})
     if (name == toString(m)) return m;
-  badInput("--ambient: unknown model '" + name + "' (accepted: map, sh9)");
+  badInput("AmbientOptions.model: unknown model '" + name + "' (accepted: map, sh9)");
 }
 
 const char* toString(AmbientModel m) {

@@ -9,7 +9,7 @@ ExtractionMethod parseExtractionMethod(const std::string& name) {
   for (ExtractionMethod m :
        {ExtractionMethod::MedianCut, ExtractionMethod::Greedy, ExtractionMethod::CenterSurround})
     if (name == toString(m)) return m;
-  badInput("--extract: unknown method '" + name +
+  badInput("ExtractOptions.method: unknown method '" + name +
            "' (accepted: median-cut, greedy, center-surround)");
 }
 

@@ -20,7 +20,7 @@ Backend parseBackend(const std::string& name) {
   if (name == "auto") return Backend::Auto;
   if (name == "egl") return Backend::EGL;
   if (name == "osmesa") return Backend::OSMesa;
-  badInput("--gl: unknown backend '" + name + "' (available: egl, osmesa, auto)");
+  badInput("gl::Backend: unknown backend '" + name + "' (available: egl, osmesa, auto)");
 }
 
 const char* toString(Backend b) {

@@ -1,22 +1,27 @@
 // The light overlay (extraction.hpp writeLightOverlay): the map, tone-mapped, with every light's
-// cube-face regions outlined (or its cap's circle when it has none) and its centre marked, for
-// looking at what an extraction found.
+// cube-face regions outlined (or its cap's circle when it has none), its centre marked and
+// labelled with its index and share of the set's power, for looking at what an extraction found.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include "penumbra/environment.hpp"
 #include "penumbra/extraction.hpp"
 #include "penumbra/image.hpp"
 #include "common/shared.h"
 #include "core/vec3.hpp"
+#include "metrics/heatmap.hpp"
 
 namespace penumbra {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-}  // namespace
 
-void writeLightOverlay(const std::string& path, const Environment& rotated, const LightSet& set) {
+constexpr double kPi = 3.14159265358979323846;
+
+// The overlay in linear values, and the exposure it is shown with.
+Image linearOverlay(const Environment& rotated, const LightSet& set, bool labels, float& exposure) {
   // Drawn in world directions, like the lights: the map with its rotation baked in.
   const Environment env = rotated.withRotationApplied();
   // Small maps are enlarged (nearest texel) so the outlines stay legible.
@@ -87,7 +92,63 @@ void writeLightOverlay(const std::string& path, const Environment& rotated, cons
       for (int c = 0; c < 3; ++c) img.at(si, ti, c) = centre[c];
     }
   }
-  writeImage(path, img, autoExposure(env.equirect));
+  exposure = autoExposure(env.equirect);
+  if (labels) {
+    // "index  share of the set's power (luminance)" beside each centre, drawn after every outline
+    // so no outline crosses a label.
+    auto lum = [](const std::array<float, 3>& p) {
+      return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2];
+    };
+    double total = 0;
+    for (const auto& l : set.lights) total += std::max(0.0, double(lum(l.power)));
+    const int size = std::clamp(W / 64, 12, 24);
+    // White after tone mapping (x / (1 + x) of 20 is 0.95) yet not so bright that the text's
+    // anti-aliased edges clip to white too.
+    const std::vector<float> white(3, 20.0f / exposure);
+    std::vector<std::array<int, 3>> placed;  // labels drawn: left, baseline, width
+    for (std::size_t i = 0; i < set.lights.size(); ++i) {
+      const AreaLight& l = set.lights[i];
+      float s, t;
+      pb_dir_equirect(l.direction[0], l.direction[1], l.direction[2], float(W), float(H), &s, &t);
+      char text[64];
+      std::snprintf(text, sizeof text, "%zu  %.3g%%", i,
+                    total > 0 ? 100.0 * std::max(0.0, double(lum(l.power))) / total : 0.0);
+      // Right of the cross, or left of it near the map's right edge; above it, or below near the
+      // top; moved down a line at a time while it would overlap a label already drawn.
+      const int width = detail::textWidth(text, size);
+      const bool leftSide = float(W) - s < float(width + 8);
+      const int x0 = leftSide ? int(s) - 6 - width : int(s) + 6;
+      int y = t < float(size + 6) ? int(t) + size + 4 : int(t) - 5;
+      auto overlaps = [&](const std::array<int, 3>& b) {
+        return x0 < b[0] + b[2] && b[0] < x0 + width && y - size < b[1] && b[1] - size < y;
+      };
+      while (y < H && std::any_of(placed.begin(), placed.end(), overlaps)) y += size + 2;
+      placed.push_back({x0, y, width});
+      // A dark box under the text: white on a bright sky would not read.
+      for (int yy = std::max(0, y - size); yy < std::min(H, y + size / 3); ++yy)
+        for (int xx = std::max(0, x0 - 2); xx < std::min(W, x0 + width + 2); ++xx)
+          for (int c = 0; c < 3; ++c) img.at(xx, yy, c) = 0.0f;
+      detail::drawText(img, x0, y, text, size, white, detail::TextAlign::Left);
+    }
+  }
+  return img;
+}
+
+}  // namespace
+
+Image lightOverlay(const Environment& env, const LightSet& lights, bool labels) {
+  float exposure = 1;
+  const Image linear = linearOverlay(env, lights, labels, exposure);
+  const std::vector<unsigned char> bytes = toneMap(linear, exposure);
+  Image out(linear.width, linear.height, 3);
+  for (std::size_t i = 0; i < bytes.size(); ++i) out.pixels[i] = float(bytes[i]) / 255.0f;
+  return out;
+}
+
+void writeLightOverlay(const std::string& path, const Environment& env, const LightSet& lights) {
+  float exposure = 1;
+  const Image linear = linearOverlay(env, lights, true, exposure);
+  writeImage(path, linear, exposure);
 }
 
 }  // namespace penumbra

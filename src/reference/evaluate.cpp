@@ -1,10 +1,7 @@
 // The error budget (include/penumbra/evaluate.hpp): the three Embree truths (cached by a digest of
 // what they depend on), the budget's figures over geometry and penumbra pixels, its JSON and text,
-// and the heat maps (OpenImageIO's ImageBufAlgo colour maps, a scale bar under each image).
+// and the heat maps (metrics/heatmap.hpp's colour maps, a scale bar under each image).
 #include "penumbra/evaluate.hpp"
-
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
 
 #include <algorithm>
 #include <cmath>
@@ -16,7 +13,9 @@
 
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/heatmap.hpp"
 #include "common/shared.h"
+#include "metrics/heatmap.hpp"
 
 namespace penumbra {
 namespace {
@@ -422,64 +421,9 @@ std::string toText(const ErrorBudget& b) {
   return o.str();
 }
 
-namespace {
-
-// `img` (RGB float, W x H) over a scale bar: a gradient strip from the colour map's low end to its
-// high end, ticks at both ends and the middle, labels when OpenImageIO finds a font.
-OIIO::ImageBuf withScaleBar(const OIIO::ImageBuf& img, const float* knots, int nknots,
-                            const std::string& low, const std::string& mid,
-                            const std::string& high) {
-  namespace IBA = OIIO::ImageBufAlgo;
-  const int W = img.spec().width, H = img.spec().height;
-  const int bar = std::max(6, H / 16), labels = 16, pad = 2;
-  OIIO::ImageBuf ramp(OIIO::ImageSpec(W, 1, 1, OIIO::TypeDesc::FLOAT));
-  for (int x = 0; x < W; ++x) {
-    const float v = W > 1 ? float(x) / float(W - 1) : 0.5f;
-    ramp.setpixel(x, 0, &v);
-  }
-  OIIO::ImageBuf rampRgb = IBA::color_map(ramp, 0, nknots, 3, OIIO::cspan<float>(knots, long(nknots) * 3));
-  OIIO::ImageBuf out(OIIO::ImageSpec(W, H + pad + bar + labels, 3, OIIO::TypeDesc::FLOAT));
-  const float black[3] = {0, 0, 0};
-  IBA::fill(out, {black, 3});
-  IBA::paste(out, 0, 0, 0, 0, img);
-  float px[3];
-  for (int y = 0; y < bar; ++y)
-    for (int x = 0; x < W; ++x) {
-      rampRgb.getpixel(x, 0, px);
-      out.setpixel(x, H + pad + y, px);
-    }
-  const float white[3] = {1, 1, 1};
-  for (int x : {0, W / 2, W - 1})
-    for (int y = H + pad + bar; y < H + pad + bar + 3; ++y) out.setpixel(x, y, white);
-  const int ty = H + pad + bar + labels - 2;
-  // Labels only where a font is installed (fonts-dejavu-core); the ticks carry the scale without.
-  if (W >= 120 && IBA::render_text(out, 1, ty, low, 11, "DejaVuSans", {white, 3})) {
-    IBA::render_text(out, W / 2, ty, mid, 11, "DejaVuSans", {white, 3},
-                     IBA::TextAlignX::Center);
-    IBA::render_text(out, W - 2, ty, high, 11, "DejaVuSans", {white, 3}, IBA::TextAlignX::Right);
-  }
-  return out;
-}
-
-void writePng(const OIIO::ImageBuf& buf, const std::string& path) {
-  // sRGB-encoded 8 bit: the colour maps' values are display values already.
-  OIIO::ImageBuf out = buf;
-  if (!out.write(path, OIIO::TypeDesc::UINT8))
-    badInput(path + ": cannot write (" + out.geterror() + ")");
-}
-
-std::string percentLabel(double v) {
-  char s[32];
-  std::snprintf(s, sizeof s, "%+g%%", 100.0 * v);
-  return s;
-}
-
-}  // namespace
-
 std::vector<std::string> writeHeatMaps(const ErrorBudget& b, const Image& frame,
                                        const EvaluateTruths& truths, const std::string& dir,
                                        double* scaleOut) {
-  namespace IBA = OIIO::ImageBufAlgo;
   if (!fs::is_directory(dir)) badInput("writeHeatMaps: directory " + dir + " does not exist");
   const Image& G = truths.environment.image;
   const int W = G.width, H = G.height;
@@ -499,59 +443,32 @@ std::vector<std::string> writeHeatMaps(const ErrorBudget& b, const Image& frame,
   std::vector<float> mags;
   for (std::size_t i = 0; i < n; ++i)
     if (G.pixels[i * G.channels + 3] > 0.5f) mags.push_back(std::fabs(eTotal[i]));
-  double s = 0.01;
-  if (!mags.empty()) {
-    const std::size_t at = std::min(mags.size() - 1, std::size_t(0.99 * double(mags.size())));
-    std::nth_element(mags.begin(), mags.begin() + std::ptrdiff_t(at), mags.end());
-    const double p = std::max(1e-4, double(mags[at]));
-    const double decade = std::pow(10.0, std::floor(std::log10(p)));
-    s = p <= decade ? decade : p <= 2 * decade ? 2 * decade : p <= 5 * decade ? 5 * decade : 10 * decade;
-  }
+  const double s = detail::roundedScale(mags);
   if (scaleOut) *scaleOut = s;
-  // Blue (darker than the truth), white, red (brighter): knots of a diverging map over [0, 1].
-  const float diverging[] = {0.02f, 0.19f, 0.75f, 1, 1, 1, 0.85f, 0.05f, 0.05f};
-  const float grey[3] = {0.25f, 0.25f, 0.25f};
+  // Blue (darker than the truth), white, red (brighter).
+  const detail::ColourMap diverging = detail::divergingColourMap(), magma = detail::magmaColourMap();
   std::vector<std::string> written;
   auto signedMap = [&](const std::vector<float>& e, const std::string& name) {
-    OIIO::ImageBuf v(OIIO::ImageSpec(W, H, 1, OIIO::TypeDesc::FLOAT));
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        const float t = float(std::clamp(0.5 + 0.5 * e[std::size_t(y) * W + x] / s, 0.0, 1.0));
-        v.setpixel(x, y, &t);
-      }
-    OIIO::ImageBuf rgbMap = IBA::color_map(v, 0, 3, 3, {diverging, 9});
-    for (std::size_t i = 0; i < n; ++i)
-      if (!(G.pixels[i * G.channels + 3] > 0.5f)) rgbMap.setpixel(int(i % W), int(i / W), grey);
+    std::vector<float> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = float(std::clamp(0.5 + 0.5 * e[i] / s, 0.0, 1.0));
     const std::string path = (fs::path(dir) / name).string();
-    writePng(withScaleBar(rgbMap, diverging, 3, percentLabel(-s), "0", percentLabel(s)), path);
+    writeDisplayImage(path, detail::withScaleBar(detail::colourMapped(v, W, H, diverging, &G), diverging,
+                                                 detail::percentLabel(-s, true), "0",
+                                                 detail::percentLabel(s, true)));
     written.push_back(path);
   };
   signedMap(eTotal, "error-total.png");
   signedMap(eFloor, "error-floor.png");
   signedMap(eTech, "error-technique.png");
 
-  // FLIP maps through magma; the bar's knots sample the same map.
-  OIIO::ImageBuf unit(OIIO::ImageSpec(16, 1, 1, OIIO::TypeDesc::FLOAT));
-  for (int x = 0; x < 16; ++x) {
-    const float v = float(x) / 15.0f;
-    unit.setpixel(x, 0, &v);
-  }
-  const OIIO::ImageBuf magma = IBA::color_map(unit, 0, "magma");
-  std::vector<float> magmaKnots(16 * 3);
-  for (int x = 0; x < 16; ++x) magma.getpixel(x, 0, &magmaKnots[std::size_t(x) * 3]);
+  // FLIP maps through magma.
   auto flipMap = [&](const Image& map, const std::string& name) {
     if (map.empty()) return;
-    OIIO::ImageBuf v(OIIO::ImageSpec(W, H, 1, OIIO::TypeDesc::FLOAT));
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        const float t = std::clamp(map.pixels[(std::size_t(y) * W + x) * map.channels], 0.0f, 1.0f);
-        v.setpixel(x, y, &t);
-      }
-    OIIO::ImageBuf rgbMap = IBA::color_map(v, 0, "magma");
-    for (std::size_t i = 0; i < n; ++i)
-      if (!(G.pixels[i * G.channels + 3] > 0.5f)) rgbMap.setpixel(int(i % W), int(i / W), grey);
+    std::vector<float> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = map.pixels[i * map.channels];
     const std::string path = (fs::path(dir) / name).string();
-    writePng(withScaleBar(rgbMap, magmaKnots.data(), 16, "0", "FLIP 0.5", "1"), path);
+    writeDisplayImage(path, detail::withScaleBar(detail::colourMapped(v, W, H, magma, &G), magma,
+                                                 "0", "FLIP 0.5", "1"));
     written.push_back(path);
   };
   flipMap(b.flipTotalMap, "flip-total.png");

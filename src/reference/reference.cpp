@@ -14,6 +14,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -441,58 +442,74 @@ ReferenceImage renderPixels(const Camera& camera, const Environment* background,
   unsigned nThreads = opt.threads > 0 ? unsigned(opt.threads) : std::thread::hardware_concurrency();
   nThreads = std::max(1u, std::min(nThreads, unsigned(H)));
 
+  const std::size_t totalPixels = std::size_t(W) * std::size_t(H);
   std::atomic<int> nextRow{0}, rowsDone{0};
+  std::atomic<std::size_t> pixelsDone{0};
   std::atomic<bool> abort{false};
   std::exception_ptr failure;
   std::mutex mutex;  // guards `failure`; pairs with `wake` so no notification is lost
   std::condition_variable wake;
 
-  auto renderRow = [&](int y) {
-    for (int x = 0; x < W; ++x) {
-      const V3 dir = cameraRayDirection(basis, W, H, float(x) + 0.5f, float(y) + 0.5f);
-      const std::size_t at = (std::size_t(y) * W + x) * 4;
-      float* px = &out.pixels[at];
-      float* pa = &result.halfA.pixels[at];
-      float* pb = &result.halfB.pixels[at];
-      Hit hit;
-      if (tracePrimary(es, flat, eye, dir, hit)) {
-        Pcg32 rng(opt.seed, std::uint64_t(y) * std::uint64_t(W) + std::uint64_t(x));
-        PixelSample ps;
-        shade(hit, rng, ps);
-        for (int k = 0; k < 3; ++k) {
-          px[k] = ps.full[k];
-          pa[k] = ps.a[k];
-          pb[k] = ps.b[k];
-        }
-        px[3] = pa[3] = pb[3] = 1.0f;
-        if (withVisibility) result.visibility.pixels[std::size_t(y) * W + x] = ps.visibility;
-      } else if (background) {
-        background->lookup(dir[0], dir[1], dir[2], px);
-        px[3] = 0.0f;
-        for (int k = 0; k < 4; ++k) pa[k] = pb[k] = px[k];
+  auto renderPixel = [&](int x, int y) {
+    const V3 dir = cameraRayDirection(basis, W, H, float(x) + 0.5f, float(y) + 0.5f);
+    const std::size_t at = (std::size_t(y) * W + x) * 4;
+    float* px = &out.pixels[at];
+    float* pa = &result.halfA.pixels[at];
+    float* pb = &result.halfB.pixels[at];
+    Hit hit;
+    if (tracePrimary(es, flat, eye, dir, hit)) {
+      Pcg32 rng(opt.seed, std::uint64_t(y) * std::uint64_t(W) + std::uint64_t(x));
+      PixelSample ps;
+      shade(hit, rng, ps);
+      for (int k = 0; k < 3; ++k) {
+        px[k] = ps.full[k];
+        pa[k] = ps.a[k];
+        pb[k] = ps.b[k];
       }
+      px[3] = pa[3] = pb[3] = 1.0f;
+      if (withVisibility) result.visibility.pixels[std::size_t(y) * W + x] = ps.visibility;
+    } else if (background) {
+      background->lookup(dir[0], dir[1], dir[2], px);
+      px[3] = 0.0f;
+      for (int k = 0; k < 4; ++k) pa[k] = pb[k] = px[k];
     }
+    pixelsDone.fetch_add(1, std::memory_order_relaxed);
+  };
+  // A row, pixel by pixel, asking keepGoing() before each one: at thousands of samples per pixel
+  // a row takes seconds, a pixel milliseconds, so a stop is honoured within a pixel. False when
+  // it stopped early.
+  auto renderRow = [&](int y, auto&& keepGoing) {
+    for (int x = 0; x < W; ++x) {
+      if (!keepGoing()) return false;
+      renderPixel(x, y);
+    }
+    return true;
   };
 
-  // Progress goes out from the calling thread only, at most every 1%, never concurrently; an
-  // exception thrown by the callback stops the render and propagates to the caller.
-  double lastReported = 0.0;
-  auto report = [&](int done) {
-    if (!opt.progress || done >= H) return;
-    const double fraction = double(done) / H;
-    if (fraction - lastReported >= 0.01) {
-      lastReported = fraction;
-      opt.progress(fraction);
+  // The contract in reference.hpp: progress and cancel are called from the calling thread only,
+  // never concurrently, at every poll; an exception from either (or the Cancelled error thrown
+  // here) stops the render and propagates to the caller.
+  auto poll = [&]() {
+    const std::size_t done = pixelsDone.load(std::memory_order_relaxed);
+    const double fraction = double(done) / double(totalPixels);
+    if (opt.progress) opt.progress(fraction);
+    if (opt.cancel && opt.cancel()) {
+      char what[128];
+      std::snprintf(what, sizeof what, "reference: cancelled after %.1f%% (%zu of %zu pixels)",
+                    100.0 * fraction, done, totalPixels);
+      throw Error(ErrorKind::Cancelled, what);
     }
   };
+  const auto pollInterval = std::chrono::milliseconds(100);
 
   auto worker = [&]() {
     try {
+      auto keepGoing = [&] { return !abort.load(std::memory_order_relaxed); };
       for (;;) {
-        if (abort.load(std::memory_order_relaxed)) return;
+        if (!keepGoing()) return;
         const int y = nextRow.fetch_add(1);
         if (y >= H) return;
-        renderRow(y);
+        if (!renderRow(y, keepGoing)) return;
         rowsDone.fetch_add(1);
         { std::lock_guard<std::mutex> lock(mutex); }
         wake.notify_one();
@@ -507,6 +524,9 @@ ReferenceImage renderPixels(const Camera& camera, const Environment* background,
     }
   };
 
+  // A first poll before any work: a cancel already set stops at 0%, and both callbacks are
+  // called at least once however quickly the pool finishes.
+  if (opt.progress || opt.cancel) poll();
   std::vector<std::thread> pool;
   if (nThreads > 1) {
     pool.reserve(nThreads);
@@ -517,24 +537,37 @@ ReferenceImage renderPixels(const Camera& camera, const Environment* background,
     }
   }
   if (pool.empty()) {
-    // One thread: render here, row by row.
+    // One thread: render here, polling after each row and between pixels once the interval has
+    // passed (the clock costs nanoseconds, a pixel microseconds at the least).
+    const bool polled = opt.progress || opt.cancel;
+    auto lastPoll = std::chrono::steady_clock::now();
+    auto keepGoing = [&] {
+      if (polled && std::chrono::steady_clock::now() - lastPoll >= pollInterval) {
+        poll();
+        lastPoll = std::chrono::steady_clock::now();
+      }
+      return true;
+    };
     for (int y = 0; y < H; ++y) {
-      renderRow(y);
-      report(y + 1);
+      renderRow(y, keepGoing);
+      if (polled && y + 1 < H) {
+        poll();
+        lastPoll = std::chrono::steady_clock::now();
+      }
     }
   } else {
-    // The calling thread watches and reports while the pool renders.
+    // The calling thread watches and polls while the pool renders: on every finished row and at
+    // least every pollInterval.
     try {
       int seen = 0;
       for (;;) {
         std::unique_lock<std::mutex> lock(mutex);
-        wake.wait_for(lock, std::chrono::milliseconds(100),
-                      [&] { return abort.load() || rowsDone.load() != seen; });
+        wake.wait_for(lock, pollInterval, [&] { return abort.load() || rowsDone.load() != seen; });
         const bool stop = abort.load();
         seen = rowsDone.load();
         lock.unlock();
         if (stop || seen >= H) break;
-        report(seen);
+        poll();
       }
     } catch (...) {
       abort = true;

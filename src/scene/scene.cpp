@@ -393,7 +393,7 @@ Bounds boundsOf(const std::vector<const Mesh*>& meshes) {
 }
 
 std::string cameraError(const std::string& text, const std::string& problem) {
-  return "--camera '" + oneLine(text) + "': " + problem;
+  return "camera '" + oneLine(text) + "': " + problem;
 }
 
 }  // namespace

@@ -19,12 +19,13 @@ PKG_CONFIG_PATH="$libdir" c++ -std=c++17 "$src/tests/consumer/main.cpp" -o "$wor
 LD_LIBRARY_PATH="$(dirname "$libdir")" "$work/consumer-pc"
 # the installed CLI runs from the prefix (its RPATH points at ../lib)
 "$work/prefix/bin/penumbra" --version
-# the installed Python module imports from outside the source tree and renders a frame
-mod=$(find "$work/prefix" -name 'penumbra*.so' -path '*python*' | head -1)
-if [ -z "$mod" ]; then echo "run.sh: no installed Python module under $work/prefix" >&2; exit 1; fi
-(cd "$work" && PYTHONPATH="$(dirname "$mod")" /usr/bin/python3 -c "
+# the installed Python package imports from outside the source tree and makes a map
+pkg=$(find "$work/prefix" -path '*python*' -path '*/penumbra/__init__.py' | head -1)
+if [ -z "$pkg" ]; then echo "run.sh: no installed Python package under $work/prefix" >&2; exit 1; fi
+(cd "$work" && PYTHONPATH="$(dirname "$(dirname "$pkg")")" /usr/bin/python3 -c "
 import penumbra
 assert penumbra.__file__.startswith('$work/prefix'), penumbra.__file__
+assert penumbra._penumbra.__file__.startswith('$work/prefix'), penumbra._penumbra.__file__
 env = penumbra.builtin_environment(64)
 print('python module', penumbra.__file__, 'version', getattr(penumbra, '__version__', '?'))
 ")

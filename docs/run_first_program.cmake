@@ -1,0 +1,17 @@
+# Runs a first program (PROGRAM [ARGS]) in an empty WORKDIR and fails unless it exits 0 and every
+# file in EXPECT exists there and is not empty.
+file(REMOVE_RECURSE ${WORKDIR})
+file(MAKE_DIRECTORY ${WORKDIR})
+execute_process(COMMAND ${PROGRAM} ${ARGS} WORKING_DIRECTORY ${WORKDIR} RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "${PROGRAM} ${ARGS} exited with ${rc}")
+endif()
+foreach(f ${EXPECT})
+  if(NOT EXISTS ${WORKDIR}/${f})
+    message(FATAL_ERROR "${PROGRAM} did not write ${f}")
+  endif()
+  file(SIZE ${WORKDIR}/${f} size)
+  if(size EQUAL 0)
+    message(FATAL_ERROR "${PROGRAM} wrote an empty ${f}")
+  endif()
+endforeach()
