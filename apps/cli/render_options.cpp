@@ -93,7 +93,7 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.integer(app, "--area-taps", "area-approx: texel reads placing a shadow edge on a segment; "
               "0: midpoint", 0, 64, num(R.areaApprox.taps), A, {"RenderOptions.areaApprox.taps"});
   reg.text(app, "--gl", "egl|osmesa|auto", "GL rasterizes the G-buffer and shadow maps and "
-           "shades, OpenCL computes visibility", "off", A);
+           "shades, OpenCL computes visibility", "off", A, {"gl::Backend"});
 }
 
 RenderOptions parseRenderOptions(const Args& a) {

@@ -20,7 +20,8 @@ void addSceneOptions(CLI::App& app, Registry& reg, int width, int height,
            kGroupScene);
   reg.flag(app, "--no-ground", "do not add a ground plane under a loaded mesh", kGroupScene);
   reg.real(app, "--load-timeout", "seconds the mesh importer may take", Bounds::positive(),
-           "20 s + 1 s per MB of file", kGroupScene, {"LoadOptions.timeoutSeconds"});
+           "20 s + 1 s per MB of file", kGroupScene,
+           {"LoadOptions.timeoutSeconds", "LoadOptions::timeoutSeconds"});
   reg.real(app, "--load-memory", "MiB the mesh importer may allocate", {1, 1 << 24, false, false},
            "1 GiB + 64x the file, at most 3/4 of RAM", kGroupScene,
            {"LoadOptions.memoryLimitBytes"});
@@ -29,7 +30,8 @@ void addSceneOptions(CLI::App& app, Registry& reg, int width, int height,
       ->envname("PENUMBRA_DEVICE");
   if (rotatable)
     reg.real(app, "--env-rotate", "turn the map by DEG about +y, counter-clockwise from above",
-             Bounds::any(), num(Environment{}.rotationYDeg), kGroupScene);
+             Bounds::any(), num(Environment{}.rotationYDeg), kGroupScene,
+             {"Environment.rotationYDeg"});
 }
 
 void addExtractOptions(CLI::App& app, Registry& reg) {
@@ -39,7 +41,7 @@ void addExtractOptions(CLI::App& app, Registry& reg) {
   const AmbientOptions am;
   const ExtractOptions ex;
   reg.text(app, "--extract", "METHOD", "median-cut | greedy | center-surround",
-           toString(ex.method), kGroupLights);
+           toString(ex.method), kGroupLights, {"ExtractOptions.method"});
   reg.integer(app, "-l,--lights", "median-cut: number of lights; greedy, center-surround: the "
               "most lights kept (defaults " + num(gr.maxLights) + ", " + num(cs.maxLights) + ")",
               1, kMaxLights, num(mc.lights), kGroupLights,
@@ -59,7 +61,7 @@ void addExtractOptions(CLI::App& app, Registry& reg) {
            kGroupLights);
   reg.text(app, "--ambient", "map|sh9", "the residual as its pre-integrated irradiance map "
            "(map) or as 9 spherical-harmonic coefficients only (sh9)",
-           toString(am.model), kGroupLights);
+           toString(am.model), kGroupLights, {"AmbientOptions.model"});
   reg.text(app, "--ambient-size", "WxH", "--ambient map: the irradiance map's size, each 1..1024",
            sizeText(am.mapWidth, am.mapHeight), kGroupLights);
   reg.text(app, "--light-shape", "cap|polygon", "median-cut: a light from one region is a cap, "
@@ -67,7 +69,8 @@ void addExtractOptions(CLI::App& app, Registry& reg) {
            toString(mc.shape), kGroupLights);
   reg.integer(app, "--light-texture", "texture every extracted cap with NxN texels of the map's "
               "radiance (bitmask, brute and reference weight their light samples by it)", 1, 64,
-              "none", kGroupLights);
+              "none", kGroupLights,
+              {"ExtractOptions.lightTexture", "ExtractOptions::lightTexture"});
 }
 
 void addLightSetOption(CLI::App& app, Registry& reg) {
@@ -93,7 +96,15 @@ SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv) {
   SceneSetup s;
   Camera cam;
   const bool haveCamera = a.has("camera");
-  if (haveCamera) cam = parseCamera(a.get("camera"));
+  if (haveCamera) {
+    // parseCamera names its parameter ("camera '1,2': ..."); the user typed --camera.
+    try {
+      cam = parseCamera(a.get("camera"));
+    } catch (const Error& e) {
+      if (e.kind() != ErrorKind::BadInput) throw;
+      badInput(std::string("--") + e.what());
+    }
+  }
   LoadOptions lo;
   lo.addGround = !a.has("no-ground");
   if (a.has("load-timeout")) lo.timeoutSeconds = a.real("load-timeout");
