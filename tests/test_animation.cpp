@@ -675,6 +675,13 @@ TEST(CliAnimation, BadValuesExitTwoAndWriteNothing) {
       {{"--env", "builtin,,builtin"}, "--env"},
       {{"--extract", "bogus"}, "--extract"},
       {{"--frames", "2", "--env", "builtin,missing.exr"}, "missing.exr"},
+      // strict numbers: no hex, no leading zero, no decimal comma
+      {{"--frames", "0x3"}, "--frames"},
+      {{"--frames", "03"}, "--frames"},
+      {{"--frames", "2", "--frame-time", "0,5"}, "--frame-time"},
+      // a stray argument and a misspelt option
+      {{"--frames", "2", "stray"}, "stray"},
+      {{"--frame", "2"}, "did you mean --frames?"},
   };
   for (auto& [extra, needle] : cases) {
     const fs::path d = freshDir("bad");

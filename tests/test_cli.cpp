@@ -10,6 +10,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <pty.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -25,6 +26,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -32,10 +35,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include <OpenImageIO/imageio.h>
+
+#include "penumbra/ambient.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/extraction.hpp"
 #include "penumbra/image.hpp"
-#include "penumbra/reference.hpp"
 #include "penumbra/lights.hpp"
+#include "penumbra/options.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/version.hpp"
 
 extern char** environ;
 
@@ -421,7 +430,9 @@ TEST_F(CliParams, SizeEmptyHeight) { expectBad({"--size", "12x"}, "--size"); }
 TEST_F(CliParams, UnknownShadows) { expectBad({"--shadows", "foo"}, "--shadows"); }
 TEST_F(CliParams, ShadowMapSizeZero) { expectBad({"--shadow-map-size", "0"}, "--shadow-map-size"); }
 TEST_F(CliParams, CameraTooFewNumbers) { expectBad({"--camera", "1,2"}, "--camera"); }
-TEST_F(CliParams, OutUnsupportedExtension) { expectBad({"--out", path("file.bmp")}, "--out"); }
+// Any format OpenImageIO writes is accepted (CliConventions.OutJpegWritesAJpeg); an extension
+// without a writer is refused.
+TEST_F(CliParams, OutUnsupportedExtension) { expectBad({"--out", path("file.xyz")}, "--out"); }
 TEST_F(CliParams, OutMissingDirectory) {
   expectBad({"--out", "/nonexistent_dir/x.png"}, "--out");
 }
@@ -449,6 +460,13 @@ TEST_F(CliParams, OutputIsADirectory) {
   }
 }
 TEST_F(CliParams, UnknownOption) { expectBad({"--bogus"}, "--bogus"); }
+// The library checks the field (RenderOptions.mssm.upperBoundTilt); the message names the option
+// the user typed instead.
+TEST_F(CliParams, LibraryFieldErrorsNameTheOption) {
+  expectBad({"--upper-bound-tilt", "-1"}, "--upper-bound-tilt must be finite and >= 0");
+  Result r = run({"render", "--size", "16x9", "--upper-bound-tilt", "-1"});
+  EXPECT_EQ(r.err.find("RenderOptions"), std::string::npos) << describe(r);
+}
 TEST_F(CliParams, OptionWithoutValue) {
   // --lights as the last argument has no value.
   expectFailure({"render", "--out", path("out.png"), "--lights"}, {"--lights"});
@@ -683,16 +701,21 @@ TEST_F(CliLights, SanitizedPixelsReportedAndRecorded) {
 TEST_F(CliLights, AmbientInJsonUnlessNoAmbient) {
   Result r = run({"lights", "--lights", "4", "--face-size", "16"});
   ASSERT_EQ(r.code, 0) << describe(r);
-  const nlohmann::json on = nlohmann::json::parse(r.out);
-  EXPECT_EQ(on["ambient"], true) << r.out;
-  ASSERT_EQ(on["ambient_sh"].size(), 9u) << r.out;  // 9 RGB triples
-  for (const auto& c : on["ambient_sh"]) EXPECT_EQ(c.size(), 3u) << r.out;
-  ASSERT_EQ(on["ambient_power"].size(), 3u) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["ambient"], true) << r.out;
+  ASSERT_TRUE(j["ambient_sh"].is_array()) << r.out;
+  ASSERT_EQ(j["ambient_sh"].size(), 9u) << r.out;  // 9 RGB triples
+  for (const auto& c : j["ambient_sh"]) EXPECT_EQ(c.size(), 3u) << r.out;
+  ASSERT_TRUE(j["ambient_power"].is_array()) << r.out;
+  EXPECT_EQ(j["ambient_power"].size(), 3u) << r.out;
+  // the key order a reader sees: the count of sanitized pixels second
+  EXPECT_EQ(std::next(nlohmann::ordered_json::parse(r.out).items().begin()).key(),
+            "sanitized_pixels");
   Result n = run({"lights", "--lights", "4", "--face-size", "16", "--no-ambient"});
   ASSERT_EQ(n.code, 0) << describe(n);
-  const nlohmann::json off = nlohmann::json::parse(n.out);
-  EXPECT_EQ(off["ambient"], false) << n.out;
-  EXPECT_EQ(off["ambient_power"], nlohmann::json::parse("[0, 0, 0]")) << n.out;
+  const nlohmann::json k = nlohmann::json::parse(n.out);
+  EXPECT_EQ(k["ambient"], false) << n.out;
+  EXPECT_EQ(k["ambient_power"], nlohmann::json::array({0, 0, 0})) << n.out;
   EXPECT_TRUE(entries().empty());
 }
 
@@ -736,12 +759,14 @@ TEST_F(CliLights, AmbientModelAndSize) {
   Result d = run({"lights", "--lights", "4", "--face-size", "16"});
   ASSERT_EQ(d.code, 0) << describe(d);
   const nlohmann::json dj = nlohmann::json::parse(d.out);
-  EXPECT_EQ(dj["ambient_map"]["width"], 128);
-  EXPECT_EQ(dj["ambient_map"]["height"], 64);
+  const AmbientOptions defaults;
+  EXPECT_EQ(dj["ambient_map"]["width"], defaults.mapWidth) << d.out;
+  EXPECT_EQ(dj["ambient_map"]["height"], defaults.mapHeight) << d.out;
   Result s = run({"lights", "--lights", "4", "--face-size", "16", "--ambient", "sh9"});
   ASSERT_EQ(s.code, 0) << describe(s);
-  EXPECT_EQ(s.out.find("ambient_map"), std::string::npos);
-  EXPECT_EQ(nlohmann::json::parse(s.out)["ambient_sh"].size(), 9u);
+  const nlohmann::json sj = nlohmann::json::parse(s.out);
+  EXPECT_FALSE(sj.contains("ambient_map")) << s.out;
+  EXPECT_EQ(sj["ambient_sh"].size(), 9u) << s.out;
   Result m = run({"lights", "--lights", "4", "--face-size", "16", "--ambient", "map",
                   "--ambient-size", "5x3", "--out", "l.json"});
   ASSERT_EQ(m.code, 0) << describe(m);
@@ -767,18 +792,38 @@ TEST_F(CliLights, TruncatedEnvironmentFails) {
 
 class CliReference : public CliFixture {};
 
-// Not on a terminal (the test's pipe), progress comes as one line per 10%, ending at 100%. One
-// thread reports after every row; with more, a frame this small may finish between two looks.
+// Not on a terminal (the test's pipe), progress comes as one line per 10% with the time left
+// ("reference: 50% (ETA 1.2 s)"), rising, ending at "reference: 100% in N s". One thread
+// reports after every row; with more, a frame this small may finish between two looks. --quiet
+// (-q) silences it.
 TEST_F(CliReference, ProgressLinesWhenNotATerminal) {
   Result r = run({"reference", "--size", "16x20", "--spp", "1", "--threads", "1", "--out",
                   "ref.exr"});
   ASSERT_EQ(r.code, 0) << describe(r);
   const auto err = lines(r.err);
   ASSERT_FALSE(err.empty()) << describe(r);
-  EXPECT_EQ(err.back(), "reference: 100%") << describe(r);
-  EXPECT_NE(r.err.find("reference: 50%\n"), std::string::npos) << describe(r);
-  for (const auto& l : err) EXPECT_EQ(l.rfind("reference: ", 0), 0u) << describe(r);
+  const std::string duration = "([0-9]+\\.[0-9] s|[0-9]+ s|[0-9]+m[0-9]{2}s|[0-9]+h[0-9]{2}m)";
+  EXPECT_TRUE(std::regex_match(err.back(), std::regex("reference: 100% in " + duration)))
+      << describe(r);
+  const std::regex step("reference: ([1-9]0)% \\(ETA " + duration + "\\)");
+  int last = 0;
+  bool half = false;
+  for (std::size_t i = 0; i + 1 < err.size(); ++i) {
+    std::smatch m;
+    ASSERT_TRUE(std::regex_match(err[i], m, step)) << err[i] << "\n" << describe(r);
+    const int percent = std::stoi(m[1]);
+    EXPECT_GT(percent, last) << describe(r);
+    last = percent;
+    half |= percent == 50;
+  }
+  EXPECT_TRUE(half) << describe(r);
   EXPECT_LE(err.size(), 10u) << describe(r);
+  for (const char* quiet : {"--quiet", "-q"}) {
+    Result q = run({"reference", "--size", "16x20", "--spp", "1", "--threads", "1", "--out",
+                    "ref.exr", quiet});
+    ASSERT_EQ(q.code, 0) << describe(q);
+    EXPECT_TRUE(q.err.empty()) << describe(q);
+  }
 }
 
 // --spp is bounded (1 to 1048576, stated in --help): beyond it, one line naming the flag.
@@ -1066,6 +1111,8 @@ TEST_F(CliLightSet, LightShapeIsMedianCutOnly) {
 // ---------------------------------------------------------------------------------------------
 // Reproducible outputs: two identical runs write byte-identical files (no time in any header).
 // The runs are more than a second apart, the resolution of the EXR capDate a writer would stamp.
+// Every image carries its command line, so the two runs are the same command line, run in two
+// directories (the same relative --out).
 
 class CliOutputs : public CliFixture {};
 
@@ -1073,22 +1120,21 @@ TEST_F(CliOutputs, IdenticalRunsWriteIdenticalBytes) {
   const std::vector<std::string> frame = cat({"render", "--size", "32x18"}, kFast);
   const std::vector<std::string> reference = {"reference", "--size", "16x9", "--spp", "2"};
   for (const char* pass : {"1", "2"}) {
+    const fs::path cwd = dir_ / pass;
+    fs::create_directory(cwd);
     for (const char* ext : {".exr", ".png"}) {
-      Result r = run(cat(frame, {"--out", std::string("frame") + pass + ext}));
+      Result r = runCli(cat(frame, {"--out", std::string("frame") + ext}), cwd);
       ASSERT_EQ(r.code, 0) << describe(r);
     }
-    Result r = run(cat(reference, {"--out", std::string("ref") + pass + ".exr"}));
+    Result r = runCli(cat(reference, {"--out", "ref.exr"}), cwd);
     ASSERT_EQ(r.code, 0) << describe(r);
     if (std::string(pass) == "1") std::this_thread::sleep_for(std::chrono::milliseconds(1100));
   }
-  for (const char* name : {"frame%.exr", "frame%.png", "ref%.exr"}) {
+  for (const char* name : {"frame.exr", "frame.png", "ref.exr"}) {
     SCOPED_TRACE(name);
-    std::string a = name, b = name;
-    a.replace(a.find('%'), 1, "1");
-    b.replace(b.find('%'), 1, "2");
-    const std::string bytesA = readText(dir_ / a), bytesB = readText(dir_ / b);
+    const std::string bytesA = readText(dir_ / "1" / name), bytesB = readText(dir_ / "2" / name);
     ASSERT_FALSE(bytesA.empty());
-    EXPECT_TRUE(bytesA == bytesB) << a << " and " << b << " differ";
+    EXPECT_TRUE(bytesA == bytesB) << name << " differs between the two runs";
   }
 }
 
@@ -1196,6 +1242,315 @@ TEST_F(CliEvaluate, BadSppAndUncreatableTruthDirectory) {
   expectFailure({"evaluate", "--size", "32x18", "--spp", "8", "--truth", (file / "t").string()},
                 {"--truth"});
   fs::remove(file);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Conventions every command-line user brings: -h everywhere, short aliases, unknown and stray
+// arguments refused with a suggestion, --version, grouped help that fits the terminal with the
+// library's defaults, strict numbers, --quiet, per-frame progress, any image format, outputs that
+// say what made them.
+
+class CliConventions : public CliFixture {
+ protected:
+  // The help of `command` on a terminal COLUMNS wide (stdout is a pipe: $COLUMNS decides).
+  Result help(const std::string& command, int columns) {
+    return runCli({command, "-h"}, dir_, 60, {"COLUMNS=" + std::to_string(columns)});
+  }
+};
+
+const std::vector<std::string> kCommands = {"devices", "render",   "reference",
+                                            "compare", "evaluate", "lights"};
+
+// -h is --help on every subcommand: usage on stdout, exit 0, nothing run (render -h with an
+// output renders nothing).
+TEST_F(CliConventions, ShortHelpEverywhereRunsNothing) {
+  for (const std::string& c : kCommands) {
+    SCOPED_TRACE(c);
+    Result r = run({c, "-h", "--out", "x.png"});
+    EXPECT_EQ(r.code, 0) << describe(r);
+    EXPECT_TRUE(r.err.empty()) << describe(r);
+    EXPECT_EQ(r.out.rfind("usage: penumbra " + c, 0), 0u) << describe(r);
+    EXPECT_EQ(r.out.find("wrote"), std::string::npos) << describe(r);
+  }
+  EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(CliConventions, ShortAliases) {
+  Result r = run({"render", "-s", "32x18", "-o", "a.png", "-l", "4", "--face-size", "16",
+                  "--shadow-map-size", "64", "-e", "builtin"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const Image img = readImage(path("a.png"));
+  EXPECT_EQ(img.width, 32);
+  EXPECT_EQ(img.height, 18);
+  Result l = run({"lights", "-l", "3", "--face-size", "16", "-o", "l.json"});
+  ASSERT_EQ(l.code, 0) << describe(l);
+  EXPECT_EQ(loadLightSet(path("l.json")).lights.size(), 3u);
+}
+
+TEST_F(CliConventions, StrayAndUnknownArgumentsAreRefused) {
+  expectFailure({"render", "stray", "--out", path("x.png")}, {"stray"});
+  expectFailure({"devices", "stray"}, {"stray"});
+  expectFailure({"compare", "a.exr", "b.exr", "c.exr"}, {"c.exr"});
+  expectFailure({"render", "--sise", "64x36", "--out", path("x.png")},
+                {"unknown option --sise", "(did you mean --size?)"});
+  expectFailure({"lights", "--overlai", "o.png"}, {"--overlai", "did you mean --overlay?"});
+  expectFailure({"render", "--zzzzzz"}, {"--zzzzzz", "penumbra render --help"});
+  expectFailure({"lights", "--rect=banana"}, {"--rect", "banana"});
+  Result r = run({"rendr", "--size", "64x36"});
+  EXPECT_EQ(r.code, 2) << describe(r);
+  EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+  EXPECT_NE(r.err.find("'rendr' (did you mean render?)"), std::string::npos) << describe(r);
+  EXPECT_TRUE(entries().empty());
+}
+
+TEST_F(CliConventions, VersionIsTheProjectVersion) {
+  Result r = run({"--version"});
+  EXPECT_EQ(r.code, 0) << describe(r);
+  EXPECT_EQ(r.out, std::string(PENUMBRA_VERSION) + "\n");
+  EXPECT_TRUE(r.err.empty()) << describe(r);
+}
+
+// Every help fits 80 columns when the terminal has 80, and uses the room of a wider one (the
+// control: the same help at 160 columns has lines past 80).
+TEST_F(CliConventions, HelpWrapsToTheTerminal) {
+  for (const std::string& c : kCommands) {
+    SCOPED_TRACE(c);
+    Result narrow = help(c, 80);
+    ASSERT_EQ(narrow.code, 0) << describe(narrow);
+    for (const std::string& l : lines(narrow.out)) EXPECT_LE(l.size(), 80u) << l;
+  }
+  std::size_t widest = 0;
+  for (const std::string& l : lines(help("render", 160).out)) widest = std::max(widest, l.size());
+  EXPECT_GT(widest, 80u);
+  EXPECT_LE(widest, 160u);
+}
+
+// Help text per option: the description lines after an option's first line, joined, keyed by
+// its long name.
+std::map<std::string, std::string> optionHelp(const std::string& helpText) {
+  std::map<std::string, std::string> out;
+  std::string current;
+  const std::regex start("^  (-[a-zA-Z], )?\\s*--([a-z0-9-]+)(.*)$");
+  for (const std::string& l : lines(helpText)) {
+    std::smatch m;
+    if (std::regex_match(l, m, start)) {
+      current = m[2];
+      out[current] = m[3];
+    } else if (!current.empty() && l.rfind("      ", 0) == 0) {
+      out[current] += " " + l;
+    } else {
+      current.clear();
+    }
+  }
+  for (auto& [name, text] : out) text = std::regex_replace(text, std::regex("\\s+"), " ");
+  return out;
+}
+
+// The number after "default " in an option's help, NaN when there is none.
+double helpDefault(const std::string& text) {
+  const auto at = text.rfind("default ");
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + 8, nullptr);
+}
+
+// render --help lists its options in the groups, with type, range and the library's defaults.
+TEST_F(CliConventions, HelpGroupsTypesRangesAndLibraryDefaults) {
+  Result r = help("render", 80);
+  ASSERT_EQ(r.code, 0) << describe(r);
+  for (const char* group : {"\nScene:\n", "\nLights:\n", "\nShadows:\n", "\nOutput:\n",
+                            "\nAdvanced:\n", "\nAnimation:\n"})
+    EXPECT_NE(r.out.find(group), std::string::npos) << group;
+  const auto options = optionHelp(r.out);
+  const RenderOptions R;
+  const MedianCutOptions M;
+  const std::vector<std::pair<std::string, double>> defaults = {
+      {"sharpen-b", R.cssm.sharpenB},   {"sharpen-a", R.cssm.sharpenA},
+      {"cssm-order", R.cssm.order},     {"shadow-map-size", R.shadowMapSize},
+      {"depth-bias", R.shadow.depthBias}, {"moment-bias", R.mssm.momentBias},
+      {"lights", M.lights},             {"face-size", M.faceSize}};
+  for (const auto& [name, value] : defaults) {
+    SCOPED_TRACE(name);
+    ASSERT_EQ(options.count(name), 1u) << r.out;
+    EXPECT_NEAR(helpDefault(options.at(name)), value, 1e-6 * std::fabs(value)) << options.at(name);
+  }
+  EXPECT_NE(options.at("shadow-map-size").find("integer in [1, 4096]"), std::string::npos);
+  EXPECT_NE(options.at("exposure").find("number > 0"), std::string::npos);
+  EXPECT_NE(options.at("shadows").find("default " + std::string(toString(R.shadows))),
+            std::string::npos);
+  EXPECT_EQ(options.at("out").find("--out"), std::string::npos);
+}
+
+// The README's synopsis shows defaults ([--sharpen-b 80]); each one is the default the help
+// states, which is the library's.
+TEST_F(CliConventions, ReadmeSynopsisDefaultsMatchTheHelp) {
+  const std::string readme = readText(kData + "/../../README.md");
+  const auto block = readme.find("## Command line");
+  ASSERT_NE(block, std::string::npos);
+  const auto end = readme.find("```\n", readme.find("```sh", block) + 5);
+  std::istringstream synopsis(readme.substr(block, end - block));
+  std::map<std::string, std::map<std::string, std::string>> helps;
+  std::string command;
+  int checked = 0;
+  const std::regex option("\\[--([a-z0-9-]+) ([0-9][0-9.e+-]*)\\]");
+  for (std::string l; std::getline(synopsis, l);) {
+    std::smatch m;
+    if (std::regex_search(l, m, std::regex("^penumbra ([a-z]+)"))) command = m[1];
+    for (auto it = std::sregex_iterator(l.begin(), l.end(), option); it != std::sregex_iterator();
+         ++it) {
+      const std::string name = (*it)[1], value = (*it)[2];
+      SCOPED_TRACE(command + " --" + name + " " + value);
+      if (!helps.count(command)) helps[command] = optionHelp(help(command, 80).out);
+      ASSERT_EQ(helps[command].count(name), 1u);
+      EXPECT_EQ(helpDefault(helps[command][name]), std::strtod(value.c_str(), nullptr))
+          << helps[command][name];
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 20);
+}
+
+// Numbers are decimal, locale-free and whole: no hex, no octal-looking leading zeros, no decimal
+// comma, no trailing text, nothing non-finite.
+TEST_F(CliConventions, StrictNumbers) {
+  const std::vector<std::pair<std::vector<std::string>, std::vector<std::string>>> cases = {
+      {{"--size", "5x5x5"}, {"--size", "5x5"}},
+      {{"--size", "0x10"}, {"--size"}},
+      {{"--lights", "010"}, {"--lights", "010", "leading zero"}},
+      {{"--lights", "0x5"}, {"--lights", "0x5"}},
+      {{"--lights", "+5"}, {"--lights"}},
+      {{"--lights", "5 "}, {"--lights"}},
+      {{"--sharpen-b", "0x10"}, {"--sharpen-b", "0x10"}},
+      {{"--exposure", "1,5"}, {"--exposure", "1,5"}},
+      {{"--depth-bias", "inf"}, {"--depth-bias"}},
+      {{"--max-filter", "1e999"}, {"--max-filter"}},
+  };
+  for (const auto& [extra, mentions] : cases) {
+    SCOPED_TRACE(extra[0] + " " + extra[1]);
+    expectFailure(cat({"render", "--out", path("x.png")}, extra), mentions);
+  }
+}
+
+TEST_F(CliConventions, FramesPrintProgressWithEta) {
+  Result r = run(cat({"render", "--frames", "3", "-s", "24x16", "--shadows", "hard", "-o",
+                      "f.png"},
+                     kFast));
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const auto err = lines(r.err);
+  ASSERT_EQ(err.size(), 3u) << describe(r);
+  const std::string duration = "([0-9]+\\.[0-9] s|[0-9]+ s|[0-9]+m[0-9]{2}s|[0-9]+h[0-9]{2}m)";
+  for (int i = 0; i < 3; ++i)
+    EXPECT_TRUE(std::regex_match(
+        err[std::size_t(i)],
+        std::regex("render: frame " + std::to_string(i + 1) + "/3 f_000" + std::to_string(i) +
+                   "\\.png: [0-9]+ ms, elapsed " + duration + ", ETA " + duration)))
+        << err[std::size_t(i)];
+  // the last frame has nothing left to wait for
+  EXPECT_NE(err.back().find("ETA 0.0 s"), std::string::npos) << err.back();
+  Result q = run(cat({"render", "--frames", "2", "-s", "24x16", "--shadows", "hard", "-o",
+                      "q.png", "-q"},
+                     kFast));
+  ASSERT_EQ(q.code, 0) << describe(q);
+  EXPECT_TRUE(q.err.empty()) << describe(q);
+}
+
+TEST_F(CliConventions, OutJpegWritesAJpeg) {
+  Result r = run(cat({"render", "-s", "32x18", "-o", "x.jpg"}, kFast));
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const std::string bytes = readText(dir_ / "x.jpg");
+  ASSERT_GE(bytes.size(), 3u);
+  EXPECT_EQ(bytes.substr(0, 3), std::string("\xff\xd8\xff", 3));
+  const Image img = readImage(path("x.jpg"));
+  EXPECT_EQ(img.width, 32);
+  EXPECT_EQ(img.height, 18);
+}
+
+// The string attributes of an image's header, read with OpenImageIO.
+std::map<std::string, std::string> textAttributes(const std::string& file) {
+  std::map<std::string, std::string> out;
+  auto in = OIIO::ImageInput::open(file);
+  if (!in) return out;
+  for (const auto& p : in->spec().extra_attribs)
+    if (p.type() == OIIO::TypeDesc::STRING) out[p.name().string()] = p.get_string();
+  return out;
+}
+
+// Every image the CLI writes says what made it: penumbra's version, the command line (shell
+// quoted) and the technique; render's report names the command and its inputs.
+TEST_F(CliConventions, OutputsDescribeThemselves) {
+  const std::string lightSet = kData + "/../../examples/lights/window_and_sun.json";
+  const std::vector<std::string> args = {"render", "-s", "32x18", "--shadows", "hard",
+                                         "--shadow-map-size", "64", "--light-set", lightSet,
+                                         "-o", "it's.exr", "--report", "r.json"};
+  Result r = run(args);
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const auto text = textAttributes(path("it's.exr"));
+  ASSERT_EQ(text.count("penumbra:version"), 1u);
+  EXPECT_EQ(text.at("penumbra:version"), PENUMBRA_VERSION);
+  EXPECT_EQ(text.at("penumbra:technique"), "hard");
+  std::string expected = kCli;
+  for (const std::string& a : args) expected += " " + (a == "it's.exr" ? "'it'\\''s.exr'" : a);
+  EXPECT_EQ(text.at("penumbra:command"), expected);
+  const nlohmann::json report = nlohmann::json::parse(readText(dir_ / "r.json"));
+  EXPECT_EQ(report["command"], nlohmann::json(cat({kCli}, args)));
+  EXPECT_EQ(report["version"], PENUMBRA_VERSION);
+  EXPECT_EQ(report["inputs"]["light_set"], lightSet);
+  EXPECT_EQ(report["inputs"]["environment"], "");  // the built-in map
+
+  Result ref = run({"reference", "-s", "16x9", "--spp", "2", "-o", "ref.exr", "-q"});
+  ASSERT_EQ(ref.code, 0) << describe(ref);
+  const auto refText = textAttributes(path("ref.exr"));
+  EXPECT_EQ(refText.count("penumbra:version"), 1u);
+  EXPECT_EQ(refText.count("penumbra:command"), 1u);
+  EXPECT_EQ(refText.count("penumbra:technique"), 1u);
+  // the numeric attribute is still there beside them
+  EXPECT_EQ(readImageAttributes(path("ref.exr")).count(kRelativeNoiseAttribute), 1u);
+}
+
+// On a terminal, reference's progress is one line redrawn in place ('\r'): a bar with the
+// percentage and the time left, ending with the 100% line. The child's stderr is a
+// pseudo-terminal here; stdout stays a pipe.
+TEST_F(CliConventions, ProgressBarOnATerminal) {
+  int master = -1, slave = -1;
+  ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0) << std::strerror(errno);
+  std::vector<std::string> store = {kCli, "reference", "-s", "16x40", "--spp", "1", "-j", "1",
+                                    "-o", "ref.exr"};
+  std::vector<char*> argv;
+  for (auto& a : store) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const std::string dir = dir_.string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (chdir(dir.c_str()) != 0) _exit(126);
+    const int devnull = open("/dev/null", O_RDWR);
+    dup2(devnull, 0);
+    dup2(devnull, 1);
+    dup2(slave, 2);
+    close(master);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  close(slave);
+  std::string err;
+  char buf[4096];
+  for (;;) {  // EIO once the child's side is closed
+    const ssize_t got = read(master, buf, sizeof buf);
+    if (got > 0) err.append(buf, std::size_t(got));
+    else if (got < 0 && errno == EINTR) continue;
+    else break;
+  }
+  close(master);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  EXPECT_TRUE(std::regex_search(err, std::regex("\r?reference \\[#*\\.*\\] +[0-9]+% ETA [0-9]")))
+      << err;
+  EXPECT_TRUE(std::regex_search(err, std::regex("reference \\[##########\\] 100% in [0-9]")))
+      << err;
+  // redrawn in place: one line, however many updates
+  EXPECT_GT(std::count(err.begin(), err.end(), '\r'), 2) << err;
+  EXPECT_LE(std::count(err.begin(), err.end(), '\n'), 1) << err;
 }
 
 }  // namespace
