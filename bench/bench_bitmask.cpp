@@ -1,10 +1,11 @@
-// Cost of the bitmask technique (seed 001; src/shadows/bitmask.cpp) against its three drivers:
+// Cost of the bitmask technique (Sintorn et al. 2008; src/shadows/bitmask.cpp) against its three
+// drivers:
 //   BM_BitmaskSamples/N/W     built-in scene and sky, 32 median-cut lights, N light samples per
-//                             light (128..1024), a W x (W * 9 / 16) frame. Seed 001 reports roughly
+// light (128..1024), a W x (W * 9 / 16) frame. Sintorn et al. 2008 reports roughly
 //                             x2 from 128 to 1024 samples.
 //   BM_BitmaskTriangles/k     a k x k grid of spheres (960 triangles each) over a ground grid, one
 //                             5-degree light, 256 samples, 160x90: cost against triangle count
-//                             (seed 001: roughly linear).
+//                             (Sintorn et al. 2008: roughly linear).
 //   BM_BitmaskRadius/deg      the built-in scene under one light of half-angle deg, 256 samples,
 //                             160x90: larger lights mean larger influence regions.
 //   BM_BitmaskLightShape/s    one light of each shape at the same bounding cap: cap, textured cap,
@@ -13,7 +14,8 @@
 // bitmask/triangles, bitmask/self, bitmask/resolve, and the frame's total), the process's CPU time
 // per frame (process_cpu_ms: on a CPU device the work itself, which other processes loading the
 // machine stretch in wall-clock time but not in CPU time), the scene's triangle count, and the list
-// statistics of seed 001 Figure 9 from Frame::stats (occupied texels, mean and max list length,
+// statistics of Sintorn et al. 2008 Figure 9 from Frame::stats (occupied texels, mean and max list
+// length,
 // view samples).
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
@@ -126,7 +128,8 @@ void BM_BitmaskRadius(benchmark::State& state) {
 }
 
 // Light shapes at one bounding cap: shape 0 a 10-degree cap, 1 the same cap with an 8 x 8
-// checkered texture (per-sample weights, seed 001 §4.1), 2 a 10 x 4 degree ellipse (the disk's
+// checkered texture (per-sample weights, Sintorn et al. 2008 §4.1), 2 a 10 x 4 degree ellipse (the
+// disk's
 // affine image), 3 that ellipse textured. 256 samples, built-in scene, 160x90.
 void BM_BitmaskLightShape(benchmark::State& state) {
   const int shape = int(state.range(0));

@@ -9,7 +9,7 @@
 //   fit_ms       greedy's fit (extract/greedy), one work-group per face
 //   cs_*_ms      center-surround's stages (center-surround/resample, prefix, candidates, ...)
 //   device_ms    every stage together
-// Seed 003 (§5) reports median cut as logarithmic in the light count with the SATs dominating.
+// Kneiphof 2017 (§5) reports median cut as logarithmic in the light count with the SATs dominating.
 // Three answers, each within one run of this program (the machine is shared, so ratios of
 // neighbouring measurements mean more than times):
 //   cut_vs_half     cut_ms at N lights over cut_ms at N/2 (same face size, median of N/2's
@@ -123,7 +123,8 @@ void BM_MedianCut(benchmark::State& state) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * 6 * mo.faceSize * mo.faceSize);
 }
 
-// Greedy fitting (seed 000 §4.2) at face size range(0), squares (range(1) = 1, the default) or
+// Greedy fitting (Annen et al. 2008 §4.2) at face size range(0), squares (range(1) = 1, the
+// default) or
 // rectangles; `lights` is what is kept (GreedyOptions::maxLights, 64), not what was fitted.
 void BM_Greedy(benchmark::State& state) {
   GreedyOptions go;
@@ -133,7 +134,8 @@ void BM_Greedy(benchmark::State& state) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * 6 * go.faceSize * go.faceSize);
 }
 
-// Center-surround (seed 004) at working width range(0) (range(0) x range(0)/2; 1024 is the map's
+// Center-surround (Arbree et al. 2005) at working width range(0) (range(0) x range(0)/2; 1024 is
+// the map's
 // own size, which the issue bounds at 1 s), the default 20 filter sizes.
 void BM_CenterSurround(benchmark::State& state) {
   CenterSurroundOptions co;
@@ -163,7 +165,8 @@ double processCpuMs() {
   return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
 }
 
-// The ambient as seed 004's pre-integrated irradiance map (kernels/environment/irradiance.cl) at a
+// The ambient as Arbree et al.'s (2005) pre-integrated irradiance map
+// (kernels/environment/irradiance.cl) at a
 // table of range(0) x range(0)/2, on median cut's 32 lights: map_ms is the map's kernels
 // (ambient/map-*), split into prefix_ms (the rows' running sums), normals_ms, widths_ms, bands_ms
 // (the runs' sums per normal) and table_ms (bands in order, minus the lights), process_cpu_ms the

@@ -25,7 +25,8 @@ Setup& setup() {
 }
 
 double unshadowedMs = 0;
-// The default frame with seed 003's eq. 7 alone (MSSM4's default until issue 13), measured first:
+// The default frame with Kneiphof's (2017) eq. 7 alone (MSSM4's default until issue 13), measured
+// first:
 // the default frame's and auto's `vs_eq7` is their time over it, in the same run.
 double eq7Ms = 0;
 
@@ -68,7 +69,8 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
 void BM_FrameUnshadowed(benchmark::State& state) {
   runFrames(state, ShadowTechnique::None, 32, 256);
 }
-// The unshadowed frame with bent normals (seed 001 §4.3): vs_unshadowed is what the option costs
+// The unshadowed frame with bent normals (Sintorn et al. 2008 §4.3): vs_unshadowed is what the
+// option costs
 // on top of the cheapest frame (its stages: bent-normals/vertices, bent-normals/pixels, and a
 // slower shade).
 void BM_FrameUnshadowedBentNormals(benchmark::State& state) {

@@ -1,19 +1,20 @@
-// The bitmask technique (seed 001) measured against what issue 5 asks of it. Writes
+// The bitmask technique (Sintorn et al. 2008) measured against what issue 5 asks of it. Writes
 //   OUT/bitmask.md and OUT/bitmask.json with up to three parts:
-//   1. Area approximation (seed 002) against the bitmask technique with 1024 light samples on the
+// 1. Area approximation (Ying et al. 2002) against the bitmask technique with 1024 light samples on
+// the
 //      same polygon lights, built-in scene at 160x90: (a) one square light from a light-set
 //      "rect" (half-angles 4 and 8 degrees), (b) the 8 median-cut lights of the built-in sky as
 //      polygons. Per light and geometry pixel, |V_area - V_bitmask1024| (mean, 99th percentile,
 //      max), the relative RMSE of the shaded frame against the bitmask-1024 frame, and the frame
-//      time, for m = 0, 1, 2, 3, 7 samples per edge. Seed 002 claims few samples suffice.
+//      time, for m = 0, 1, 2, 3, 7 samples per edge. Ying et al. 2002 claims few samples suffice.
 //   2. Equal error: the built-in scene and sky, 32 median-cut lights (caps), W x H (320x180 by
 //      default): MSSM4, MSSM6 and the bitmask technique at 128..1024 light samples (and 128 with
-//      4 and 8 jittered frames averaged, seed 001 §4.3), relative RMSE against the Embree
+// 4 and 8 jittered frames averaged, Sintorn et al. 2008 §4.3), relative RMSE against the Embree
 //      reference of the same 32 lights and against the Embree environment reference, frame time.
 //      Each reference is the mean of two seeds; half their difference is its own noise, which
 //      the errors must stand well above (and which the table also removes in quadrature).
 //   3. With --bench FILE (the --benchmark_out JSON of bench_bitmask): its cost sweeps as tables,
-//      time per stage and the list statistics, with the ratios seed 001 reports.
+//      time per stage and the list statistics, with the ratios Sintorn et al. 2008 reports.
 // Usage: compare_bitmask [OUT_DIR] [--size WxH] [--ref-spp N] [--part 1|2|3] [--bench FILE]
 // Times: medians of 3 renders after a warm-up for MSSM and area approximation, one render after
 // a warm-up for the bitmask technique (seconds per frame on a CPU device); device stage times from
@@ -148,10 +149,10 @@ std::string benchMarkdown(const std::vector<BenchRow>& rows, const std::string& 
      << fs::path(path).filename().string()
      << "` (`bench_bitmask --benchmark_out=...`): device time per stage in ms per frame "
         "(mean of the iterations after a warm-up; lists: every bitmask/lists/* stage), the shadow "
-        "stages' sum, render()'s wall clock, and the list statistics of seed 001 Figure 9 (list grid "
+        "stages' sum, render()'s wall clock, and the list statistics of Sintorn et al. 2008 Figure 9 (list grid "
         "texels occupied by at least one view sample, mean list length over occupied texels, max). "
         "CPU ms: the process's CPU time per frame (all threads; other load on the machine stretches the "
-        "wall-clock and device times, not this). CPU ratio: against the first row of each sweep. Seed 001: cost roughly x2 from 128 to 1024 "
+        "wall-clock and device times, not this). CPU ratio: against the first row of each sweep. Sintorn et al. 2008: cost roughly x2 from 128 to 1024 "
         "samples, roughly linear in the triangle count, linear in the light's radius.\n";
   const char* titles[][3] = {
       {"BM_BitmaskSamples", "samples / width", "light samples, frame width (32 median-cut lights, built-in scene and sky)"},
@@ -180,7 +181,8 @@ std::string benchMarkdown(const std::vector<BenchRow>& rows, const std::string& 
       md << buf;
     }
     if (std::string(family) == "BM_BitmaskTriangles" && fam.size() >= 3) {
-      // Least-squares line CPU ms = a + b * triangles: how linear the cost is (seed 001 Fig. 11).
+      // Least-squares line CPU ms = a + b * triangles: how linear the cost is (Sintorn et al. 2008
+      // Fig. 11).
       double n = double(fam.size()), sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
       for (const BenchRow* r : fam) {
         double x = get(*r, "triangles") / 1000, y = get(*r, "process_cpu_ms");
@@ -369,7 +371,8 @@ int main(int argc, char** argv) {
       ro.bitmask.lightSamples = n;
       add("bitmask", n, 1, renderTimed(ctx, renderer, scene, cam, lights, env, ro, 1, n == 128, &cpu));
     }
-    // Temporal jitter (seed 001 §4.3), as `render --accumulate N`: frames 0..N-1 averaged.
+    // Temporal jitter (Sintorn et al. 2008 §4.3), as `render --accumulate N`: frames 0..N-1
+    // averaged.
     ro.bitmask.lightSamples = 128;
     for (int frames : {4, 8}) {
       Frame sum;
@@ -434,7 +437,7 @@ int main(int argc, char** argv) {
                             {"total_ms", r.totalMs},
                             {"shadow_ms", r.shadowMs},
                             {"process_cpu_ms", r.cpuMs}});
-    md << "## 1. Area approximation (seed 002) against the bitmask technique with 1024 light samples\n\n"
+    md << "## 1. Area approximation (Ying et al. 2002) against the bitmask technique with 1024 light samples\n\n"
           "Built-in scene and sky, "
        << aw << "x" << ah
        << ", the same polygon lights for both (the square: a light-set \"rect\" towards (0.35, 1, 0.25); "
@@ -540,7 +543,7 @@ int main(int argc, char** argv) {
     writePart(parts / "3.json", "cost", benchJsonOut(bench));
   }
   std::ofstream md(out / "bitmask.md");
-  md << "# The bitmask technique (seed 001): area approximation, equal error, cost\n\n"
+  md << "# The bitmask technique (Sintorn et al. 2008): area approximation, equal error, cost\n\n"
         "Written by `compare_bitmask` (bench/compare_bitmask.cpp); see its header for the method.\n";
   Json js = Json::object();
   std::vector<std::string> sections;  // "1", "2_<W>x<H>" (one per frame size run), "3"

@@ -4,7 +4,8 @@
 //   OUT/table.json, OUT/table.md, and OUT/crops_<map>.png (a grid of crops: contact shadow and
 //   wide penumbra, every technique beside the reference, each with an error heat map).
 //   It also writes OUT/sweep.json and a section of table.md: one light whose half-angle grows from
-//   2 to 30 degrees, shadow-stage device time per technique (seed 000 and 003 claim a filtered
+// 2 to 30 degrees, shadow-stage device time per technique (Annen et al. 2008 and Kneiphof 2017
+// claim a filtered
 //   technique's cost does not grow with the light; PCSS's does), and a summary of the claims the
 //   issue asks us to show (values per texel; best filtered technique vs brute force at 32 lights, 256^2).
 // Usage: compare_techniques [OUT_DIR] [--quick] [--maps builtin,PATH,...] [--sweep-only] [--claims]
@@ -60,7 +61,8 @@ LightSet oneLight(float deg) {
 
 // A floor under a larger roof, seen from between them: every pixel has a blocker inside its
 // blocker search at every light size, so no pixel takes an early exit and the visibility stage's
-// time is the per-pixel cost of the full test (what seeds 000 and 003 claim is independent of the
+// time is the per-pixel cost of the full test (what Annen et al. 2008 and Kneiphof 2017 claim is
+// independent of the
 // light's size).
 Mesh quad(const std::string& name, float h, float y) {
   Mesh m;
@@ -360,7 +362,7 @@ int main(int argc, char** argv) {
   }
   if (!rows.empty()) {
     md << "\n## Claims at 32 lights, 256^2 (per map): each filtered technique against brute force\n\n"
-          "Seed 000/003's claim as the issue states it: the best filtered technique within 1.5x of brute "
+          "Annen et al.'s (2008) and Kneiphof's (2017) claim as the issue states it: the best filtered technique within 1.5x of brute "
           "force's relative RMSE (vs the environment reference) at >= 10x less shadow time.\n\n"
           "| map | brute rel. RMSE | brute shadow ms | technique | its rel. RMSE | error ratio | time ratio (brute / it) | both met |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- |\n";

@@ -1,4 +1,4 @@
-// Area approximation for polygonal lights (seed 002; src/shadows/area.cpp,
+// Area approximation for polygonal lights (Ying et al. 2002; src/shadows/area.cpp,
 // kernels/shadows/area.cl).   - the visible-area estimate (kernels/shadows/area.cl's area_ratio)
 // against a plain C++ reference on     awkward case counts, and the reference itself against exact
 // polygon clipping;   - whole frames on synthetic planar cases (a straight occluder edge crossing
@@ -63,7 +63,8 @@ double irradiance2(const std::vector<P2>& poly, P3 n) {
 }
 
 // Plain C++ reference of kernels/shadows/area.cl's area_ratio: the lit boundary runs, each entered
-// and left at its crossing points and closed by the chord between them (seed 002 §2, Figure 1), as
+// and left at its crossing points and closed by the chord between them (Ying et al. 2002 §2, Figure
+// 1), as
 // explicit polygons; S_e / S_a = their irradiance over the whole light's on normal n (light's
 // frame). seg[k] is the lit share of segment k -> k+1, lying next to its lit end.
 double refAreaRatio(const std::vector<P2>& q, std::uint64_t lit, const std::vector<double>& seg,
@@ -244,7 +245,7 @@ TEST(AreaApprox, ReferenceIsExactForOneStraightBoundary) {
 
 // A bar across the light (two straight boundaries, two lit runs): both lit sides are kept. The bar
 // holds at least one boundary sample of each edge it crosses (samples 1/5 of the side apart);
-// narrower bars between two samples go unseen, as seed 002's boundary sampling implies.
+// narrower bars between two samples go unseen, as Ying et al.'s (2002) boundary sampling implies.
 TEST(AreaApprox, ReferenceKeepsBothSidesOfABar) {
   const double h = 1 / std::sqrt(2.0);
   auto q = boundary(regularPolygon(4, 1.0, M_PI / 4), 4);  // the square [-h, h]^2

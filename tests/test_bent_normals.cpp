@@ -1,4 +1,5 @@
-// Bent normals at light silhouettes (seed 001 §4.3, RenderOptions::bentNormals): the per-vertex
+// Bent normals at light silhouettes (Sintorn et al. 2008 §4.3, RenderOptions::bentNormals): the
+// per-vertex
 // I_bend kernel against a plain C++ loop on awkward meshes, and the frame on the built-in scene's
 // smooth sphere lit by one small light: black on every light-back-facing triangle, continuous
 // across the terminator (where bitmask-hard alone jumps), unchanged where every face around a

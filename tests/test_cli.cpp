@@ -881,6 +881,56 @@ TEST_F(CliCompare, IdenticalImages) {
   EXPECT_NE(r.out.find("\"psnr\""), std::string::npos) << describe(r);
 }
 
+// compare --heatmap draws the error over B's geometry with a colour scale under it (heatmap.hpp):
+// the image is as wide as B and taller by the scale bar; the one pixel that differs is the hottest
+// (brightest) of the image rows, B's background is the neutral grey, the JSON names the file and
+// the scale. Wrong uses write nothing and exit 2 naming the option.
+TEST_F(CliCompare, HeatmapShowsWhereTheImagesDiffer) {
+  Image b(40, 20, 4, 1.0f), a(40, 20, 4, 1.0f);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 30; x < 40; ++x) b.at(x, y, 3) = a.at(x, y, 3) = 0.0f;  // background on the right
+  for (int c = 0; c < 3; ++c) a.at(7, 5, c) = 2.0f;  // one pixel twice as bright
+  writeImage(path("a.exr"), a);
+  writeImage(path("b.exr"), b);
+  Result r = run({"compare", "a.exr", "b.exr", "--heatmap", "h.png"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["heatmap"], "h.png") << r.out;
+  EXPECT_GT(j["heatmap_scale"].get<double>(), 0.0) << r.out;
+  const Image h = readImage(path("h.png"));
+  EXPECT_EQ(h.width, 40);
+  EXPECT_GT(h.height, 20);  // the scale bar below
+  auto lum = [&](int x, int y) { return h.at(x, y, 0) + h.at(x, y, 1) + h.at(x, y, 2); };
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 30; ++x)
+      if (x != 7 || y != 5) EXPECT_LT(lum(x, y), lum(7, 5)) << x << "," << y;
+  EXPECT_NEAR(h.at(35, 10, 0), h.at(35, 10, 1), 1e-6);  // grey: the background
+  EXPECT_NEAR(h.at(35, 10, 1), h.at(35, 10, 2), 1e-6);
+  EXPECT_GT(h.at(35, 10, 0), 0.1f);  // not black: it is not the zero-error colour either
+
+  // The failure contract of expectFailure, but the inputs stay in the directory: exit 2, one
+  // line naming every mention, and the heat map not written.
+  auto refused = [&](const std::vector<std::string>& args, const std::string& output,
+                     const std::vector<std::string>& mentions) {
+    Result f = run(args);
+    EXPECT_EQ(f.code, 2) << describe(f);
+    const auto errLines = lines(f.err);
+    ASSERT_EQ(errLines.size(), 1u) << describe(f);
+    for (const auto& m : mentions)
+      EXPECT_NE(errLines[0].find(m), std::string::npos) << m << "\n" << describe(f);
+    EXPECT_FALSE(fs::exists(dir_ / output)) << output;
+  };
+  refused({"compare", "a.exr", "b.exr", "--heatmap", "h.exr"}, "h.exr", {"--heatmap", "8-bit"});
+  refused({"compare", "a.exr", "b.exr", "--heatmap", "h2.png", "--heatmap-metric", "bogus"},
+          "h2.png", {"--heatmap-metric", "bogus"});
+  refused({"compare", "a.exr", "b.exr", "--heatmap-scale", "0.1"}, "h2.png",
+          {"--heatmap-scale", "--heatmap"});
+  Image small(8, 4, 4, 1.0f);
+  writeImage(path("s.exr"), small);
+  refused({"compare", "s.exr", "b.exr", "--heatmap", "h3.png"}, "h3.png", {"8x4", "40x20"});
+  EXPECT_FALSE(fs::exists(dir_ / "h3.png"));
+}
+
 // compare's numbers against values worked out by hand from the definitions in reference.hpp and
 // README ("compare"): over B's geometry pixels (alpha > 0.5) and RGB, RMSE = sqrt(mean d^2),
 // relative RMSE = RMSE / mean(B), PSNR = 20 log10(max(B) / RMSE), max abs error = max |d|.

@@ -1,6 +1,8 @@
-// CSSM (convolution soft shadow maps, seed 000 §3) against the analytic penumbra of the planar,
+// CSSM (convolution soft shadow maps, Annen et al. 2008 §3) against the analytic penumbra of the
+// planar,
 // parallel configuration, in which convolution shadows are exact up to the truncation of the
-// Fourier series (seed 000 §3); contact shadows with sharpening (eq. 9); smooth wide penumbrae;
+// Fourier series (Annen et al. 2008 §3); contact shadows with sharpening (eq. 9); smooth wide
+// penumbrae;
 // degenerate inputs; determinism; a tiny frame under oclgrind.
 #include <gtest/gtest.h>
 
@@ -53,7 +55,8 @@ LightSet oneLight(Vec3 dir, float cosAlpha) {
   return set;
 }
 
-// The truncated complementary shadow test, seed 000 eq. 10, as a function of t = d - z, and the
+// The truncated complementary shadow test, Annen et al. 2008 eq. 10, as a function of t = d - z,
+// and the
 // ringing suppression of §3.3 as src/shadows/cssm.cpp derives it for ringingOffset = 0 (written
 // again here from the definitions, independently of the library):
 //   S_M(t) = 1/2 + 2 sum_k sin(c_k t)/c_k, c_k = pi (2k - 1);

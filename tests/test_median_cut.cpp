@@ -1,4 +1,5 @@
-// Median-cut refinements of seed 003 §5 (issue 4): colour carried as CIE XYZ summed-area tables
+// Median-cut refinements of Kneiphof 2017 §5 (issue 4): colour carried as CIE XYZ summed-area
+// tables
 // (the luminance SAT's Y shared), and lights merged across cube-face edges.
 #include <gtest/gtest.h>
 

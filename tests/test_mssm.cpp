@@ -1,5 +1,7 @@
-// MSSM4 against the analytic penumbra of the planar, parallel configuration (seed 003 §3.2; the
-// configuration in which PCSS-style filtering is exact, seed 000 §3), and a tiny whole frame that
+// MSSM4 against the analytic penumbra of the planar, parallel configuration (Kneiphof 2017 §3.2;
+// the
+// configuration in which PCSS-style filtering is exact, Annen et al. 2008 §3), and a tiny whole
+// frame that
 // exercises every kernel (also run under oclgrind, label `oclgrind`).
 #include <gtest/gtest.h>
 

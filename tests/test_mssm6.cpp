@@ -1,4 +1,5 @@
-// MSSM6 (Kneiphof 2017 §4.2.1) and the upper-bound blocker depth (§4.2.2, eq. 19) of MSSM4 and MSSM6.
+// MSSM6 (Kneiphof 2017 §4.2.1) and the upper-bound blocker depth (§4.2.2, eq. 19) of MSSM4 and
+// MSSM6.
 //
 // 1. The reconstruction itself, on given moments (kernels/shadows/moments.cl's mssm_reconstruct):
 // MSSM4's Hamburger bound against a long-double one written from Peters & Klein 2015; MSSM6's
@@ -416,7 +417,8 @@ TEST(MSSM6, ThreeDepthsExactWhereMSSM4Leaks) {
   EXPECT_GT(max4, 0.15);
 }
 
-// Seed 003 eq. 19 counts the receiver's atom (weight clamped to [delta1, delta2]) as a blocker:
+// Kneiphof 2017 eq. 19 counts the receiver's atom (weight clamped to [delta1, delta2]) as a
+// blocker:
 // with delta1 >= eps (the defaults) its z_avg is never below eq. 7's, for either technique. Also
 // checked: delta1 = delta2 = eps reproduces eq. 7.
 TEST(MSSMUpperBound, BlockerDepthNeverBelowLowerBound) {
@@ -623,7 +625,8 @@ Comparison compareMSSM4And6(PlanarSetup s) {
 
 // Two blockers at different heights over a receiver, a 25-degree light, against the analytic
 // visibility. Most of both techniques' error here is common to them: one z_avg per pixel cannot
-// give two blocker layers their own penumbra widths (Kneiphof 2017 §3.2's assumption). On top of it:
+// give two blocker layers their own penumbra widths (Kneiphof 2017 §3.2's assumption). On top of
+// it:
 // 1. planar receiver (the ground) under a low strip (0 < x < 0.3, height 0.1) and a high
 //    half-plane (x < -0.4, height 1.5): the boxes hold two depths besides the receiver's, MSSM4
 //    barely leaks, and MSSM6 must do no worse (measured mean error 0.0725 vs 0.0665);

@@ -1,6 +1,7 @@
 // The techniques that sample the depth map texel by texel (kernels/shadows/pcss.cl): hard shadows,
 // PCSS and brute force. Each against the analytic penumbra of the planar, parallel configuration
-// (seed 003 §3.2, the configuration where PCSS-style filtering is exact), on degenerate inputs,
+// (Kneiphof 2017 §3.2, the configuration where PCSS-style filtering is exact), on degenerate
+// inputs,
 // for determinism, and on tiny inputs under oclgrind (suites Oclgrind*).
 #include <gtest/gtest.h>
 

@@ -74,7 +74,8 @@ std::vector<Environment> maps() {
 // Median cut with the ambient residual, greedy fitting and center-surround, over four maps:
 // the light sets extracted by four threads at once from one Context equal, number for number
 // (LightSet::toJson writes 9 significant digits, which round-trips every float field), those one
-// thread extracts. The extraction is deterministic: its sums are fixed-point integers (seed 003
+// thread extracts. The extraction is deterministic: its sums are fixed-point integers (Kneiphof
+// 2017
 // §4.1), so equality is exact rather than to a tolerance.
 TEST(Threads, ExtractionFromSharedContextEqualsSingleThreaded) {
   const std::vector<Environment> envs = maps();

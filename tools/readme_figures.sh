@@ -33,6 +33,10 @@ common=(--scene "$scene" --env "$env" --size "$size" --camera "$camera" --spp "$
 
 echo "readme_figures: Embree truth ($size, $spp spp)" >&2
 "$penumbra" reference "${common[@]}" --out "$work/truth.exr" >&2
+# The truth's own relative noise (from its two half sample sets, stored in its header): an error
+# below about twice this is not resolved by this truth.
+noise=$("$penumbra" compare "$work/truth.exr" "$work/truth.exr" | sed -n 's/.*"reference_noise": *\([0-9.e+-]*\).*/\1/p')
+echo "readme_figures: the truth's own relative noise is $noise" >&2
 
 techniques=(hard pcss mssm4 bitmask)
 for t in "${techniques[@]}"; do

@@ -345,7 +345,7 @@ std::size_t lightIndex(const LightSet& s, py::ssize_t i) {
 
 // The exception classes, set when the module is initialised.
 struct Exceptions {
-  py::object base, badInput, noPlatform, kernelBuild, outOfMemory, device, internal;
+  py::object base, badInput, noPlatform, kernelBuild, outOfMemory, device, internal, cancelled;
 } exceptions;
 
 py::object makeException(py::module_& m, const char* name, py::tuple bases, const char* doc) {
@@ -408,6 +408,9 @@ PYBIND11_MODULE(_penumbra, m) {
                                     "Any other OpenCL failure.");
   exceptions.internal = makeException(m, "InternalError", py::make_tuple(exceptions.base),
                                       "A bug in penumbra.");
+  exceptions.cancelled = makeException(
+      m, "Cancelled", py::make_tuple(exceptions.base),
+      "A long call stopped on request (the C++ API's ReferenceOptions::cancel).");
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -420,6 +423,7 @@ PYBIND11_MODULE(_penumbra, m) {
         case ErrorKind::OutOfMemory: cls = exceptions.outOfMemory; break;
         case ErrorKind::Device: cls = exceptions.device; break;
         case ErrorKind::Internal: cls = exceptions.internal; break;
+        case ErrorKind::Cancelled: cls = exceptions.cancelled; break;
       }
       if (!cls) cls = exceptions.base;  // a kind added to the library later
       PyErr_SetString(cls.ptr(), pythonFieldNames(e.what()).c_str());
@@ -751,7 +755,7 @@ PYBIND11_MODULE(_penumbra, m) {
   py::class_<AreaLight> light(m, "AreaLight",
                               "A directional area light: a uniform spherical cap of half-angle "
                               "alpha around `direction` with radiance L; power M = L * solid "
-                              "angle (seed 003 §4.1.3).");
+                              "angle (Kneiphof 2017 §4.1.3).");
   initFromFields<AreaLight>(light);
   addRepr(light);
   light.def_readwrite("shape", &AreaLight::shape, "LightShape.CAP or LightShape.POLYGON.")
@@ -946,10 +950,10 @@ PYBIND11_MODULE(_penumbra, m) {
         "Parses light-set JSON text; `source` names it in error messages.");
 
   py::enum_<ExtractionMethod>(m, "ExtractionMethod", "Light extraction method.")
-      .value("MEDIAN_CUT", ExtractionMethod::MedianCut, "Median cut (seed 003 §3.1).")
-      .value("GREEDY", ExtractionMethod::Greedy, "Greedy square/rectangle fitting (seed 000 §4.2).")
+      .value("MEDIAN_CUT", ExtractionMethod::MedianCut, "Median cut (Kneiphof 2017 §3.1).")
+      .value("GREEDY", ExtractionMethod::Greedy, "Greedy square/rectangle fitting (Annen et al. 2008 §4.2).")
       .value("CENTER_SURROUND", ExtractionMethod::CenterSurround,
-             "Center-surround filter bank (seed 004 §3).");
+             "Center-surround filter bank (Arbree et al. 2005 §3).");
 
   // The defaults the docstrings print.
   const MedianCutOptions MC;
@@ -1025,7 +1029,7 @@ PYBIND11_MODULE(_penumbra, m) {
 
   py::enum_<AmbientModel>(m, "AmbientModel", "How the ambient residual is shaded.")
       .value("IRRADIANCE_MAP", AmbientModel::IrradianceMap,
-             "Its pre-integrated irradiance map (seed 004 §3; default).")
+             "Its pre-integrated irradiance map (Arbree et al. 2005 §3; default).")
       .value("SH9", AmbientModel::SH9, "Its 9 spherical-harmonic coefficients only.");
 
   py::class_<AmbientOptions> ao(m, "AmbientOptions", "Options of the ambient residual.");
@@ -1080,14 +1084,14 @@ PYBIND11_MODULE(_penumbra, m) {
       "`ambient` override it when given. Raises BadInput for impossible counts or sizes.");
   m.def("extract_median_cut", &extractMedianCut, "ctx"_a, "env"_a,
         "options"_a = MedianCutOptions{}, py::call_guard<py::gil_scoped_release>(),
-        "Median cut on the device (seed 003 §3.1, §4.1), without the ambient residual. Raises "
+        "Median cut on the device (Kneiphof 2017 §3.1, §4.1), without the ambient residual. Raises "
         "BadInput for lights < 1, lights > 6*face_size^2 or face_size out of range.");
   m.def("extract_greedy", &extractGreedy, "ctx"_a, "env"_a, "options"_a = GreedyOptions{},
         py::call_guard<py::gil_scoped_release>(),
-        "Greedy square/rectangle fitting per cube face (seed 000 §4.2), without the ambient.");
+        "Greedy square/rectangle fitting per cube face (Annen et al. 2008 §4.2), without the ambient.");
   m.def("extract_center_surround", &extractCenterSurround, "ctx"_a, "env"_a,
         "options"_a = CenterSurroundOptions{}, py::call_guard<py::gil_scoped_release>(),
-        "Center-surround filter bank on the sphere (seed 004 §3), without the ambient.");
+        "Center-surround filter bank on the sphere (Arbree et al. 2005 §3), without the ambient.");
   m.def("add_ambient_residual", &addAmbientResidual, "ctx"_a, "env"_a, "lights"_a,
         "options"_a = AmbientOptions{}, py::call_guard<py::gil_scoped_release>(),
         "Sets lights.ambient_sh to the map's SH9 minus the lights', lights.ambient_map to the "
@@ -1107,14 +1111,14 @@ PYBIND11_MODULE(_penumbra, m) {
       .value("NONE", ShadowTechnique::None, "No shadows.")
       .value("HARD", ShadowTechnique::Hard, "One shadow map at the light's centre.")
       .value("PCSS", ShadowTechnique::PCSS, "Percentage-closer soft shadows.")
-      .value("CSSM", ShadowTechnique::CSSM, "Convolution soft shadow maps (seed 000).")
-      .value("MSSM4", ShadowTechnique::MSSM4, "Moment soft shadow maps, 4 moments (seed 003).")
+      .value("CSSM", ShadowTechnique::CSSM, "Convolution soft shadow maps (Annen et al. 2008).")
+      .value("MSSM4", ShadowTechnique::MSSM4, "Moment soft shadow maps, 4 moments (Kneiphof 2017).")
       .value("MSSM6", ShadowTechnique::MSSM6, "Moment soft shadow maps, 6 moments.")
       .value("BRUTE", ShadowTechnique::Brute, "K point-sample shadow maps per light, averaged.")
-      .value("BITMASK", ShadowTechnique::Bitmask, "Sample-based visibility (seed 001).")
-      .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (seed 001).")
+      .value("BITMASK", ShadowTechnique::Bitmask, "Sample-based visibility (Sintorn et al. 2008).")
+      .value("BITMASK_HARD", ShadowTechnique::BitmaskHard, "Alias-free hard shadows (Sintorn et al. 2008).")
       .value("AREA_APPROX", ShadowTechnique::AreaApprox,
-             "Polygon lights sampled along their edges, visible-area estimate (seed 002).")
+             "Polygon lights sampled along their edges, visible-area estimate (Ying et al. 2002).")
       .value("AUTO", ShadowTechnique::Auto,
              "Per-light choice of hard, PCSS, MSSM4 or exact (bitmask) visibility.");
   py::enum_<Prefilter>(m, "Prefilter", "Prefiltering of the filtered techniques.")
@@ -1152,9 +1156,9 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("slope_bias", &MSSMOptions::slopeBias,
                      withDefault("Slope-scaled bias.", R.mssm.slopeBias).c_str())
       .def_readwrite("blocker_epsilon", &MSSMOptions::blockerEpsilon,
-                     withDefault("Seed 003 eq. 7.", R.mssm.blockerEpsilon).c_str())
+                     withDefault("Kneiphof 2017 eq. 7.", R.mssm.blockerEpsilon).c_str())
       .def_readwrite("upper_bound_blocker", &MSSMOptions::upperBoundBlocker,
-                     withDefault("Upper-bound blocker depth (seed 003 eq. 19).",
+                     withDefault("Upper-bound blocker depth (Kneiphof 2017 eq. 19).",
                                  R.mssm.upperBoundBlocker).c_str())
       .def_readwrite("delta1", &MSSMOptions::delta1,
                      withDefault("Lower clamp of eq. 19.", R.mssm.delta1).c_str())
@@ -1165,7 +1169,7 @@ PYBIND11_MODULE(_penumbra, m) {
                                  "eq. 19 on every receiver.",
                                  R.mssm.upperBoundTilt).c_str());
 
-  py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (seed 000).");
+  py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (Annen et al. 2008).");
   initFromFields<CSSMOptions>(co);
   addRepr(co);
   co.def_readwrite("order", &CSSMOptions::order,
@@ -1207,7 +1211,7 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("batch_bytes", &BruteOptions::batchBytes,
                      bytesDefault("Device bytes of sample maps at once.", R.brute.batchBytes).c_str());
 
-  py::class_<BitmaskOptions> bm(m, "BitmaskOptions", "Sample-based visibility options (seed 001).");
+  py::class_<BitmaskOptions> bm(m, "BitmaskOptions", "Sample-based visibility options (Sintorn et al. 2008).");
   initFromFields<BitmaskOptions>(bm);
   addRepr(bm);
   bm.def_readwrite("light_samples", &BitmaskOptions::lightSamples,
@@ -1217,7 +1221,7 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("mask_bytes", &BitmaskOptions::maskBytes,
                      bytesDefault("Device bytes of bitmasks at once.", R.bitmask.maskBytes).c_str());
 
-  py::class_<AreaApproxOptions> aa(m, "AreaApproxOptions", "Area approximation options (seed 002).");
+  py::class_<AreaApproxOptions> aa(m, "AreaApproxOptions", "Area approximation options (Ying et al. 2002).");
   initFromFields<AreaApproxOptions>(aa);
   addRepr(aa);
   aa.def_readwrite("edge_samples", &AreaApproxOptions::edgeSamples,
@@ -1270,7 +1274,7 @@ PYBIND11_MODULE(_penumbra, m) {
           ("Prefilter or 'sat' | 'mip'. Default '" + std::string(toString(R.prefilter)) + "'.")
               .c_str())
       .def_readwrite("front_back_faces", &RenderOptions::frontBackFaces,
-                     withDefault("Average front and back depths (seed 003 §4.2.3).",
+                     withDefault("Average front and back depths (Kneiphof 2017 §4.2.3).",
                                  R.frontBackFaces).c_str())
       .def_readwrite("shadow", &RenderOptions::shadow,
                      "ShadowOptions (depth bias, light size, filter limits).")
@@ -1285,13 +1289,13 @@ PYBIND11_MODULE(_penumbra, m) {
                      withDefault("Show the map behind the geometry.",
                                  R.environmentBackground).c_str())
       .def_readwrite("bent_normals", &RenderOptions::bentNormals,
-                     withDefault("Bent normals at light silhouettes (seed 001 §4.3): shading fades "
+                     withDefault("Bent normals at light silhouettes (Sintorn et al. 2008 §4.3): shading fades "
                                  "continuously to black on light-back-facing triangles. Meant for "
                                  "the bitmask techniques; not with the GL path.",
                                  R.bentNormals).c_str())
       .def_readwrite("bent_normals_scale", &RenderOptions::bentNormalsScale,
                      withDefault("c of the bent-normal blend min(1, max(c I_bend, 0)): shading "
-                                 "unchanged where I_bend >= 1/c (seed 001 §4.3). Finite, > 0.",
+                                 "unchanged where I_bend >= 1/c (Sintorn et al. 2008 §4.3). Finite, > 0.",
                                  R.bentNormalsScale).c_str());
 
   py::class_<Frame>(m, "Frame", "A rendered frame.")

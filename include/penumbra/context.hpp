@@ -1,19 +1,20 @@
-// OpenCL context: device choice, one in-order profiling queue, the program cache and named kernel
-// launches whose profiling events become per-stage timings.
-//
-// Call order: construct a Context (it picks the device), then obtain kernels with kernel(file,
-// name, options) and launch them with launch(stage, ...). Timings accumulate per stage name until
-// resetTimings(); stageTimesMs() waits for the queue, so its numbers are complete when it returns.
-//
-// Thread safety: one Context may be shared by any number of threads: every member function, and
-// every library call that takes a Context (light extraction, cubeMapEnergy, addAmbientResidual,
-// summedAreaTable, Renderers: renderer.hpp), may be called concurrently with the same one. The
-// program cache and the event list are behind mutexes; a scratch buffer is leased to one caller
-// at a time (scratch()); all threads enqueue on the one in-order queue, so the device runs their
-// commands one after another in enqueue order. Stage timings are the Context's, not a thread's: they add up every
-// thread's launches, and resetTimings() clears them for all. What is not shared: a cl::Kernel
-// (its arguments are set per object: take one from kernel() per thread, as the library does) and
-// a cl::Buffer two threads write. The Context must outlive every call and object using it.
+/// \file
+/// OpenCL context: device choice, one in-order profiling queue, the program cache and named kernel
+/// launches whose profiling events become per-stage timings.
+///
+/// Call order: construct a Context (it picks the device), then obtain kernels with kernel(file,
+/// name, options) and launch them with launch(stage, ...). Timings accumulate per stage name until
+/// resetTimings(); stageTimesMs() waits for the queue, so its numbers are complete when it returns.
+///
+/// Thread safety: one Context may be shared by any number of threads: every member function, and
+/// every library call that takes a Context (light extraction, cubeMapEnergy, addAmbientResidual,
+/// summedAreaTable, Renderers: renderer.hpp), may be called concurrently with the same one. The
+/// program cache and the event list are behind mutexes; a scratch buffer is leased to one caller
+/// at a time (scratch()); all threads enqueue on the one in-order queue, so the device runs their
+/// commands one after another in enqueue order. Stage timings are the Context's, not a thread's: they add up every
+/// thread's launches, and resetTimings() clears them for all. What is not shared: a cl::Kernel
+/// (its arguments are set per object: take one from kernel() per thread, as the library does) and
+/// a cl::Buffer two threads write. The Context must outlive every call and object using it.
 #pragma once
 // penumbra targets OpenCL 1.2 through the Khronos C++ bindings with exceptions (DESIGN.md: target
 // 300 with minimum 120 does not compile against Debian's opencl.hpp).
@@ -42,39 +43,39 @@
 namespace penumbra {
 
 struct DeviceInfo {
-  int index = 0;             // position in the list `penumbra devices` prints
+  int index = 0;             ///< position in the list `penumbra devices` prints
   std::string platform;
   std::string name;
-  std::string version;       // OpenCL C version the device compiles
-  std::uint64_t globalMemBytes = 0;   // CL_DEVICE_GLOBAL_MEM_SIZE: all buffers together
-  std::uint64_t maxAllocBytes = 0;    // CL_DEVICE_MAX_MEM_ALLOC_SIZE: one buffer
+  std::string version;       ///< OpenCL C version the device compiles
+  std::uint64_t globalMemBytes = 0;   ///< CL_DEVICE_GLOBAL_MEM_SIZE: all buffers together
+  std::uint64_t maxAllocBytes = 0;    ///< CL_DEVICE_MAX_MEM_ALLOC_SIZE: one buffer
   std::size_t maxWorkGroupSize = 0;
   bool fp64 = false;
   bool int64Atomics = false;
 };
 
-// Converts a cl::Error into a penumbra::Error with `what` in the message.
+/// Converts a cl::Error into a penumbra::Error with `what` in the message.
 [[noreturn]] void rethrowCl(const cl::Error& e, const std::string& what);
 const char* clErrorName(cl_int code);
 
-// All OpenCL devices on all platforms, in a stable order. Throws Error(NoPlatform) with the
-// package that provides one if there is none.
+/// All OpenCL devices on all platforms, in a stable order. Throws Error(NoPlatform) with the
+/// package that provides one if there is none.
 std::vector<DeviceInfo> listDevices();
 
 namespace detail {
-struct BufferLedger;  // src/core/context.cpp
+struct BufferLedger;  ///< src/core/context.cpp
 }
 
 class Context {
  public:
-  // selector: "" uses $PENUMBRA_DEVICE if set, else device 0. Otherwise an index into
-  // listDevices() or a case-insensitive substring of the device or platform name.
+  /// selector: "" uses $PENUMBRA_DEVICE if set, else device 0. Otherwise an index into
+  /// listDevices() or a case-insensitive substring of the device or platform name.
   explicit Context(const std::string& selector = "");
-  // Waits for the work still queued: a program that ends right after its last enqueue must not
-  // leave PoCL compiling or running kernels while the process tears its libraries down.
+  /// Waits for the work still queued: a program that ends right after its last enqueue must not
+  /// leave PoCL compiling or running kernels while the process tears its libraries down.
   ~Context();
-  // One owner: the destructor drains the queue, and the program cache, stage timings and scratch
-  // buffers belong to this object alone. Share a Context by reference (between threads too).
+  /// One owner: the destructor drains the queue, and the program cache, stage timings and scratch
+  /// buffers belong to this object alone. Share a Context by reference (between threads too).
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
 
@@ -83,31 +84,31 @@ class Context {
   cl::Device& device() { return device_; }
   cl::CommandQueue& queue() { return queue_; }
 
-  // Builds (once per file and option string) the embedded kernels/<file> and returns a new kernel
-  // object for `name`. Build failures throw Error(KernelBuild) with the log and the file name.
+  /// Builds (once per file and option string) the embedded `kernels/<file>` and returns a new kernel
+  /// object for `name`. Build failures throw Error(KernelBuild) with the log and the file name.
   cl::Kernel kernel(const std::string& file, const std::string& name,
                     const std::string& options = "");
-  // The work-group size to use for a kernel: the largest power of two <= min(preferred, limits).
+  /// The work-group size to use for a kernel: the largest power of two <= min(preferred, limits).
   std::size_t workGroupSize(const cl::Kernel& k, std::size_t preferred = 256) const;
 
-  // Enqueues k under a stage name; the event's profiled duration is added to that stage. Without
-  // a local size, the first dimension is padded up to a multiple of the chosen work-group size:
-  // such kernels must return early for ids beyond their range.
+  /// Enqueues k under a stage name; the event's profiled duration is added to that stage. Without
+  /// a local size, the first dimension is padded up to a multiple of the chosen work-group size:
+  /// such kernels must return early for ids beyond their range.
   void launch(const std::string& stage, const cl::Kernel& k, const cl::NDRange& global,
               const cl::NDRange& local = cl::NullRange);
-  // The typed form of launch(): sets k's arguments from `args` in order (a cl::Buffer, a scalar
-  // such as cl_int or cl_float, a struct passed by value, or cl::Local(bytes) for local memory)
-  // after checking that their count is the kernel's, then launches it as launch() does. A
-  // kernel whose parameter list changes without its call site fails here with both counts.
+  /// The typed form of launch(): sets k's arguments from `args` in order (a cl::Buffer, a scalar
+  /// such as cl_int or cl_float, a struct passed by value, or cl::Local(bytes) for local memory)
+  /// after checking that their count is the kernel's, then launches it as launch() does. A
+  /// kernel whose parameter list changes without its call site fails here with both counts.
   template <class... A>
   void launchWith(const std::string& stage, cl::Kernel& k, const cl::NDRange& global,
                   const cl::NDRange& local, const A&... args) {
     setArgs(stage, k, args...);
     launch(stage, k, global, local);
   }
-  // Only the argument setting of launchWith (for a kernel launched several times with the same
-  // arguments, or with one changed by setArg between launches).
-  // An argument the device refuses throws Error naming the stage.
+  /// Only the argument setting of launchWith (for a kernel launched several times with the same
+  /// arguments, or with one changed by setArg between launches).
+  /// An argument the device refuses throws Error naming the stage.
   template <class... A>
   static void setArgs(const std::string& stage, cl::Kernel& k, const A&... args) {
     checkArgCount(stage, k, sizeof...(A));
@@ -118,17 +119,17 @@ class Context {
       rethrowCl(e, "setting argument " + std::to_string(i - 1) + " of " + stage);
     }
   }
-  // Throws Error(Internal) naming the stage and both counts unless k takes exactly `count`.
+  /// Throws Error(Internal) naming the stage and both counts unless k takes exactly `count`.
   static void checkArgCount(const std::string& stage, const cl::Kernel& k, std::size_t count);
-  // Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
-  // buffer() refuses, before asking the driver, a buffer larger than the device's
-  // CL_DEVICE_MAX_MEM_ALLOC_SIZE or one that would bring this context's live buffers past its
-  // CL_DEVICE_GLOBAL_MEM_SIZE (drivers such as PoCL accept such requests and fail later, at first
-  // use, with an assertion); the message gives the bytes asked, the bytes in use and the limit.
+  /// Buffer helpers that turn allocation failures into Error(OutOfMemory) naming `what`.
+  /// buffer() refuses, before asking the driver, a buffer larger than the device's
+  /// CL_DEVICE_MAX_MEM_ALLOC_SIZE or one that would bring this context's live buffers past its
+  /// CL_DEVICE_GLOBAL_MEM_SIZE (drivers such as PoCL accept such requests and fail later, at first
+  /// use, with an assertion); the message gives the bytes asked, the bytes in use and the limit.
   cl::Buffer buffer(std::size_t bytes, const std::string& what,
                     cl_mem_flags flags = CL_MEM_READ_WRITE);
-  // Bytes of device buffers this context has allocated and not yet released, and the most it has
-  // held at once since construction or the last resetPeakDeviceBytes().
+  /// Bytes of device buffers this context has allocated and not yet released, and the most it has
+  /// held at once since construction or the last resetPeakDeviceBytes().
   std::uint64_t deviceBytesInUse() const;
   std::uint64_t peakDeviceBytes() const;
   void resetPeakDeviceBytes();
@@ -149,10 +150,10 @@ class Context {
   void fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes, std::size_t bytes,
             const std::string& what);
   void finish();
-  // A lease on a scratch buffer (scratch()): the buffer is the holder's alone until the lease is
-  // destroyed or reassigned, then goes back to the context for the next caller with its role.
-  // Keep the lease, not a copy of buffer(), for as long as the buffer is used. Leases must not
-  // outlive their Context.
+  /// A lease on a scratch buffer (scratch()): the buffer is the holder's alone until the lease is
+  /// destroyed or reassigned, then goes back to the context for the next caller with its role.
+  /// Keep the lease, not a copy of buffer(), for as long as the buffer is used. Leases must not
+  /// outlive their Context.
   class ScratchLease {
    public:
     ScratchLease() = default;
@@ -176,28 +177,28 @@ class Context {
     Context* ctx_ = nullptr;
     Slot* slot_ = nullptr;
   };
-  // A buffer of at least `bytes` kept by the context under `role` and handed out again to later
-  // calls with the same role, so that work repeated every frame (light extraction from an animated
-  // map) neither allocates nor first-touches its buffers each time (first-touch page faults were
-  // most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more, never shrunk:
-  // the context holds the largest size each role has needed until it is destroyed. Its contents
-  // are the previous holder's. While one lease on a role is held, another caller (another thread)
-  // gets another buffer for that role, so the context keeps as many per role as were ever leased
-  // at once; one thread alone always gets the same one.
+  /// A buffer of at least `bytes` kept by the context under `role` and handed out again to later
+  /// calls with the same role, so that work repeated every frame (light extraction from an animated
+  /// map) neither allocates nor first-touches its buffers each time (first-touch page faults were
+  /// most of env/sat-inputs at face 512 on PoCL). Reallocated when a call needs more, never shrunk:
+  /// the context holds the largest size each role has needed until it is destroyed. Its contents
+  /// are the previous holder's. While one lease on a role is held, another caller (another thread)
+  /// gets another buffer for that role, so the context keeps as many per role as were ever leased
+  /// at once; one thread alone always gets the same one.
   ScratchLease scratch(const std::string& role, std::size_t bytes);
-  // The rule behind scratch() and the renderer's per-frame buffer pool: the buffer kept in
-  // slots[role], reallocated (the smaller one released first) only when `bytes` exceeds it. The
-  // slots are the caller's: it keeps them to one thread at a time.
+  /// The rule behind scratch() and the renderer's per-frame buffer pool: the buffer kept in
+  /// slots[role], reallocated (the smaller one released first) only when `bytes` exceeds it. The
+  /// slots are the caller's: it keeps them to one thread at a time.
   using BufferSlots = std::map<std::string, std::pair<cl::Buffer, std::size_t>>;
   cl::Buffer& reuse(BufferSlots& slots, const std::string& role, std::size_t bytes);
 
-  // Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
+  /// Stage name -> milliseconds of device time, in first-launch order. Waits for the queue.
   std::vector<std::pair<std::string, double>> stageTimesMs();
   void resetTimings();
-  // Launches whose profiling events are still held. Once they reach kEventBound, launch() folds
-  // the finished ones into per-stage totals (waiting for the older half of them if too few have
-  // finished), so a long run's memory does not grow with its launches; stageTimesMs() adds the
-  // same durations in the same order either way.
+  /// Launches whose profiling events are still held. Once they reach kEventBound, launch() folds
+  /// the finished ones into per-stage totals (waiting for the older half of them if too few have
+  /// finished), so a long run's memory does not grow with its launches; stageTimesMs() adds the
+  /// same durations in the same order either way.
   static constexpr std::size_t kEventBound = 4096;
   std::size_t heldEvents() const;
 
@@ -206,21 +207,21 @@ class Context {
   cl::Context context_;
   cl::Device device_;
   cl::CommandQueue queue_;
-  // Each mutex guards the members below it. Held while a program builds (a second thread asking
-  // for the same program waits for it rather than building it again).
+  /// Each mutex guards the members below it. Held while a program builds (a second thread asking
+  /// for the same program waits for it rather than building it again).
   std::mutex programsMutex_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
-  // Held across enqueue and append in launch(), so that events_ is in queue order (the folding
-  // relies on it); never held by a thread waiting on something other than the queue.
+  /// Held across enqueue and append in launch(), so that events_ is in queue order (the folding
+  /// relies on it); never held by a thread waiting on something other than the queue.
   mutable std::mutex eventsMutex_;
   std::vector<std::pair<std::string, cl::Event>> events_;
-  std::vector<std::pair<std::string, double>> folded_;  // per-stage totals of dropped events
-  // Folds events_[0, count) into folded_ and drops them (eventsMutex_ held).
+  std::vector<std::pair<std::string, double>> folded_;  ///< per-stage totals of dropped events
+  /// Folds events_[0, count) into folded_ and drops them (eventsMutex_ held).
   void foldEvents(std::size_t count);
   std::mutex scratchMutex_;
-  std::map<std::string, std::list<ScratchLease::Slot>> scratch_;  // role -> its buffers
-  // Live and peak bytes of this context's buffers. Shared with each buffer's release callback,
-  // which may run after the Context is gone (a buffer the caller still holds).
+  std::map<std::string, std::list<ScratchLease::Slot>> scratch_;  ///< role -> its buffers
+  /// Live and peak bytes of this context's buffers. Shared with each buffer's release callback,
+  /// which may run after the Context is gone (a buffer the caller still holds).
   std::shared_ptr<detail::BufferLedger> ledger_;
 };
 

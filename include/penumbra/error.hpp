@@ -1,5 +1,6 @@
-// penumbra::Error: the one exception type the library throws, with a kind that tells the caller
-// (and the CLI's exit code) whether the input, the device or the library itself is at fault.
+/// \file
+/// penumbra::Error: the one exception type the library throws, with a kind that tells the caller
+/// (and the CLI's exit code) whether the input, the device or the library itself is at fault.
 #pragma once
 #include <stdexcept>
 #include <string>

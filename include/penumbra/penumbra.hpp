@@ -1,4 +1,5 @@
-// Umbrella header: everything a user of penumbra needs.
+/// \file
+/// Umbrella header: everything a user of penumbra needs.
 #pragma once
 #include "penumbra/ambient.hpp"
 #include "penumbra/context.hpp"

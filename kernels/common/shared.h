@@ -25,7 +25,8 @@
 #define PB_LUM_FIXED(r, g, b) ((PB_LUM_R_I * (r) + PB_LUM_G_I * (g) + PB_LUM_B_I * (b)) / 10000)
 /* The X and Z rows of the same matrix (IEC 61966-2-1:1999, the sRGB standard: Rec. 709 primaries,
  * D65 white), also in 1/10000 units: the median-cut SATs carry colour as CIE XYZ so that Y is
- * shared with the luminance SAT (seed 003 §5); src/environment/median_cut.cpp inverts the whole
+ * shared with the luminance SAT (Kneiphof 2017 §5); src/environment/median_cut.cpp inverts the
+ * whole
  * matrix exactly. */
 #define PB_X_R_I 4124
 #define PB_X_G_I 3576
@@ -128,7 +129,7 @@ PB_INLINE float pb_env_world_column(int c, float shift, int width) {
   return (float)w - frac;
 }
 
-/* Cube-map texel solid angle (DESIGN.md; seed 003 eq. 8 with the exponent's sign restored):
+/* Cube-map texel solid angle (DESIGN.md; Kneiphof 2017 eq. 8 with the exponent's sign restored):
  * d_omega = 4/m^2 * (1 + u^2 + v^2)^(-3/2) at the texel centre (u,v). */
 PB_INLINE float pb_cube_texel_solid_angle(float u, float v, int m) {
   float q = 1.0f + u * u + v * v;
@@ -137,7 +138,7 @@ PB_INLINE float pb_cube_texel_solid_angle(float u, float v, int m) {
 
 /* Irradiance at a surface from a uniform spherical cap of unit radiance, half-angle alpha
  * (0 < alpha < pi/2), whose axis makes angle beta with the normal. Fully above the horizon this is
- * seed 003 eq. 15, pi sin^2(alpha) cos(beta). Partly below the horizon, the cap clipped by the
+ * Kneiphof 2017 eq. 15, pi sin^2(alpha) cos(beta). Partly below the horizon, the cap clipped by the
  * tangent plane has the closed form of Snyder (1996), "Area light sources for real-time graphics";
  * checked against numerical integration in tests/test_lights.cpp. */
 PB_INLINE float pb_cap_irradiance(float cos_alpha, float cos_beta) {
@@ -280,7 +281,7 @@ typedef struct {
   float origin[4];   /* centre of the map's near plane (world), w: depth range (world units) */
 } pb_light;
 
-/* Light-space list grid of the bitmask technique (seed 001 §3.1), one per light, fitted to the 2D
+/* Light-space list grid of the bitmask technique (Sintorn et al. 2008 §3.1), one per light, fitted to the 2D
  * bounds of that light's view samples and with its far plane at the farthest of them (§4.3).
  * Coordinates are the light frame's: x = (p - origin).ex, y = (p - origin).ey, depth
  * z = (p - origin).(-dir). Texel (i, j) holds x in [x0 + i/sx, x0 + (i+1)/sx). */

@@ -1,4 +1,5 @@
-// Center-surround light extraction (seed 004 §3) on the sphere: a bank of circular filters with a
+// Center-surround light extraction (Arbree et al. 2005 §3) on the sphere: a bank of circular
+// filters with a
 // centre cap of weight +1 and a surround ring of weight surroundWeight (-10) per unit solid angle,
 // evaluated at the brightest texels; the strongest normalized response becomes a light and its
 // centre cap is removed from the map (kernels below, driven by
@@ -8,7 +9,8 @@
 // the sphere itself rather than on a flat image: the working grid is an equirect map of
 // W x W/2 texels holding radiance x exact texel solid angle (energy), and a texel belongs to a
 // filter region when the great-circle distance between its centre and the filter centre is below
-// the region's radius. Seed 004 instead rendered a local perspective view per texel; a flat view
+// the region's radius. Arbree et al. 2005 instead rendered a local perspective view per texel; a
+// flat view
 // stretches the filter towards its edges (a 45 degree filter spans tan(22.5) vs 22.5 degrees) and
 // needs resampling per candidate, whereas distances on the sphere are exact and need none. We keep
 // the equirect grid (rather than a cube map) because it is invariant under rotations about the
@@ -214,7 +216,8 @@ static long row_interval_sum(global const long* P, int W, int sc, int e) {
 
 // Filter responses of candidates cand[candBegin + group], one work-group per candidate, one
 // work-item per sorted radius j: C_j = sum over the cap's rows of the interval sums, exact in
-// fixed point. Then, per size (seed 004 §3: weights +1 and surround per unit solid angle, divided
+// fixed point. Then, per size (Arbree et al. 2005 §3: weights +1 and surround per unit solid angle,
+// divided
 // by the filter's angular extent),
 //   response_k = (C(r_inner_k) + surround * (C(r_outer_k) - C(r_inner_k))) / extent_k.
 // resp gets every size, best/bestSize the largest (ties: the smaller size). cull.w > -2: skip
@@ -268,7 +271,8 @@ kernel void cs_response(global const long* P, int W, int H, global const float4*
   }
 }
 
-// One iteration of seed 004 §3's loop, in a single work-group: (1) the candidate with the largest
+// One iteration of Arbree et al. 2005 §3's loop, in a single work-group: (1) the candidate with the
+// largest
 // response (ties: the lowest texel index), (2) the RGB energy, luminance energy, texel count and
 // luminance-weighted direction sum of the texels inside that filter's centre cap (the same
 // half-width table as the response, so the same texels), (3) those texels set to zero (removed

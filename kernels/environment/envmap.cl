@@ -6,7 +6,7 @@
 //    sub-texels, each carrying L x (its exact solid angle) to the cube texel its centre falls in.
 //    Every joule lands somewhere: the cube's total equals the map's integral up to rounding.
 //  - env_gather: the cube is finer. Each cube texel averages SS x SS nearest-texel lookups, times
-//    its own solid angle (seed 003 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
+//    its own solid angle (Kneiphof 2017 eq. 8, DESIGN.md: dw = 4/m^2 (1+u^2+v^2)^(-3/2)).
 // Both compute what a per-sample evaluation computes, bit for bit, faster: trig that depends on
 // one coordinate only is tabulated by small kernels with the same float expressions (same bits),
 // and the splat merges its adds in integers (same sums). Both honour the map's rotation about +y
@@ -217,8 +217,9 @@ kernel void env_gather(global const float* equirect, global const int* cols, int
 }
 
 // SAT inputs per cube texel: lum = (Y, Y*wx, Y*wy, Y*wz) with w the texel's unit direction (for the
-// luminance-weighted mean direction, seed 003 eqs. 9-10 taken on the sphere), and colour as CIE XYZ
-// (seed 003 §5: the luminance Y is one of the colour channels, so its SAT is shared and only X
+// luminance-weighted mean direction, Kneiphof 2017 eqs. 9-10 taken on the sphere), and colour as
+// CIE XYZ
+// (Kneiphof 2017 §5: the luminance Y is one of the colour channels, so its SAT is shared and only X
 // and Z need their own: 6 channels where (Y, moments) + (R, G, B, padding) took 8).
 // Y is computed exactly in fixed point with the Rec. 709 weights, then truncated to the energy's
 // units, as before (the median-cut splits depend on it bit for bit). X and Z are kept in 1/10000

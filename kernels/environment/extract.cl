@@ -1,8 +1,9 @@
-// Median-cut light extraction (seed 003 §3.1, §4.1; Debevec 2008) on the cube-map SATs made from
+// Median-cut light extraction (Kneiphof 2017 §3.1, §4.1; Debevec 2008) on the cube-map SATs made
+// from
 // kernels/environment/envmap.cl's fixed-point energies. Box sums are exact 64-bit differences.
 #include "shared.h"
 
-// Sum over texels [x0,x1) x [y0,y1) of face `face` from an inclusive SAT (seed 003 eqs. 2-3).
+// Sum over texels [x0,x1) x [y0,y1) of face `face` from an inclusive SAT (Kneiphof 2017 eqs. 2-3).
 static long4 box4(global const long4* sat, int m, int face, int x0, int y0, int x1, int y1) {
   global const long4* S = sat + (size_t)face * m * m;
   long4 a = (long4)(0), b = (long4)(0), c = (long4)(0), d = (long4)(0);
@@ -64,7 +65,7 @@ static void split_region(global const long4* sat, int m, pb_region r, pb_region*
   else { lo->y1 = cut; hi->y0 = cut; }
 }
 
-// One work-group does the whole partition, as in seed 003 §5 (there: 256 threads in one thread
+// One work-group does the whole partition, as in Kneiphof 2017 §5 (there: 256 threads in one thread
 // group). Each round ranks the splittable regions by illuminance (counting, ties broken by index,
 // so the result is deterministic) and splits the `need` brightest, so any target count is reached
 // in about log2(target/6) rounds. With fewer than six lights the six faces are grouped instead:
@@ -160,11 +161,11 @@ kernel void median_cut(global const long4* sat, int m, int target, global pb_reg
 
 // One work-item per light (group): integrates its region(s) from the SATs and turns the sums into
 // a directional cap light.
-//  - direction: luminance-weighted mean direction (seed 003 eq. 9, on the sphere);
+//  - direction: luminance-weighted mean direction (Kneiphof 2017 eq. 9, on the sphere);
 //  - extent: for a uniform cap of half-angle a, the mean direction's length is (1 + cos a)/2, so
 //    cos a = 2R - 1 with R the luminance-weighted mean resultant length (1 - R^2 is the weighted
-//    variance of the direction, seed 003 eq. 10 on the sphere). Clamped to [min_cos.., max..];
-//  - power M: the region's colour integral (seed 003 eq. 11) as exact fixed-point CIE XYZ sums
+//    variance of the direction, Kneiphof 2017 eq. 10 on the sphere). Clamped to [min_cos.., max..];
+//  - power M: the region's colour integral (Kneiphof 2017 eq. 11) as exact fixed-point CIE XYZ sums
 //    (X and Z from the xz SAT in 1/10000 units, packed two faces per long4 as envmap.cl's
 //    env_sat_inputs writes them; Y from the luminance SAT); the host converts them
 //    to RGB in double (src/environment/median_cut.cpp), and radiance = M / (2 pi (1 - cos a))

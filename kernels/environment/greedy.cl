@@ -1,4 +1,5 @@
-// Greedy fitting of square or rectangular area lights to the faces of a cube map (seed 000 §4.2,
+// Greedy fitting of square or rectangular area lights to the faces of a cube map (Annen et al. 2008
+// §4.2,
 // Figure 6), on the fixed-point energies of kernels/environment/envmap.cl. Faces are independent,
 // so one work-group fits one face: the loops of the algorithm run inside the kernel, every sum is
 // of 64-bit integers (exact, so the result depends on neither the work-group size nor the device).
@@ -23,7 +24,8 @@ static long texel_lum(global const long* energy, size_t plane, size_t i) {
   return PB_LUM_FIXED(energy[i], energy[plane + i], energy[2 * plane + i]);
 }
 
-// Seed 000's growth test: a side (or, for squares, an L-shaped rim) is added when the energy it
+// Annen et al.'s (2008) growth test: a side (or, for squares, an L-shaped rim) is added when the
+// energy it
 // adds is more than `t` of the energy the enlarged light would hold. Written without a division,
 // in float, so the host reference reproduces the decision bit for bit. A light that holds no
 // energy yet absorbs empty texels (0/0 counts as "everything it would hold is new"): otherwise
@@ -119,7 +121,8 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
   global long2* row_best = row_best_all + (size_t)f * m;
   local int4 rect_shared[1];
 
-  // The residual a covered texel keeps (seed 000 §4.2: "the residual amount equals the average
+  // The residual a covered texel keeps (Annen et al. 2008 §4.2: "the residual amount equals the
+  // average
   // amount of energy adjusted to the size of the area"). Our reading: the face's mean energy per
   // texel, per channel, so an area of k texels keeps k times the mean: the hole a light leaves
   // blends with its surroundings instead of going black, later lights may grow over it (the paper
@@ -165,7 +168,8 @@ kernel void greedy_fit(global long* energy, global uchar* covered, int m, float 
     for (int y = lid; y < m; y += wg) best = better(best, row_best[y]);
     best = reduce_argmax(red, best);
 
-    // 2. Growth (seed 000 Figure 6 b-e), by one work-item: each side's sum (the one-texel strip
+    // 2. Growth (Annen et al. 2008 Figure 6 b-e), by one work-item: each side's sum (the one-texel
+    // strip
     // along it, outside the light) is a difference of two prefix sums; the corners are single
     // texels, read directly.
     if (lid == 0) {

@@ -1,4 +1,5 @@
-// The ambient residual's pre-integrated irradiance map (seed 004 abstract and end of §3: the
+// The ambient residual's pre-integrated irradiance map (Arbree et al. 2005 abstract and end of §3:
+// the
 // ambient region "is rendered using pre-integrated irradiance mapping"; src/environment/
 // ambient.cpp): for each normal n of the table (lights.hpp AmbientMap,
 // shared.h pb_ambient_map_normal),

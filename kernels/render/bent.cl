@@ -1,9 +1,9 @@
-// Bent normals at light silhouettes (seed 001 §4.3, RenderOptions::bentNormals).
+// Bent normals at light silhouettes (Sintorn et al. 2008 §4.3, RenderOptions::bentNormals).
 //
 // Exact shadows (the bitmask techniques) make every triangle that faces away from a light shadow
 // itself, while the interpolated vertex normal still sees the light up to the shading normal's own
 // terminator: on a smooth mesh the shading jumps to black along the triangle edges of the light's
-// silhouette. Seed 001 §4.3 bends the shading there: per vertex v and light l,
+// silhouette. Sintorn et al. 2008 §4.3 bends the shading there: per vertex v and light l,
 //   I_bend(v) = min over the faces F adjacent to v of n_F . l       (l: the light's centre),
 // interpolated over each triangle; kernels/render/shade.cl blends back to the normal illumination
 // with it. Every light-back-facing triangle has all three vertices at I_bend <= n_F . l < 0, so it

@@ -99,7 +99,7 @@ static bool triangle_bounds(const pb_view* v, float3 a, float3 b, float3 c, int*
 // pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among
 // those whose t equals the stored depth (views must be 1). cull: 0 keeps every triangle, 1 only
 // those facing the view (counter-clockwise seen from it), 2 only those facing away (the back
-// faces of closed meshes; seed 003 §4.2.3).
+// faces of closed meshes; Kneiphof 2017 §4.2.3).
 kernel void raster_triangles(global const float4* pos, global const int4* tris, int ntris,
                              global const pb_view* views, int stripes, int pass,
                              volatile global uint* depth, volatile global uint* ids, int cull) {
@@ -175,7 +175,7 @@ kernel void gbuffer_resolve(global const float4* pos, global const float4* nrm,
   galb[i] = albedo[t.w];
 }
 
-// Front + back face depth maps (seed 003 §4.2.3): the mean of the nearest front-facing and the
+// Front + back face depth maps (Kneiphof 2017 §4.2.3): the mean of the nearest front-facing and the
 // nearest back-facing surface lies inside a closed caster, so receivers on its surface need no
 // depth bias. Where only one of them exists (open geometry, a ground plane), keep it.
 kernel void combine_front_back(global uint* front, global const uint* back, int count) {

@@ -1,12 +1,14 @@
-// Final shading: diffuse reflection of every directional light (a cap: irradiance of seed 003
+// Final shading: diffuse reflection of every directional light (a cap: irradiance of Kneiphof 2017
 // eqs. 15-18, with the horizon-clipped closed form of shared.h; a polygon: Lambert's formula on
 // the horizon-clipped polygon, shared.h's pb_polygon_irradiance) times its visibility, times
 // albedo / pi. Background pixels show the environment (nearest texel) with alpha 0.
-// The ambient residual is added unshadowed, as seed 004 §3 applies it: from its pre-integrated
+// The ambient residual is added unshadowed, as Arbree et al. 2005 §3 applies it: from its
+// pre-integrated
 // irradiance map (amap, amap_w x amap_h RGB, LightSet::ambientMap) when amap_w > 0, else from its
 // 9 RGB SH coefficients of radiance (zeros when the light set has none) as R&H 2001's sum of
 // Ahat_l L_lm Y_lm(n) (shared.h).
-// bent != 0: each light's irradiance is bent at the light's silhouette (seed 001 §4.3) by I_bend,
+// bent != 0: each light's irradiance is bent at the light's silhouette (Sintorn et al. 2008 §4.3)
+// by I_bend,
 // interpolated from kernels/render/bent.cl's per-vertex values (bend) with its per-pixel vertices
 // and weights (RenderOptions::bentNormals), with the blend's scale bend_c.
 #include "shared.h"
@@ -53,7 +55,8 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     // e0: the irradiance at normal incidence, facing the light's direction
     const float e0 = bent ? pb_light_irradiance(dc, pv, dc.xyz) : 0.0f;
     if (bent) {
-      // Bent normals, seed 001 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a) I_bend,
+      // Bent normals, Sintorn et al. 2008 §4.3: a = min(1, max(c I_bend, 0)), I' = a I + (1 - a)
+      // I_bend,
       // c = bend_c (RenderOptions::bentNormalsScale, the paper's 3), with I_bend
       // (kernels/render/bent.cl, interpolated) the smallest n_F . l around the triangle's vertices.
       // In irradiance units the paper's I_bend (a cosine) is e0 I_bend, e0 the light's irradiance
@@ -72,7 +75,8 @@ kernel void shade(global const float4* gpos, global const float4* gnrm, global c
     acc += e * V * (float3)(L.radiance[0], L.radiance[1], L.radiance[2]);
   }
   if (amap_w > 0) {
-    // The pre-integrated irradiance map (seed 004 §3), bilinear as LightSet::ambientIrradiance.
+    // The pre-integrated irradiance map (Arbree et al. 2005 §3), bilinear as
+    // LightSet::ambientIrradiance.
     int idx[4];
     float wt[4];
     pb_ambient_map_taps(n.x, n.y, n.z, amap_w, amap_h, idx, wt);

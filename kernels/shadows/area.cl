@@ -1,4 +1,5 @@
-// Area approximation for polygonal lights (seed 002, Ying, Tang, Dong: "Soft Shadow Maps for Area
+// Area approximation for polygonal lights (Ying et al. 2002, Ying, Tang, Dong: "Soft Shadow Maps
+// for Area
 // Light by Area Approximation", §2). The light's boundary is sampled at its vertices and along its
 // edges; each sample direction has its own orthographic depth map (src/shadows/area.cpp). Per
 // receiver:
@@ -167,7 +168,8 @@ static float3 dir_of(float2 q) { return (float3)(q.x, q.y, 1.0f); }
 // this run's area). Runs are summed: for a straight boundary crossing the light (one run) this is
 // the paper's S_e; for a bar across the light (two runs) it keeps both lit sides. Two blockers
 // clipping two corners also give two runs, whose chords then cut off the middle too: boundary
-// samples cannot tell the two cases apart (seed 002 samples only the boundary), and the bar is
+// samples cannot tell the two cases apart (Ying et al. 2002 samples only the boundary), and the bar
+// is
 // the one that occurs under thin casters.
 static float area_ratio(global const float2* q, int n, ulong lit, const float* seg, float3 nrm) {
   ulong all = n >= 64 ? ~(ulong)0 : (((ulong)1 << n) - 1);

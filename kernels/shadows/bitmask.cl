@@ -1,4 +1,5 @@
-// Sample-based visibility (seed 001): every caster triangle, conservatively rasterized over the
+// Sample-based visibility (Sintorn et al. 2008): every caster triangle, conservatively rasterized
+// over the
 // light-space list texels it can shadow, tests the view samples of those lists and ORs what it
 // blocks into their bitmasks. Built per technique:
 //   -DHARD         alias-free hard shadows (§3.2-3.3): one light sample, the light's centre
@@ -20,7 +21,8 @@
 // infinity is behind every triangle). A sample on the triangle's plane (det = 0) is never blocked
 // by it, and a view sample is never tested against the triangle it lies on (G-buffer triangle id):
 // no depth bias. Closed meshes (mesh_orient != 0) cast from their light-back-facing triangles
-// only (seed 001 §3.3): a ray from outside that hits a closed mesh enters it through a triangle
+// only (Sintorn et al. 2008 §3.3): a ray from outside that hits a closed mesh enters it through a
+// triangle
 // facing away from the ray's direction, so the triangles that face every light sample can go.
 // A ray that starts on a closed mesh and heads below its own triangle's plane is inside at once:
 // bitmask_self blocks those samples (src/shadows/bitmask.cpp says why not the back-face rule
@@ -30,7 +32,8 @@
 // nz + tan(alpha) (u_k nx + v_k ny) >= 0, i.e. u_k cos(phi) + v_k sin(phi) + delta >= 0 with
 // phi = atan2(ny, nx) and delta = nz / (tan(alpha) sqrt(nx^2 + ny^2)): two parameters, the
 // plane's angle around the light's axis and its distance from the disk's centre in disk radii
-// (seed 001's two angles and a distance, reduced by the disk's symmetry: rotations about the axis
+// (Sintorn et al.'s (2008) two angles and a distance, reduced by the disk's symmetry: rotations
+// about the axis
 // are phi, tilts are delta). delta >= 1: every sample; delta < -1: none. Two tables per cell:
 // `in`, the samples behind the plane for every (phi, delta) of the cell, and `out`, those behind
 // it for some. AND over the edges gives certain and possible blockers; the few possible but not
@@ -77,7 +80,8 @@ static float fast_atan2(float y, float x) {
 }
 
 // Look-up cell of an edge plane whose delta is in [-1, 1). The tables are those of the unrotated
-// sample set; jittered frames (seed 001 §4.3) rotate every sample by rot in [0, 2 pi) about the
+// sample set; jittered frames (Sintorn et al. 2008 §4.3) rotate every sample by rot in [0, 2 pi)
+// about the
 // disk's centre, and a sample at angle a + rot is behind a plane at angle phi exactly when the
 // unrotated one at a is behind the plane at phi - rot: the same table, looked up at phi - rot.
 static int lut_cell(float nx, float ny, float delta, float rot) {
@@ -165,7 +169,8 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
   ax[4] = (float2)(0.0f, 1.0f);
   for (int a = 0; a < 5; ++a)
     for (int i = 0; i < 3; ++i) sc[a][i] = dot(ax[a], c[i].xy);
-  // The supporting plane (seed 001 §4.3: "cut off the influence region based on the triangle's
+  // The supporting plane (Sintorn et al. 2008 §4.3: "cut off the influence region based on the
+  // triangle's
   // supporting plane"). In the light frame the samples' directions towards the light are
   // (ta u, ta v, -1), |(u, v)| <= 1. If the plane does not cut the light, every ray leaves the
   // plane's side that holds the light, so samples on that side (or on the plane, within float
@@ -288,7 +293,8 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
 // Global (pixels, lights of the batch), before bitmask_triangles. A view sample on a closed mesh
 // (mesh_orient != 0) is blocked from every light sample below its own triangle's plane: that ray
 // enters the mesh at once and must leave it through a triangle facing the light, which
-// bitmask_triangles skips on closed meshes (seed 001 §3.3 keeps such samples out of the lists
+// bitmask_triangles skips on closed meshes (Sintorn et al. 2008 §3.3 keeps such samples out of the
+// lists
 // instead; ours are chosen by the shading normal, which may still see the light there). The
 // plane is the triangle's outward one (the mesh's winding), not the camera-facing normal.
 kernel void bitmask_self(global const float4* pos, global const int4* tris,
@@ -340,8 +346,10 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
 // frames: per light, two float4 (e1, f1), (e2, f2) (src/shadows/bitmask.hpp BitmaskFrame): disk
 // sample (u, v) is the direction ~ dir + tan(alpha) (f1 u e1 + f2 v e2). A cap or polygon uses its
 // light frame's ex, ey and f = 1; an ellipse its own axes and f = tan(half-angle) / tan(alpha), the
-// disk's affine image (seed 001 §4.1's scaling), so tables and triangle stage stay shared by
-// every light. weights: per light, one per sample (seed 001 §4.1, textured sources): 0 for a
+// disk's affine image (Sintorn et al. 2008 §4.1's scaling), so tables and triangle stage stay
+// shared by
+// every light. weights: per light, one per sample (Sintorn et al. 2008 §4.1, textured sources): 0
+// for a
 // polygon's disk samples outside it, the texture's relative luminance on textured lights, else 1;
 // visibility = sum over lit samples of weight x irradiance factor / the same sum over all.
 kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* lights,

@@ -1,7 +1,8 @@
-// Convolution soft shadow maps (CSSM, seed 000 §3; Annen et al. 2007 for the CSM basis).
+// Convolution soft shadow maps (CSSM, Annen et al. 2008 §3; Annen et al. 2007 for the CSM basis).
 //
 // Per light: depth map -> Fourier basis images in 64-bit fixed point (CSM: cos/sin(c_k z~),
-// CSM-Z: z cos/sin(c_k z~) and z, seed 000 appendix eq. 11) -> prefilter (SAT or mip, exact
+// CSM-Z: z cos/sin(c_k z~) and z, Annen et al. 2008 appendix eq. 11) -> prefilter (SAT or mip,
+// exact
 // integer sums) -> per pixel: initial filter from the light/near-plane cone (§3.2, Fig. 2a),
 // average blocker depth (eq. 8 with eq. 11), final filter width from z_avg, filtered
 // complementary shadow test (eq. 3 with eq. 10), ringing suppression by scale, shift and clamp
@@ -156,7 +157,8 @@ kernel void cssm_visibility(global const float4* gpos, global const float4* gnrm
   v = clamp(v, 0.0f, (float)size);
   float m[4 * CSSM_GROUPS];
 
-  // 1. Initial filter (seed 000 §3.2, Fig. 2a): the cone from the receiver to the light, cut by
+  // 1. Initial filter (Annen et al. 2008 §3.2, Fig. 2a): the cone from the receiver to the light,
+  // cut by
   //    the near plane (where the map's depths start). For a light at infinity its radius on the
   //    map is d range tan(alpha): the region that can hold blockers, as MSSM4's blocker search.
   float search = BOX_FROM_DISC * d * range * tan_a;
@@ -186,7 +188,7 @@ kernel void cssm_visibility(global const float4* gpos, global const float4* gnrm
                     ? clamp(zsum / mass, 0.0f, d)
                     : clamp(zsum_any / any, fmax(d - 2.0f * P.rise, 0.0f), d);
   // 3. Final filter (Fig. 2c): the map moved to z_avg; for a light at infinity the penumbra's
-  //    radius is (d - z_avg) range tan(alpha) (as MSSM4, seed 003 eq. 5).
+  //    radius is (d - z_avg) range tan(alpha) (as MSSM4, Kneiphof 2017 eq. 5).
   float pen = BOX_FROM_DISC * (d - z_avg) * range * tan_a;
   float hf = clamp(pen / texel, 0.5f * P.min_filter, 0.5f * P.max_filter);
   filtered_basis(maps_l, size, stride, fmax(u - hf * texel / texel_x, 0.0f),

@@ -1,4 +1,5 @@
-// Mip pyramids of filterable shadow maps (the cheaper of seed 000's two prefilters, §4.1 and
+// Mip pyramids of filterable shadow maps (the cheaper of Annen et al.'s (2008) two prefilters, §4.1
+// and
 // Fig. 8): every level's texel is the exact 64-bit sum of its up to four children, so the
 // pyramid, like the SAT, is bit-identical on every device and work-group size. The layout and the
 // query (trilinear interpolation of texel means) are in filter.clh.

@@ -1,10 +1,10 @@
-// Moment soft shadow mapping with four and six moments (MSSM4: seed 003 §3.2.1, MSSM6: §4.2.1;
+// Moment soft shadow mapping with four and six moments (MSSM4: Kneiphof 2017 §3.2.1, MSSM6: §4.2.1;
 // Peters et al. 2016 for MSSM, Peters & Klein 2015 for the Hamburger moment reconstruction), and
-// the upper-bound blocker depth of seed 003 §4.2.2 for both.
+// the upper-bound blocker depth of Kneiphof 2017 §4.2.2 for both.
 //
 // Per light: depth map -> fixed-point moments -> prefilter (SAT: kernels/common/scan.cl, exact
 // 64-bit sums; or the mip pyramid) -> per pixel: blocker search box, average blocker depth (seed
-// 003 eq. 7, or eq. 19), penumbra width (seed 003 eq. 5 for a directional light), filtered
+// 003 eq. 7, or eq. 19), penumbra width (Kneiphof 2017 eq. 5 for a directional light), filtered
 // visibility (eq. 6) bounded from the box-filtered moments.
 #include "shared.h"
 #include "filter.clh"
@@ -35,7 +35,7 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
 // z3 of c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
 //   w_i = (b2 - b1 (z_j + z_k) + z_j z_k) / ((z_i - z_j)(z_i - z_k)).
 // The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
-// returns that weight, `blocker_sum` the weighted depth sum for seed 003 eq. 7 and
+// returns that weight, `blocker_sum` the weighted depth sum for Kneiphof 2017 eq. 7 and
 // `receiver_weight` the weight of the atom at zf for eq. 19.
 static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
                         float* blocker_sum, float* receiver_weight) {
@@ -80,7 +80,7 @@ static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blocke
   return 1.0f - *blockers;
 }
 
-// ---- MSSM6 (seed 003 §4.2.1) ----
+// ---- MSSM6 (Kneiphof 2017 §4.2.1) ----
 //
 // Storage. Six moments in the Chebyshev basis of s = 2z - 1: t_k = T_k(s), k = 1..6 (T_0 = 1,
 // T_1 = s, T_{k+1} = 2 s T_k - T_{k-1}). T_k(2z - 1) is an invertible triangular combination of
@@ -212,7 +212,8 @@ static m6real kernel_diag(const m6real L[4][4], const m6real Dinv[4], m6real s, 
 }
 
 // Hamburger six-moment reconstruction (Peters & Klein 2015 §3 for any even number of moments;
-// seed 003 §4.2.1): the four-atom canonical representation through the receiver depth zf of the
+// Kneiphof 2017 §4.2.1): the four-atom canonical representation through the receiver depth zf of
+// the
 // biased moments, and the weight of its atoms in front of zf (the shadowed fraction's lower
 // bound). tA = (t1..t4), tB = (t5, t6): box-filtered Chebyshev moments.
 //  1. Bias towards the uniform distribution on [0,1] as MSSM4 does (moments 1/2, 1/3, ..., 1/7;
@@ -282,8 +283,10 @@ static float hamburger6(float4 tA, float2 tB, float zf, float moment_bias, float
 
 // Average blocker depth from the reconstructed atoms in front of the receiver (weight `blockers`,
 // weighted depth sum `blocker_sum`) and the weight `receiver_weight` of the atom at zf.
-// Seed 003 eq. 7: z_avg = (eps zf + sum w_i z_i) / (eps + sum w_i), eps pulls towards the receiver.
-// Seed 003 eq. 19 (upper bound, §4.2.2): the atom at the receiver's depth counts as a blocker too
+// Kneiphof 2017 eq. 7: z_avg = (eps zf + sum w_i z_i) / (eps + sum w_i), eps pulls towards the
+// receiver.
+// Kneiphof 2017 eq. 19 (upper bound, §4.2.2): the atom at the receiver's depth counts as a blocker
+// too
 // (z_i <= d), its weight clamped to [delta1, delta2]: under complex depth distributions the
 // reconstruction parks weight at zf, which pulls z_avg towards the receiver: smaller filters,
 // harder shadows when in doubt. delta1 = delta2 = eps is eq. 7; delta1 >= eps keeps z_avg at or
@@ -352,7 +355,7 @@ static int mssm_pixel_setup(int px, global const float4* gpos, global const floa
 }
 
 // Filter half-width in texels for blockers spreading the light's disc to world radius `world`
-// (seed 003 eq. 5 for a light at infinity), clamped to the option's limits.
+// (Kneiphof 2017 eq. 5 for a light at infinity), clamped to the option's limits.
 static float mssm_half_width(const mssm_pixel* q, const mssm_params* P, float world) {
   return clamp(BOX_FROM_DISC * world / q->texel, 0.5f * P->min_filter, 0.5f * P->max_filter);
 }
@@ -371,7 +374,8 @@ static float4 mssm_box(global const long4* map, int size, const mssm_pixel* q, f
 }
 
 // The filter's half-width from the blocker search's result (blockers `wb`, weighted depth sum
-// `zb`, receiver weight `wr` at receiver depth zf): seed 003 eq. 5 from z_avg. A search that finds
+// `zb`, receiver weight `wr` at receiver depth zf): Kneiphof 2017 eq. 5 from z_avg. A search that
+// finds
 // (almost) nothing, blocker weight under 1e-3, still tests the smallest filter: a blocker a few
 // texels wide next to the receiver (a contact) is under 1e-3 of a wide search box, and the
 // moments' lower bound underestimates small weights, so returning "fully lit" there leaked light
@@ -385,11 +389,11 @@ static float mssm_filter_half_width(const mssm_pixel* q, const mssm_params* P, f
 
 // Visibility of each light at each pixel: vis[light][pixel]. One work-item per (pixel, light).
 // 1. blocker search over the region that can hold blockers of this light: distance to the near
-//    plane times the light's angular size (seed 003 §3.2, Fig. 1, directional light);
-// 2. z_avg (eq. 7 or 19) and the penumbra width, seed 003 eq. 5 for a light at infinity:
+//    plane times the light's angular size (Kneiphof 2017 §3.2, Fig. 1, directional light);
+// 2. z_avg (eq. 7 or 19) and the penumbra width, Kneiphof 2017 eq. 5 for a light at infinity:
 //    blockers at distance (d - z_avg) range above the receiver spread the light's disc to radius
 //    (d - z_avg) range tan(alpha);
-// 3. filtered visibility, seed 003 eq. 6, bounded by the moments.
+// 3. filtered visibility, Kneiphof 2017 eq. 6, bounded by the moments.
 kernel void mssm4_visibility(global const float4* gpos, global const float4* gnrm,
                              global const float4* ggeo, global const pb_light* lights,
                              global const long4* sats, int size, ulong stride, int npixels,

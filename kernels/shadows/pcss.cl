@@ -1,7 +1,8 @@
 // Shadow-map techniques that sample the depth map explicitly, texel by texel: hard shadows (one
 // depth test at the light's centre), percentage-closer soft shadows (PCSS, Fernando 2005: seed
 // 003 eqs. 4-6 evaluated by explicit sampling) and brute force (K point-light shadow maps per area
-// light, seed 000 Fig. 11d). None of them prefilters: each reads the raw depth maps (uint bits of
+// light, Annen et al. 2008 Fig. 11d). None of them prefilters: each reads the raw depth maps (uint
+// bits of
 // the ray distance from the map's near plane, PB_DEPTH_EMPTY = +inf where nothing was hit).
 //
 // Every depth test compares a texel against the receiver's own plane at that texel's centre
@@ -77,7 +78,8 @@ kernel void hard_visibility(global const float4* gpos, global const float4* gnrm
 }
 
 // ------------------------------------------------------------------------------------------------
-// PCSS (Fernando 2005), seed 003 §3.2: blocker search (eq. 4), penumbra width (eq. 5 for a light
+// PCSS (Fernando 2005), Kneiphof 2017 §3.2: blocker search (eq. 4), penumbra width (eq. 5 for a
+// light
 // at infinity), percentage-closer filter (eq. 6), each convolution computed by sampling the map.
 
 // Sums over the box [x0,x1] x [y0,y1] (texel units, inside [0,size]) of the piecewise-constant
@@ -210,7 +212,8 @@ kernel void pcss_visibility(global const float4* gpos, global const float4* gnrm
 }
 
 // ------------------------------------------------------------------------------------------------
-// Brute force (seed 000 Fig. 11d): K point lights per area light at directions spread uniformly
+// Brute force (Annen et al. 2008 Fig. 11d): K point lights per area light at directions spread
+// uniformly
 // in solid angle over its cap (samples[l * K + k], each with its own orthographic frame), one hard
 // shadow map each. The cap radiates uniformly and the shading multiplies the cap's irradiance by
 // the visibility, so the visibility is irradiance-weighted:

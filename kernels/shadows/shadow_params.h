@@ -12,7 +12,7 @@
 typedef struct {
   float moment_bias, depth_bias, slope_bias, light_size_scale;
   float max_filter, min_filter, blocker_eps;
-  int upper_bound;  /* seed 003 eq. 19 instead of eq. 7 */
+  int upper_bound;  /* Kneiphof 2017 eq. 19 instead of eq. 7 */
   float delta1, delta2;
   float upper_bound_tilt; /* > 0: eq. 19's delta2 scaled by min(1, this * receiver slope); 0: not */
   float pad1;

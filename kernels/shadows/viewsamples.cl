@@ -1,8 +1,9 @@
-// View samples and their light-space lists (seed 001 §3.1), for the bitmask technique
+// View samples and their light-space lists (Sintorn et al. 2008 §3.1), for the bitmask technique
 // (src/shadows/bitmask.cpp, kernels/shadows/bitmask.cl).
 //
 // A view sample is a camera-visible G-buffer pixel that the light can reach: geometry, with the
-// light's cap not wholly below its shading normal's horizon (seed 001 Figure 2 keeps only
+// light's cap not wholly below its shading normal's horizon (Sintorn et al. 2008 Figure 2 keeps
+// only
 // light-front-facing samples; samples whose irradiance from the light is 0 need no visibility).
 // Per light, in the light's orthographic frame (pb_light: ex, ey, dir):
 //   vs_bounds   2D bounds and far depth of the light's view samples (work-group reduction, then
@@ -83,7 +84,8 @@ kernel void vs_bounds(global const float4* gpos, global const float4* gnrm,
   }
 }
 
-// One work-item per light: the grid of seed 001 §4.3, an axis-aligned box around the projected
+// One work-item per light: the grid of Sintorn et al. 2008 §4.3, an axis-aligned box around the
+// projected
 // view samples (texels need not be square) with a margin of 1e-4 of its size, far plane at the
 // farthest sample. hard: the light is its centre (tan_alpha 0).
 kernel void vs_fit(global const int* bounds, global const pb_light* lights, int nlights, int size,

@@ -1,6 +1,7 @@
 // Child-process containment for untrusted parsers (see contained.hpp): fork, limits, a pipe for
 // the result and one for the child's stderr, a deadline enforced by the parent.
 #include "core/contained.hpp"
+#include "core/number_text.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -56,11 +57,7 @@ std::size_t currentAddressSpace() {
 
 std::string mib(std::size_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20); }
 
-std::string seconds(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", s);
-  return buf;
-}
+std::string seconds(double s) { return detail::numberText(s); }
 
 [[noreturn]] void childMain(int out, int err, const std::string& label,
                             const ContainLimits& limits,

@@ -1,7 +1,9 @@
-// The ambient residual of a light set (seed 004 §3; Ramamoorthi & Hanrahan 2001): what the lights
+// The ambient residual of a light set (Arbree et al. 2005 §3; Ramamoorthi & Hanrahan 2001): what
+// the lights
 // do not carry, the map minus the lights (caps or polygons), applied unshadowed. Always as 9
 // spherical-harmonic coefficients of order <= 2 (its power, the JSON, AmbientModel::SH9), and by
-// default also as seed 004's pre-integrated irradiance map (kernels/environment/irradiance.cl),
+// default also as Arbree et al.'s (2005) pre-integrated irradiance map
+// (kernels/environment/irradiance.cl),
 // which is what shading then reads. Also the LightSet methods that concern the ambient.
 //
 // The map's projection runs on the device (kernels/environment/sh.cl, exact per lat-long texel);

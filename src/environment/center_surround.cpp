@@ -1,5 +1,7 @@
-// Center-surround light extraction (seed 004 §3), on the device. The host builds the small tables
-// (row and column trigonometry, the sorted filter radii), drives seed 004's iteration loop and
+// Center-surround light extraction (Arbree et al. 2005 §3), on the device. The host builds the
+// small tables
+// (row and column trigonometry, the sorted filter radii), drives Arbree et al.'s (2005) iteration
+// loop and
 // applies the 2% stopping rule; kernels/environment/center_surround.cl resamples the map, selects
 // the candidate centres, evaluates the filter bank on the sphere (its header explains the
 // parameterization), finds the strongest response and removes the chosen centre cap.
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include "environment/center_surround.hpp"
+#include "core/number_text.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
@@ -35,7 +38,7 @@ constexpr int kCullOff = -3;      // cs_response's cull.w meaning "evaluate ever
 constexpr double kMaxTableBytes = 1 << 30;  // cap on the half-width table (H x rows x 2 sizes)
 
 void validate(const Environment& env, const CenterSurroundOptions& o) {
-  auto num = [](double v) { return std::to_string(v); };
+  auto num = [](double v) { return detail::numberText(v); };
   if (env.equirect.empty() || env.equirect.channels != 3)
     badInput("center-surround: the environment map must be a non-empty RGB image");
   if (o.width < 8 || o.width > kMaxWidth || o.width % 2)
@@ -107,7 +110,8 @@ class CenterSurround {
       if (!rec[11]) break;  // no positive response left: no compact bright region
       float f[8];
       std::memcpy(f, rec.data(), sizeof f);
-      // Seed 004 §3: stop when the light's intensity is below 2% of the lights found so far
+      // Arbree et al. 2005 §3: stop when the light's intensity is below 2% of the lights found so
+      // far
       // (Weber's law); we measure intensity as luminance power. The first light always counts.
       const double lumPower = f[3];
       if (!(lumPower > 0)) break;
@@ -159,7 +163,8 @@ class CenterSurround {
     }
     rowTrigHost_ = rowTrig;
     colDirHost_ = colDir;
-    // Filter sizes (seed 004 §3): outer angular DIAMETERS geometric from minDeg to maxDeg; the
+    // Filter sizes (Arbree et al. 2005 §3): outer angular DIAMETERS geometric from minDeg to
+    // maxDeg; the
     // radius is half of it, the centre's radius innerRatio of the outer one.
     innerR_.resize(S_);
     outerR_.resize(S_);
@@ -338,7 +343,8 @@ class CenterSurround {
     d[2] = -double(r.s[1]) * p.s[1];
   }
 
-  // A light covering the centre cap of size k at texel c, carrying that cap's energy (seed 004
+  // A light covering the centre cap of size k at texel c, carrying that cap's energy (Arbree et al.
+  // 2005
   // §3 steps 1-4). Direction: the luminance-weighted centroid of the removed texels rather than
   // the filter centre: the centre sits on the working grid (steps of 360/W degrees) while the
   // centroid places the light where its energy is, to a fraction of a texel, and gives the cap the

@@ -1,6 +1,7 @@
 // Environment maps on the host: loading, sanitizing, the built-in sky, and integrals used by tests
 // and the reference. The device-side cube map lives in cubemap.cpp / kernels/environment/envmap.cl.
 #include "penumbra/environment.hpp"
+#include "core/number_text.hpp"
 
 #include <algorithm>
 #include <array>
@@ -114,7 +115,7 @@ void Environment::lookup(float x, float y, float z, float rgb[3]) const {
 
 float Environment::rotationColumns() const {
   if (!std::isfinite(rotationYDeg))
-    badInput("environment rotation must be finite, got " + std::to_string(rotationYDeg));
+    badInput("environment rotation must be finite, got " + detail::numberText(rotationYDeg));
   // Reduced in double so that whole turns give exactly 0 and 90 degrees exactly width / 4.
   double turns = std::fmod(double(rotationYDeg), 360.0) / 360.0;
   if (turns < 0) turns += 1.0;

@@ -1,4 +1,5 @@
-// Greedy fitting of square or rectangular area lights to the cube-map faces (seed 000 §4.2,
+// Greedy fitting of square or rectangular area lights to the cube-map faces (Annen et al. 2008
+// §4.2,
 // Figure 6): the fit runs on the device (kernels/environment/greedy.cl, one work-group per face);
 // the host turns each fitted rectangle's taken energy into a cap light and keeps the strongest.
 #include "environment/greedy.hpp"

@@ -1,4 +1,4 @@
-// Internal: the greedy fit of seed 000 §4.2 on a device cube of fixed-point energies
+// Internal: the greedy fit of Annen et al. 2008 §4.2 on a device cube of fixed-point energies
 // (kernels/environment/greedy.cl), below the public extractGreedy(). Exposed for
 // tests/test_greedy.cpp, which checks it against a plain C++ copy of the algorithm.
 #pragma once

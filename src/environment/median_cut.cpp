@@ -1,4 +1,5 @@
-// Median-cut extraction (Debevec 2005, "A median cut algorithm for light probe sampling"; seed 003
+// Median-cut extraction (Debevec 2005, "A median cut algorithm for light probe sampling"; Kneiphof
+// 2017
 // §3.1, §4.1) on the device: the map resampled to a cube (environment/cubemap.hpp), luminance and
 // colour SATs (kernels/environment/envmap.cl), the cut and the regions' moments
 // (kernels/environment/extract.cl); on the host the fixed-point XYZ sums become RGB and lights cut
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "penumbra/context.hpp"
+#include "core/number_text.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/extraction.hpp"
@@ -179,13 +181,14 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
   if (!(opt.maxHalfAngleDeg > 0 && opt.maxHalfAngleDeg < 90))
     badInput("MedianCutOptions.maxHalfAngleDeg must be in (0, 90)");
   if (!(opt.mergeCompactness > 0 && opt.mergeCompactness <= 1))
-    badInput("mergeCompactness must be in (0, 1], got " + std::to_string(opt.mergeCompactness));
+    badInput("mergeCompactness must be in (0, 1], got " + detail::numberText(opt.mergeCompactness));
 
   detail::DeviceCube cube = detail::resampleToCube(ctx, env, m, opt.supersample);
   const double scale = cube.scale;
   const std::size_t cubeTexels = 6ull * m * m;
   cl::Buffer& energy = cube.energy;
-  // Colour as CIE XYZ (seed 003 §5): the luminance SAT's Y is shared, X and Z of two faces share
+  // Colour as CIE XYZ (Kneiphof 2017 §5): the luminance SAT's Y is shared, X and Z of two faces
+  // share
   // a long4 (kernels/environment/envmap.cl env_sat_inputs): 9 long4 images to scan instead of 12.
   // Context scratch buffers: kept across extractions (an animation runs one per frame).
   Context::ScratchLease lumLease = ctx.scratch("luminance SAT", cubeTexels * sizeof(cl_long4));

@@ -3,6 +3,7 @@
 // (drawn from lights/sampling.hpp's point sets). Extraction from a map lives in
 // src/environment/, light-set files in light_set_json.cpp, the overlay in overlay.cpp.
 #include "penumbra/lights.hpp"
+#include "core/number_text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -146,7 +147,7 @@ AreaLight makePolygonLight(const std::vector<std::array<float, 3>>& vertices,
   }
   if (std::fabs(wind - 2 * kPi) > 1e-3)
     badInput("polygon light is not a simple convex polygon (its vertices wind " +
-             std::to_string(wind / (2 * kPi)) + " times around its centre)");
+             detail::numberText(wind / (2 * kPi)) + " times around its centre)");
   double cosA = 1;
   for (auto& a : v) cosA = std::min(cosA, dot(a, d));
   // The bounding cap must stay below 90 degrees: the filtered techniques size their filters by
@@ -191,7 +192,7 @@ OutlineFrame outlineFrame(const std::array<float, 3>& direction, const std::arra
                       const std::array<double, 2>& h) {
   for (int k = 0; k < 2; ++k)
     if (!(h[k] > 0 && h[k] < kPi / 2))
-      badInput("half-angles must be in (0, 90) degrees, got " + std::to_string(h[k] * 180 / kPi));
+      badInput("half-angles must be in (0, 90) degrees, got " + detail::numberText(h[k] * 180 / kPi));
   OutlineFrame f;
   tangentFrame(direction, up, f.d, f.right, f.up);
   f.ta = std::tan(h[0]);
@@ -310,7 +311,7 @@ void setLightTexture(AreaLight& l, LightTexture t) {
   for (std::size_t i = 0; i < want; ++i)
     if (!std::isfinite(t.radiance[i]) || t.radiance[i] < 0)
       badInput("light texture radiance must be finite and >= 0, value " + std::to_string(i) +
-               " is " + std::to_string(t.radiance[i]));
+               " is " + detail::numberText(t.radiance[i]));
   if (!(maxTexelLuminance(t) > 0)) badInput("light texture is black (no texel has a positive luminance)");
   const bool ellipse = l.shape == LightShape::Polygon && l.outline == AreaLight::Outline::Ellipse;
   const bool rect = l.shape == LightShape::Polygon && l.outline == AreaLight::Outline::Rect;
@@ -505,7 +506,7 @@ bool finite3(const std::array<float, 3>& v) {
 }
 
 std::string text3(const std::array<float, 3>& v) {
-  return "(" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) +
+  return "(" + detail::numberText(v[0]) + ", " + detail::numberText(v[1]) + ", " + detail::numberText(v[2]) +
          ")";
 }
 
@@ -530,7 +531,7 @@ void validateLightSet(const LightSet& set) {
     // Any cap from a direction (1: a hard light) to the whole sphere (-1) has a defined solid
     // angle and finite shading (the kernels' degenerate-input tests); the file format is stricter.
     if (!(l.cosAlpha >= -1 && l.cosAlpha <= 1))
-      badInput(at + "cosAlpha " + std::to_string(l.cosAlpha) + " must be in [-1, 1]");
+      badInput(at + "cosAlpha " + detail::numberText(l.cosAlpha) + " must be in [-1, 1]");
     for (const auto* v : {&l.radiance, &l.power})
       for (float c : *v)
         if (!std::isfinite(c) || c < 0)

@@ -1,4 +1,5 @@
-// Bent normals at light silhouettes (seed 001 §4.3): the host side of kernels/render/bent.cl
+// Bent normals at light silhouettes (Sintorn et al. 2008 §4.3): the host side of
+// kernels/render/bent.cl
 // (welding, launches) and the plain C++ reference of its per-vertex stage.
 #include "render/bent_normals.hpp"
 

@@ -1,4 +1,5 @@
-// Internal: bent normals at light silhouettes (seed 001 §4.3; kernels/render/bent.cl says how). The
+// Internal: bent normals at light silhouettes (Sintorn et al. 2008 §4.3; kernels/render/bent.cl
+// says how). The
 // renderer calls bentNormals() after the G-buffer when RenderOptions::bentNormals is set; the
 // shading (kernels/render/shade.cl) reads the per-pixel, per-light I_bend it leaves.
 #pragma once

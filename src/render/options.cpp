@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "penumbra/error.hpp"
+#include "core/number_text.hpp"
 #include "penumbra/options.hpp"
 #include "render/options_check.hpp"
 #include "shadows/shadow_options.hpp"
@@ -62,7 +63,7 @@ void validateFrameInputs(const Scene& scene, const Camera& camera, const LightSe
   cameraBasis(camera, opt.width, opt.height);
   validateLightSet(lights);
   if (!std::isfinite(env.rotationYDeg))
-    badInput("Environment.rotationYDeg must be finite, got " + std::to_string(env.rotationYDeg));
+    badInput("Environment.rotationYDeg must be finite, got " + detail::numberText(env.rotationYDeg));
   for (float v : env.equirect.pixels)
     if (!(v >= 0 && v <= std::numeric_limits<float>::max()))
       badInput("environment map " + env.source +

@@ -36,7 +36,7 @@ class Rasterizer : public DepthRasterizer {
   DeviceGBuffer gbuffer(const cl::Buffer& camera, int width, int height);
   // Every depth map of the frame (the lights' and any a technique adds) goes through here, so
   // front/back applies to all of them alike: nearest surface, or the average of the front- and
-  // back-facing surfaces' depths (seed 003 §4.2.3).
+  // back-facing surfaces' depths (Kneiphof 2017 §4.2.3).
   void depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
                  const std::string& prefix) override;
 

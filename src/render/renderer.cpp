@@ -92,7 +92,8 @@ struct Renderer::Impl {
   detail::Visibility visibility;
   explicit Impl(Context& c) : ctx(c), pool(c), scene(c), raster(c, pool), visibility(c, pool) {}
 
-  // What the shading needs to bend normals (seed 001 §4.3), or small stand-ins it never reads.
+  // What the shading needs to bend normals (Sintorn et al. 2008 §4.3), or small stand-ins it never
+  // reads.
   detail::BentBuffers bentNormals(const RenderOptions& opt, const cl::Buffer& lightB, int nl,
                                   const detail::DeviceGBuffer& g) {
     if (opt.bentNormals && nl > 0)

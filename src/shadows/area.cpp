@@ -1,4 +1,5 @@
-// Area approximation (seed 002, Ying, Tang, Dong, §2): a convex polygon light sampled at its
+// Area approximation (Ying et al. 2002, Ying, Tang, Dong, §2): a convex polygon light sampled at
+// its
 // vertices and along its edges, one orthographic depth map per sample direction, and per receiver
 // the visible area S_e of the light estimated from the samples' point visibilities and the
 // boundary's crossing points (kernels/shadows/area.cl); visibility = S_e / S_a.

@@ -1,4 +1,5 @@
-// Sample-based visibility (seed 001): alias-free hard shadows (`bitmask-hard`, §3) and soft
+// Sample-based visibility (Sintorn et al. 2008): alias-free hard shadows (`bitmask-hard`, §3) and
+// soft
 // shadows from 128-1024 light samples per view sample (`bitmask`, §4), with no depth bias.
 //
 // Stages, per frame (all lights at once where memory allows):
@@ -13,9 +14,11 @@
 // Lights: our cap lights (half-angle alpha) are treated as disks of radius tan(alpha) at unit
 // distance, infinitely far (exact by gnomonic projection; samples weighted by their solid angle).
 // Polygons keep their bounding cap's disk samples inside them; ellipses map the disk onto
-// themselves (bitmaskFrame); textured lights weight each sample by the texture (seed 001 §4.1).
+// themselves (bitmaskFrame); textured lights weight each sample by the texture (Sintorn et al. 2008
+// §4.1).
 //
-// Self-shadowing without bias. Seed 001 §3.3 keeps only light-front-facing view samples and lets
+// Self-shadowing without bias. Sintorn et al. 2008 §3.3 keeps only light-front-facing view samples
+// and lets
 // only light-back-facing triangles of closed casters block, so no triangle is both. On open
 // meshes (the built-in scene's ground grid) the back-face rule would drop every caster seen from
 // its front (a panel lit from its front side would cast nothing), so there every triangle casts
@@ -25,7 +28,8 @@
 // remains are neighbours of the sample's own triangle in a mesh: across a convex edge they bend
 // away from the light side, across a concave edge they block for real, so they agree with the
 // ray tracer except at grazing angles.
-// Closed meshes (meshOrientation(), decided once per frame from the triangles) keep seed 001's
+// Closed meshes (meshOrientation(), decided once per frame from the triangles) keep Sintorn et
+// al.'s (2008)
 // rule: triangles facing every light sample cast nothing (a ray from outside enters a closed mesh
 // through a triangle facing away from it), which drops about half of their triangles. Our view
 // samples are chosen by the shading normal, so a sample may lie on a triangle facing away from
@@ -113,7 +117,7 @@ class BitmaskPass : public ShadowPass {
     const std::size_t texels = std::size_t(S) * S * nl, pairs = std::size_t(npx) * nl;
     Context& ctx = f.ctx;
 
-    // --- view samples and lists (seed 001 §3.1, §4.3)
+    // --- view samples and lists (Sintorn et al. 2008 §3.1, §4.3)
     std::vector<cl_int> init(std::size_t(nl) * 8);
     for (int l = 0; l < nl; ++l) {
       const cl_int b[8] = {INT_MAX, INT_MIN, INT_MAX, INT_MIN, INT_MIN, 0, 0, 0};

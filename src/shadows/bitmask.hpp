@@ -17,7 +17,8 @@ namespace penumbra::detail {
 // Light sample k of n on the unit disk: a Fibonacci spiral, uniform in area (radius
 // sqrt((k + 1/2) / n), golden-angle turns). Every light uses the same set, scaled by its
 // tan(alpha), so one look-up table serves all lights.
-// rotation: every sample turned by that angle about the centre (jittered frames, seed 001 §4.3).
+// rotation: every sample turned by that angle about the centre (jittered frames, Sintorn et al.
+// 2008 §4.3).
 std::vector<std::array<float, 2>> bitmaskDiskSamples(int n, double rotation = 0.0);
 
 // The rotation of jittered frame j (BitmaskOptions::jitter): 0 for j <= 0, else
@@ -32,7 +33,8 @@ std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha, f
 // axes e1, e2 orthogonal to the light's direction, each with a scale f in (0, 1] of tan(alpha).
 // Disk point (u, v) is the direction normalize(dir + tan(alpha) (f1 u e1 + f2 v e2)). Caps and
 // polygons: the light frame's ex, ey and f = 1 (the bounding cap's disk); an ellipse light: its
-// axes and f = tan(half-angle) / tan(alpha), the disk's affine image (seed 001 §4.1: "a virtual
+// axes and f = tan(half-angle) / tan(alpha), the disk's affine image (Sintorn et al. 2008 §4.1: "a
+// virtual
 // scaling of the entire scene allows us to reestablish a spherical light source").
 struct BitmaskFrame {
   std::array<float, 4> e1, e2;  // xyz: axis, w: f
@@ -41,7 +43,7 @@ BitmaskFrame bitmaskFrame(const pb_light& L, const AreaLight* light);
 std::array<float, 3> bitmaskSampleDirection(const pb_light& L, float tanAlpha,
                                             const BitmaskFrame& fr, float u, float v);
 
-// List statistics of one frame (seed 001 Figure 9), over all lights.
+// List statistics of one frame (Sintorn et al. 2008 Figure 9), over all lights.
 struct BitmaskStats {
   std::int64_t viewSamples = 0;     // (pixel, light) pairs in the lists
   std::int64_t occupiedTexels = 0;  // texels with a non-empty list, summed over lights
@@ -72,7 +74,7 @@ struct BitmaskCapture {
 // vertices welded by exact position, every directed edge appears once and its reverse once (each
 // edge shared by exactly two consistently wound triangles), no triangle degenerate, and a
 // non-zero signed volume, whose sign gives the winding. Such meshes cast from their
-// light-back-facing triangles only (seed 001 §3.3).
+// light-back-facing triangles only (Sintorn et al. 2008 §3.3).
 std::vector<int> meshOrientation(const std::vector<std::array<float, 3>>& positions,
                                  const std::vector<std::array<int, 4>>& triangles, int meshes);
 

@@ -1,4 +1,5 @@
-// Brute force (seed 000 Fig. 11d): K point lights per area light, spread over its cap, one hard
+// Brute force (Annen et al. 2008 Fig. 11d): K point lights per area light, spread over its cap, one
+// hard
 // shadow map each, visibility = the irradiance- and sample-weighted mean of the K depth tests
 // (kernels/shadows/pcss.cl's brute_visibility). The baseline that bounds the problem from above: it
 // converges to the exact visibility of the cap as K grows, at K times the shadow-map cost.

@@ -1,4 +1,4 @@
-// CSSM: convolution soft shadow maps (seed 000 §3 and appendix), kernels/shadows/csm.cl.
+// CSSM: convolution soft shadow maps (Annen et al. 2008 §3 and appendix), kernels/shadows/csm.cl.
 //
 // The host derives the ringing suppression of §3.3 from the order M (deriveCssmSeries), writes
 // the 4M + 1 basis images per light, prefilters them and runs the visibility kernel. Lights are
@@ -17,7 +17,7 @@
 namespace penumbra::detail {
 namespace {
 
-// The truncated complementary shadow test of seed 000 eq. 10 as a function of t = d - z:
+// The truncated complementary shadow test of Annen et al. 2008 eq. 10 as a function of t = d - z:
 //   S_M(t) = 1/2 + 2 sum_{k=1..M} sin(c_k t) / c_k,   c_k = pi (2k - 1).
 // It is the partial Fourier sum of the period-2 square wave H(t) on (-1, 1), so it is odd about
 // (0, 1/2), S_M(1 - t) = S_M(t) (symmetric about t = 1/2), and S_M > 1/2 on (0, 1). It rises
@@ -96,7 +96,7 @@ CssmSeries deriveCssmSeries(int M, double alpha) {
 //   tau0  = lambda t0, the shift along depth: a receiver texel (t = 0) reads
 //           S_M(-tau0) = 1 - S_M(tau0) =: s_lo;
 //   scale = 1 / (s_hi - s_lo), shift = -s_lo scale: s_lo -> 0 (the receiver does not shadow
-//           itself) and s_hi -> 1. lambda = 1 is the symmetric map of seed 000 Fig. 3c (ripple of
+// itself) and s_hi -> 1. lambda = 1 is the symmetric map of Annen et al. 2008 Fig. 3c (ripple of
 //           both plateaus outside [0,1]); lambda = 0 keeps the receiver at the centre of the rise
 //           (S_M(0) = 1/2 -> 0): a tilted receiver's own texels cancel (S_M - 1/2 is odd),
 //           contact shadows start at once, but surfaces behind the receiver (S_M ~ 0) then weigh

@@ -15,7 +15,8 @@ namespace penumbra::detail {
 // clamps).
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
 
-// Moment soft shadow mapping (seed 003): the lights' moments from their depth maps, prefiltered
+// Moment soft shadow mapping (Kneiphof 2017): the lights' moments from their depth maps,
+// prefiltered
 // (RenderOptions::prefilter), then kernels/shadows/moments.cl's "<technique>_visibility" for every
 // pixel and light. Stages "<technique>/moments", "<technique>/sat" or "/mip",
 // "<technique>/visibility".

@@ -1,4 +1,4 @@
-// MSSM4: moment soft shadow mapping with four moments (seed 003 §3.2.1),
+// MSSM4: moment soft shadow mapping with four moments (Kneiphof 2017 §3.2.1),
 // kernels/shadows/moments.cl.
 #include "shadows/mssm.hpp"
 

@@ -1,4 +1,5 @@
-// MSSM6: moment soft shadow mapping with six moments (seed 003 §4.2.1), kernels/shadows/moments.cl.
+// MSSM6: moment soft shadow mapping with six moments (Kneiphof 2017 §4.2.1),
+// kernels/shadows/moments.cl.
 #include "shadows/mssm.hpp"
 
 namespace penumbra::detail {

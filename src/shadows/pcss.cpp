@@ -1,7 +1,7 @@
-// Percentage-closer soft shadows (Fernando 2005), seed 003 eqs. 4-6 computed by sampling the
+// Percentage-closer soft shadows (Fernando 2005), Kneiphof 2017 eqs. 4-6 computed by sampling the
 // standard depth map explicitly: kernels/shadows/pcss.cl's pcss_visibility. No prefilter: the price
 // is a shading cost that grows with the filter's area in texels (every texel of the box by default,
-// PCSSOptions::filterTaps = 0; seed 003 §6.2), where the filtered techniques pay a constant.
+// PCSSOptions::filterTaps = 0; Kneiphof 2017 §6.2), where the filtered techniques pay a constant.
 #include "shadows/shadow_options.hpp"
 #include "shadows/shadow_params.h"
 #include "shadows/shadow_pass.hpp"

@@ -43,7 +43,7 @@ def test_light_set_arrays(lights, env):
     # written here (map_quadrature), with negative controls that must fail.
     dirs, energy = map_quadrature(env)
     power = energy.sum(axis=0)
-    # Median cut's lights alone carry the map's whole power (seed 003 eqs. 16-17; issue 4's 1%).
+    # Median cut's lights alone carry the map's whole power (Kneiphof 2017 eqs. 16-17; issue 4's 1%).
     # Not to 1% here: this 64x32 map is narrower than four 64-texel faces, so the cube is gathered
     # (nearest map texel per cube sub-sample), which keeps the map's power only approximately:
     # measured 1.4% short at face 64 (exact to 1e-7 at faces 8 and 16, which splat). Regression

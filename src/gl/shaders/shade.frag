@@ -1,9 +1,11 @@
 #version 330 core
 // The final shading of kernels/render/shade.cl as a GL fragment shader, term for term: every
-// light's irradiance (a cap: seed 003 eqs. 15-18 with the horizon-clipped closed form of Snyder
+// light's irradiance (a cap: Kneiphof 2017 eqs. 15-18 with the horizon-clipped closed form of
+// Snyder
 // 1996, pb_cap_irradiance in kernels/common/shared.h; a polygon: Lambert's formula on the polygon
 // clipped at the horizon, pb_polygon_irradiance) times the visibility OpenCL computed, plus the
-// unshadowed ambient residual (its pre-integrated irradiance map, seed 004 §3, or its SH9,
+// unshadowed ambient residual (its pre-integrated irradiance map, Arbree et al. 2005 §3, or its
+// SH9,
 // Ramamoorthi & Hanrahan 2001 eqs. 3, 7-9: pb_sh9, PB_SH_AHAT),
 // clamped at 0, times albedo / pi; background pixels show the environment's nearest texel with
 // alpha 0. Texel (x, y) of the G-buffer textures is GL's (bottom-up); visibility rows are
