@@ -29,13 +29,6 @@ if [ -x /usr/lib/llvm-14/bin/llvm-symbolizer ]; then
 fi
 # The tests' scratch files (gtest's TempDir, the fuzz targets' mkdtemp) go to a directory of this
 # build, apart from any other run of the suite on the machine.
-# PoCL's kernel cache named explicitly (the same directory PoCL uses by default): when PoCL has to
-# work the default out itself, LeakSanitizer's exit-time scan (LLVM 14) crashed on a dynamic-TLS
-# block ("Tracer caught signal 11", "DTLS ... at 0x4340") in center-surround and bitmask-jitter
-# runs whose tests had passed. With the directory given, the same kernels from the same cache run
-# clean. The kernels stay cached, so the sanitized run does not recompile them.
-export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/pocl/kcache}
-mkdir -p "$POCL_CACHE_DIR"
 mkdir -p "$build/tmp"
 TEST_TMPDIR=$(cd "$build/tmp" && pwd)
 export TEST_TMPDIR TMPDIR=$TEST_TMPDIR
