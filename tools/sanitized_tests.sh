@@ -20,7 +20,14 @@ cmake --build "$build" -j2 --target penumbra_cli penumbra_tests first_program fu
 # halt_on_error: the first report ends the process, so the test that hit it fails.
 # detect_leaks: LeakSanitizer at exit; tools/lsan.supp names the only leaks let through (in
 # third-party code, none in penumbra's own).
-export ASAN_OPTIONS=halt_on_error=1:detect_leaks=1
+# intercept_tls_get_addr=0: the sanitizer runtime of clang 14 (LLVM 17 dropped the check) takes a
+# dynamic-TLS block whose start lies at offset 16 of a page for one with glibc 2.19's header and
+# reads a bogus range from the two words before it; LeakSanitizer's exit scan then dies with
+# "Tracer caught signal 11" after the test has passed. Where the blocks land depends on malloc, so
+# the crash moved between tests from run to run (PoCL and OpenImageIO's plugins use dynamic TLS).
+# Reproduced 3 of 3 by `penumbra lights --extract center-surround --stop 0.05 --sizes 8` under
+# this build, clean 3 of 3 with the option. Static TLS and every other root are still scanned.
+export ASAN_OPTIONS=halt_on_error=1:detect_leaks=1:intercept_tls_get_addr=0
 export LSAN_OPTIONS=suppressions=$PWD/tools/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # Symbolized reports without llvm-symbolizer on PATH (Debian installs it as llvm-symbolizer-14).

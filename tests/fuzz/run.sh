@@ -15,7 +15,9 @@ common=(-timeout=30 -rss_limit_mb=2048)
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$(cd "$(dirname "$0")/../.." && pwd)/tools/lsan.supp}
 # Full stacks for allocations: the fast unwinder stops at the first library built without frame
 # pointers (libstdc++, OpenImageIO), and a suppression can only match frames it sees.
-export ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0
+# intercept_tls_get_addr=0: clang 14's misreading of dynamic-TLS blocks (tools/sanitized_tests.sh
+# says more) can crash LeakSanitizer's exit scan.
+export ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}fast_unwind_on_malloc=0:intercept_tls_get_addr=0
 dict=()
 if [ -f "$(dirname "$0")/$target.dict" ]; then dict=(-dict="$(dirname "$0")/$target.dict"); fi
 shopt -s nullglob
