@@ -491,6 +491,19 @@ TEST_F(CliParams, ReferenceExposureCheckedFirst) {
 TEST_F(CliParams, LightsCommandBadCount) {
   expectFailure({"lights", "--lights", "abc", "--out", path("l.json")}, {"--lights"});
 }
+TEST_F(CliParams, TargetErrorWithoutAutoCount) {
+  expectFailure({"lights", "--target-error", "0.05", "--out", path("l.json")}, {"--target-error"});
+}
+TEST_F(CliParams, AutoCountForAnotherMethod) {
+  expectFailure({"lights", "--lights", "auto", "--extract", "greedy", "--out", path("l.json")},
+                {"--lights auto", "greedy"});
+}
+TEST_F(CliParams, AutoCountBadTarget) {
+  expectFailure({"lights", "--lights", "auto", "--target-error", "0", "--out", path("l.json")},
+                {"--target-error"});
+  expectFailure({"lights", "--lights", "auto", "--max-lights", "0", "--out", path("l.json")},
+                {"--max-lights"});
+}
 TEST_F(CliParams, LightsOverlayNotPng) {
   expectFailure({"lights", "--lights", "4", "--overlay", path("o.exr")}, {"--overlay"});
 }
@@ -667,6 +680,29 @@ TEST_F(CliLights, JsonAndOverlay) {
   EXPECT_GT(overlay.width, 0);
   EXPECT_GT(overlay.height, 0);
   EXPECT_EQ(entries().size(), 2u);
+}
+
+// --lights auto: the count chosen to the target is said on stderr with each count tried, and is
+// the count written.
+TEST_F(CliLights, AutoCountMeetsTheTarget) {
+  Result r = run({"lights", "--lights", "auto", "--target-error", "0.08", "--face-size", "32",
+                  "--out", "l.json"});
+  ASSERT_EQ(r.code, 0) << describe(r);
+  const std::string key = "--lights auto: ";
+  const std::size_t at = r.err.find(key);
+  ASSERT_NE(at, std::string::npos) << describe(r);
+  const int said = std::atoi(r.err.c_str() + at + key.size());
+  EXPECT_NE(r.err.find("<= target 8%"), std::string::npos) << describe(r);
+  EXPECT_NE(r.err.find("(tried 4: "), std::string::npos) << describe(r);
+  const LightSet set = loadLightSet((dir_ / "l.json").string());
+  EXPECT_EQ(int(set.lights.size()), said) << describe(r);
+  EXPECT_GT(said, 4);
+  EXPECT_LT(said, 64);
+  // --quiet says nothing (render, which has it)
+  Result q = run({"render", "--size", "16x9", "--lights", "auto", "--target-error", "0.08",
+                  "--face-size", "32", "--shadows", "hard", "-q", "--out", "x.png"});
+  ASSERT_EQ(q.code, 0) << describe(q);
+  EXPECT_EQ(q.err.find("--lights auto"), std::string::npos) << describe(q);
 }
 
 TEST_F(CliLights, JsonOnStdout) {

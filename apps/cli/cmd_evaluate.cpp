@@ -49,7 +49,7 @@ int runEvaluate(const Args& a) {
   eo.truth.height = ro.height;
   parseSampling(a, eo.truth);
   eo.cacheDir = a.get("truth");
-  const ExtractOptions ext = parseExtractOptions(a);
+  ExtractOptions ext = parseExtractOptions(a);
   LightSet userLights;
   const bool useLightSet = userLightSet(a, userLights);
   // The directories last among the checks, so that a refused option leaves none behind.
@@ -69,7 +69,7 @@ int runEvaluate(const Args& a) {
 
   Context ctx(a.get("device"));
   FrameRenderer frameRenderer(ctx, a, ro);
-  const LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, ext);
+  const LightSet lights = useLightSet ? userLights : extractNoting(ctx, s.env, ext, a);
   // Warm: the first render builds the kernels and buffers; the second is timed.
   frameRenderer.render(s.scene, s.camera, lights, s.env, ro);
   const auto t0 = std::chrono::steady_clock::now();

@@ -30,10 +30,10 @@ CLI::App* addLightsCommand(CLI::App& root, Registry& reg) {
 int runLights(const Args& a) {
   if (a.has("out")) checkOutput(a.get("out"), {".json"}, "out");
   if (a.has("overlay")) checkOutput(a.get("overlay"), {".png"}, "overlay");
-  const ExtractOptions eo = parseExtractOptions(a);
+  ExtractOptions eo = parseExtractOptions(a);
   const Environment env = loadEnvironmentNoting(a.get("env", "builtin"));
   Context ctx(a.get("device"));
-  const LightSet lights = extractLights(ctx, env, eo);
+  const LightSet lights = extractNoting(ctx, env, eo, a);
   // The count belongs to the map, not to the light set (LightSet has no field for it), so it is
   // recorded here, second, as render's report records it; loadLightSet accepts it.
   const auto set = nlohmann::ordered_json::parse(lights.toJson());

@@ -37,7 +37,7 @@ int runReference(const Args& a) {
   parseSampling(a, ro);
   const float exposure = parseExposure(a);
   bool lightMode = a.has("lights") || a.has("extract") || a.has("light-shape");
-  const ExtractOptions eo = parseExtractOptions(a);
+  ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
   const bool useLightSet = userLightSet(a, userLights);
   lightMode = lightMode || useLightSet;
@@ -48,7 +48,7 @@ int runReference(const Args& a) {
     ro.progress = progress.callback();
     if (lightMode) {
       Context ctx(a.get("device"));
-      const LightSet lights = useLightSet ? userLights : extractLights(ctx, s.env, eo);
+      const LightSet lights = useLightSet ? userLights : extractNoting(ctx, s.env, eo, a);
       ref = referenceLightsWithNoise(s.scene, s.camera, lights, s.env, ro);
     } else {
       ref = referenceEnvironmentWithNoise(s.scene, s.camera, s.env, ro);

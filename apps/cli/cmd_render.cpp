@@ -110,7 +110,7 @@ int runRender(const Args& a) {
     if (animate && movingScene) s.scene = builtinScene(t);
     ctx.resetTimings();
     const auto t0 = std::chrono::steady_clock::now();
-    const LightSet lights = useLightSet ? userLights : extractLights(ctx, env, eo);
+    const LightSet lights = useLightSet ? userLights : extractNoting(ctx, env, eo, a);
     const Frame f = frameRenderer.render(s.scene, s.camera, lights, env, ro);
     const double frameMs = secondsSince(t0) * 1e3;
     const std::string path = animate ? framePath(out, i, frames) : out;

@@ -36,8 +36,15 @@ struct SceneSetup {
 Environment loadEnvironmentNoting(const std::string& pathOrBuiltin);
 // The camera frames the scene for a width x height image. loadEnv = false leaves s.env empty.
 SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv = true);
+// --lights auto: the target error and the most lights when not given.
+constexpr double kAutoTargetError = 0.03;
+constexpr int kAutoMaxLights = 256;
 // The extraction options; an option that does not belong to the chosen method is refused.
 ExtractOptions parseExtractOptions(const Args& a);
+// extractLights; with --lights auto, says on stderr (unless --quiet) which count it chose, each
+// count tried and its predicted error, and fixes that count in `eo` (an animation keeps the
+// count of its first frame: a count that changed between frames would make shadows pop).
+LightSet extractNoting(Context& ctx, const Environment& env, ExtractOptions& eo, const Args& a);
 // Loads --light-set into `out` when given (refusing extraction options beside it).
 bool userLightSet(const Args& a, LightSet& out);
 // The input files a report names ("" for the built-in defaults and extracted lights).

@@ -3,6 +3,8 @@
 // the library's structs (MedianCutOptions{}, GreedyOptions{}, AmbientOptions{}, ...).
 #include "options.hpp"
 
+#include <cctype>
+#include <cmath>
 #include <iostream>
 
 namespace penumbra::cli {
@@ -42,10 +44,16 @@ void addExtractOptions(CLI::App& app, Registry& reg) {
   const ExtractOptions ex;
   reg.text(app, "--extract", "METHOD", "median-cut | greedy | center-surround",
            toString(ex.method), kGroupLights, {"ExtractOptions.method"});
-  reg.integer(app, "-l,--lights", "median-cut: number of lights; greedy, center-surround: the "
-              "most lights kept (defaults " + num(gr.maxLights) + ", " + num(cs.maxLights) + ")",
-              1, kMaxLights, num(mc.lights), kGroupLights,
-              {"MedianCutOptions.lights", "GreedyOptions.maxLights"});
+  reg.text(app, "-l,--lights", "N|auto", "median-cut: number of lights (1.." +
+           num(kMaxLights) + ") or auto: the fewest lights whose predicted error meets the target error; "
+           "greedy, center-surround: the most lights kept (defaults " + num(gr.maxLights) + ", " +
+           num(cs.maxLights) + ")", num(mc.lights), kGroupLights,
+           {"MedianCutOptions.lights", "GreedyOptions.maxLights"});
+  reg.real(app, "--target-error", "--lights auto: the predicted error (lightSetProbeError, "
+           "relative) the light count must meet", {0, 1, true, true}, num(kAutoTargetError),
+           kGroupLights, {"ExtractOptions.targetError"});
+  reg.integer(app, "--max-lights", "--lights auto: the most lights it may choose", 1, kMaxLights,
+              num(kAutoMaxLights), kGroupLights);
   reg.integer(app, "--face-size", "median-cut, greedy: cube face size (greedy's default " +
               num(gr.faceSize) + ")", 1, 4096, num(mc.faceSize), kGroupLights,
               {"MedianCutOptions.faceSize", "GreedyOptions.faceSize"});
@@ -130,9 +138,23 @@ ExtractOptions parseExtractOptions(const Args& a) {
     badInput("--" + option + " applies to --extract " + list + ", not " + name);
   };
   using M = ExtractionMethod;
-  if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
-    const int n = int(a.integer("lights"));
-    eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
+  const bool autoCount = a.has("lights") && a.get("lights") == "auto";
+  if (autoCount) {
+    if (eo.method != M::MedianCut)
+      badInput("--lights auto applies to --extract median-cut, not " + name);
+    eo.targetError = a.has("target-error") ? a.real("target-error") : kAutoTargetError;
+    eo.medianCut.lights = a.has("max-lights") ? int(a.integer("max-lights")) : kAutoMaxLights;
+  } else {
+    for (const char* o : {"target-error", "max-lights"})
+      if (a.has(o)) badInput(std::string("--") + o + " applies to --lights auto");
+    if (only("lights", {M::MedianCut, M::Greedy, M::CenterSurround})) {
+      const std::string text = a.get("lights");
+      if (text.empty() || !(std::isdigit(static_cast<unsigned char>(text[0])) || text[0] == '-'))
+        badInput("--lights must be a number of lights in [1, " + std::to_string(kMaxLights) +
+                 "] or auto, got '" + text + "'");
+      const int n = int(parseInteger("lights", text, 1, kMaxLights));
+      eo.medianCut.lights = eo.greedy.maxLights = eo.centerSurround.maxLights = n;
+    }
   }
   if (only("face-size", {M::MedianCut, M::Greedy}))
     eo.medianCut.faceSize = eo.greedy.faceSize = int(a.integer("face-size"));
@@ -161,9 +183,30 @@ ExtractOptions parseExtractOptions(const Args& a) {
   return eo;
 }
 
+LightSet extractNoting(Context& ctx, const Environment& env, ExtractOptions& eo, const Args& a) {
+  if (eo.targetError == 0.0) return extractLights(ctx, env, eo);
+  LightCountSearch search;
+  LightSet set = extractToTargetError(ctx, env, eo, &search);
+  if (!a.quiet()) {
+    auto pct = [](double v) { return num(std::round(v * 1000.0) / 10.0) + "%"; };
+    std::string tried;
+    for (const LightCountTry& t : search.tried)
+      tried += (tried.empty() ? "" : ", ") + std::to_string(t.asked) + ": " + pct(t.predicted);
+    std::cerr << "penumbra: --lights auto: " << set.lights.size() << " lights, predicted error "
+              << pct(search.predicted) << (search.reached ? " <= " : " > ") << "target "
+              << pct(eo.targetError)
+              << (search.reached ? "" : " (the most lights allowed; raise --max-lights)")
+              << " (tried " << tried << ")\n";
+  }
+  eo.medianCut.lights = search.lights;
+  eo.targetError = 0.0;
+  return set;
+}
+
 bool userLightSet(const Args& a, LightSet& out) {
   if (!a.has("light-set")) return false;
-  for (const char* o : {"extract", "lights", "face-size", "threshold", "rect", "stop", "sizes",
+  for (const char* o : {"extract", "lights", "target-error", "max-lights", "face-size",
+                        "threshold", "rect", "stop", "sizes",
                         "no-ambient", "ambient", "ambient-size", "light-shape", "light-texture"})
     if (a.has(o))
       badInput(std::string("--") + o + " extracts lights from the map; it cannot be combined "

@@ -1058,7 +1058,16 @@ PYBIND11_MODULE(_penumbra, m) {
                      "AmbientOptions: its representation (default: a 128x64 irradiance map).")
       .def_readwrite("light_texture", &ExtractOptions::lightTexture,
                      "Texture each extracted cap with N x N texels of the map (0: none, default; "
-                     "else 1..64): sample-based techniques weight light samples by the map.");
+                     "else 1..64): sample-based techniques weight light samples by the map.")
+      .def_readwrite("target_error", &ExtractOptions::targetError,
+                     "> 0: median cut chooses the fewest lights (up to median_cut.lights) whose "
+                     "light_set_probe_error is at most this; 0 (default): median_cut.lights.");
+  m.def("light_set_probe_error", &lightSetProbeError, "env"_a, "lights"_a,
+        py::call_guard<py::gil_scoped_release>(),
+        "A cheap prediction of the error the light set leaves under occlusion with exact "
+        "visibility of its lights (evaluate's floor): cones block part of the sky over 64 "
+        "receiver normals and what passes from the lights plus the unshadowed ambient is compared "
+        "with what passes from the map. Relative (RMS over the mean), >= 0.");
 
   m.def(
       "extract_lights",

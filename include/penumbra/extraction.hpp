@@ -5,6 +5,7 @@
 /// draws what was found on the map.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "penumbra/ambient.hpp"
 #include "penumbra/image.hpp"
@@ -94,10 +95,43 @@ struct ExtractOptions {
   /// force, the light-set reference) weight each light sample by the map. 0 (default): none;
   /// else in [1, 64].
   int lightTexture = 0;
+  /// > 0: choose the median-cut light count to this predicted error (extractToTargetError), with
+  /// medianCut.lights as the most lights tried. 0 (default): extract medianCut.lights.
+  double targetError = 0.0;
 };
 /// Runs the chosen method, then the light textures when opt.lightTexture > 0, then the ambient
-/// residual when opt.ambient.
+/// residual when opt.ambient; with opt.targetError > 0, extractToTargetError.
 LightSet extractLights(Context& ctx, const Environment& env, const ExtractOptions& opt = {});
+
+/// A cheap prediction of the error a light set leaves under occlusion, with exact visibility of
+/// its lights (the "floor" of `penumbra evaluate`): on 64 receiver normals, each with 32 cones
+/// blocking part of its upper hemisphere (16 axes, half-angles 20 and 45 degrees), the luminance
+/// irradiance that passes from the lights (32 samples each) plus the ambient residual (unshadowed,
+/// as the renderer shades it) against what passes from the map (at most 128 x 64 bins); the RMS
+/// of the differences over the mean of the map's. Unoccluded, the lights plus the residual match
+/// the map by construction, so only occlusion shows what a light count gets wrong. Relative, >= 0;
+/// a few milliseconds. bench/results/light_count.md compares it with the measured floor.
+double lightSetProbeError(const Environment& env, const LightSet& set);
+
+/// What extractToTargetError tried: each count asked for, the lights it gave (median cut's merges
+/// can give fewer) and its prediction.
+struct LightCountTry {
+  int asked = 0;
+  int lights = 0;
+  double predicted = 0.0;
+};
+struct LightCountSearch {
+  int lights = 0;           ///< the count chosen (regions asked of median cut)
+  double predicted = 0.0;   ///< its lightSetProbeError
+  bool reached = false;     ///< false: even opt.medianCut.lights lights miss the target
+  std::vector<LightCountTry> tried;
+};
+/// The smallest median-cut light count, up to opt.medianCut.lights, whose lightSetProbeError is at
+/// most opt.targetError: 4, 8, 16, ... until one meets it, then bisection down to an eighth of the
+/// count. Extracts as extractLights does (textures, ambient) at each count tried. Throws
+/// Error(BadInput) for another method or a target that is not a finite number > 0.
+LightSet extractToTargetError(Context& ctx, const Environment& env, const ExtractOptions& opt,
+                              LightCountSearch* search = nullptr);
 
 /// The map (tone-mapped, automatic exposure) with each light's region(s) outlined and its centre
 /// marked; a light without regions (center-surround) gets its cap's outline, the circle at its

@@ -26,6 +26,7 @@ LightSet extractLights(Context& ctx, const Environment& env, const ExtractOption
   if (opt.lightTexture < 0 || opt.lightTexture > 64)
     badInput("ExtractOptions::lightTexture must be 0 (none) or in [1, 64], got " +
              std::to_string(opt.lightTexture));
+  if (opt.targetError != 0.0) return extractToTargetError(ctx, env, opt);
   LightSet set;
   switch (opt.method) {
     case ExtractionMethod::MedianCut: set = extractMedianCut(ctx, env, opt.medianCut); break;

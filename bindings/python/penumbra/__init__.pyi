@@ -309,10 +309,14 @@ class ExtractOptions:
     ambient: bool
     ambient_options: AmbientOptions
     light_texture: int
+    target_error: float
     def __init__(self, *, method: Union[ExtractionMethod, str] = ...,
                  median_cut: MedianCutOptions = ..., greedy: GreedyOptions = ...,
                  center_surround: CenterSurroundOptions = ..., ambient: bool = ...,
-                 ambient_options: AmbientOptions = ..., light_texture: int = ...) -> None: ...
+                 ambient_options: AmbientOptions = ..., light_texture: int = ...,
+                 target_error: float = ...) -> None: ...
+
+def light_set_probe_error(env: Environment, lights: LightSet) -> float: ...
 
 def extract_lights(ctx: Context, env: Environment,
                    method: Union[ExtractionMethod, str, None] = None,

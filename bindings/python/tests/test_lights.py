@@ -259,3 +259,19 @@ def test_texture_lights_from_map(ctx, env):
     assert [l.texture.radiance for l in again.lights] == [l.texture.radiance for l in textured.lights]
     with pytest.raises(penumbra.BadInput, match="got 0"):
         penumbra.texture_lights_from_map(env, again, 0)
+
+
+def test_light_count_to_a_target_error(ctx, env):
+    """ExtractOptions.target_error chooses the median-cut count (up to median_cut.lights) whose
+    light_set_probe_error meets the target; fewer lights predict more error."""
+    few = penumbra.extract_lights(ctx, env, lights=4)
+    many = penumbra.extract_lights(ctx, env, lights=64)
+    assert penumbra.light_set_probe_error(env, few) > penumbra.light_set_probe_error(env, many) > 0
+    o = penumbra.ExtractOptions(target_error=0.08)
+    o.median_cut.lights = 128
+    chosen = penumbra.extract_lights(ctx, env, options=o)
+    assert penumbra.light_set_probe_error(env, chosen) <= 0.08
+    assert 4 <= len(chosen) <= 128
+    with pytest.raises(penumbra.BadInput, match="median-cut"):
+        penumbra.extract_lights(ctx, env, options=penumbra.ExtractOptions(target_error=0.05,
+                                                                          method="greedy"))
