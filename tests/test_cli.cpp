@@ -638,6 +638,13 @@ TEST_F(CliRender, PngAndReport) {
   EXPECT_EQ(jsonNumber(json, "lights"), 8) << json;
   EXPECT_EQ(jsonNumber(json, "sanitized_pixels"), 0) << json;
   EXPECT_GT(jsonNumber(json, "total"), 0) << json;
+  // Start-up on its own line: the loader before main() (from /proc, 10 ms ticks) and main() to
+  // the first frame, both measured, neither the frame's.
+  const nlohmann::json report = nlohmann::json::parse(json);
+  ASSERT_TRUE(report.contains("startup_ms")) << json;
+  EXPECT_TRUE(report["startup_ms"]["loader"].is_number()) << json;
+  EXPECT_GE(report["startup_ms"]["loader"].get<double>(), 0.0) << json;
+  EXPECT_GT(report["startup_ms"]["setup"].get<double>(), 0.0) << json;
   // Exactly the two outputs, no leftover temporaries.
   auto left = entries();
   EXPECT_EQ(left.size(), 2u);

@@ -115,8 +115,17 @@ int runRender(const Args& a) {
     const double frameMs = secondsSince(t0) * 1e3;
     const std::string path = animate ? framePath(out, i, frames) : out;
     writeImage(path, f.image, exposure > 0 ? exposure : autoExposure(f.image), {}, text);
-    const auto report = nlohmann::ordered_json::parse(
+    auto report = nlohmann::ordered_json::parse(
         renderReportJson(ctx.info().name, lights, env, ro, f, info));
+    if (i == 0) {
+      // Start-up, apart from the frame: the loader before main(), then main() to the first
+      // frame (options, device, scene and map); the first frame's program builds are in its
+      // stage timings.
+      const double loader = loaderMs();
+      report["startup_ms"] = {
+          {"loader", loader >= 0 ? nlohmann::ordered_json(loader) : nlohmann::ordered_json()},
+          {"setup", std::chrono::duration<double, std::milli>(t0 - mainStart()).count()}};
+    }
     if (animate) {
       // The frame's own fields first, then the single-frame report's.
       nlohmann::ordered_json frame = {{"frame", i},

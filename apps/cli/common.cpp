@@ -458,6 +458,30 @@ std::string oneLine(std::string s) {
 // ---------------------------------------------------------------------------------------------
 // Progress
 
+namespace {
+std::chrono::steady_clock::time_point gMainStart = std::chrono::steady_clock::now();
+double gLoaderMs = -1.0;
+}  // namespace
+
+void markMain() {
+  gMainStart = std::chrono::steady_clock::now();
+  // Field 22 of /proc/self/stat: the start time in clock ticks after boot; /proc/uptime: now.
+  std::ifstream stat("/proc/self/stat"), uptime("/proc/uptime");
+  std::string text;
+  double up = 0;
+  if (!std::getline(stat, text) || !(uptime >> up)) return;
+  std::istringstream rest(text.substr(text.rfind(')') + 2));  // after "pid (comm) "
+  std::string field;
+  for (int i = 3; i <= 22 && rest >> field; ++i) {
+    if (i != 22) continue;
+    const long ticks = sysconf(_SC_CLK_TCK);
+    if (ticks > 0) gLoaderMs = std::max(0.0, (up - std::stod(field) / double(ticks)) * 1e3);
+  }
+}
+
+double loaderMs() { return gLoaderMs; }
+std::chrono::steady_clock::time_point mainStart() { return gMainStart; }
+
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -178,4 +178,12 @@ class Progress {
 // Seconds since `start`.
 double secondsSince(std::chrono::steady_clock::time_point start);
 
+// Start-up as the report states it: the milliseconds from the process's start (the kernel's
+// record in /proc/self/stat, 10 ms ticks) to main(), which is the dynamic loader and static
+// constructors (about 265 shared libraries, almost all OpenImageIO's); -1 where /proc is not
+// readable. markMain() records when main() began.
+void markMain();
+double loaderMs();
+std::chrono::steady_clock::time_point mainStart();
+
 }  // namespace penumbra::cli

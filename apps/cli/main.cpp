@@ -68,6 +68,7 @@ void refuseExtras(const CLI::App& app, const std::vector<std::string>& extras) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  markMain();
   const std::vector<std::string> command(argv, argv + argc);
   if (argc < 2) {
     usage(std::cerr);
