@@ -110,7 +110,8 @@ LightSet extractLights(Context& ctx, const Environment& env, const ExtractOption
 /// as the renderer shades it) against what passes from the map (at most 128 x 64 bins); the RMS
 /// of the differences over the mean of the map's. Unoccluded, the lights plus the residual match
 /// the map by construction, so only occlusion shows what a light count gets wrong. Relative, >= 0;
-/// a few milliseconds. bench/results/light_count.md compares it with the measured floor.
+/// 30-120 ms on this project's 2-core CPU. bench/results/light_count.md compares it with the
+/// measured floor.
 double lightSetProbeError(const Environment& env, const LightSet& set);
 
 /// What extractToTargetError tried: each count asked for, the lights it gave (median cut's merges

@@ -103,12 +103,9 @@ double passed(const std::vector<Ray>& rays, const V3& n, const V3& c, double cos
   return sum;
 }
 
-}  // namespace
-
-double lightSetProbeError(const Environment& env, const LightSet& set) {
-  if (env.equirect.width <= 0 || env.equirect.height <= 0)
-    badInput("lightSetProbeError: the environment map is empty");
-  const std::vector<Ray> mapR = mapRays(env), lightR = lightRays(set);
+// lightSetProbeError with the map's rays given (the search bins the map once).
+double probeError(const std::vector<Ray>& mapR, const LightSet& set) {
+  const std::vector<Ray> lightR = lightRays(set);
   // 64 receiver normals; per normal 16 cone axes spread over its upper hemisphere (the sphere's
   // Fibonacci points folded into it) at two sizes, 20 and 45 degrees half-angle: small blockers
   // (a limb, a leg) and large ones (a body, a wall's corner) seen from the receiver.
@@ -138,6 +135,18 @@ double lightSetProbeError(const Environment& env, const LightSet& set) {
   return std::sqrt(sumSq / double(count)) / (sumTruth / double(count));
 }
 
+void checkMap(const Environment& env) {
+  if (env.equirect.width <= 0 || env.equirect.height <= 0)
+    badInput("lightSetProbeError: the environment map is empty");
+}
+
+}  // namespace
+
+double lightSetProbeError(const Environment& env, const LightSet& set) {
+  checkMap(env);
+  return probeError(mapRays(env), set);
+}
+
 LightSet extractToTargetError(Context& ctx, const Environment& env, const ExtractOptions& opt,
                               LightCountSearch* search) {
   if (opt.method != ExtractionMethod::MedianCut)
@@ -148,6 +157,8 @@ LightSet extractToTargetError(Context& ctx, const Environment& env, const Extrac
              detail::numberText(opt.targetError));
   const int most = opt.medianCut.lights;
   if (most < 1) badInput("MedianCutOptions.lights (the most lights) must be >= 1");
+  checkMap(env);
+  const std::vector<Ray> mapR = mapRays(env);
   LightCountSearch s;
   ExtractOptions o = opt;
   o.targetError = 0;
@@ -155,7 +166,7 @@ LightSet extractToTargetError(Context& ctx, const Environment& env, const Extrac
   auto attempt = [&](int n) {
     o.medianCut.lights = n;
     LightSet set = extractLights(ctx, env, o);
-    const double e = lightSetProbeError(env, set);
+    const double e = probeError(mapR, set);
     s.tried.push_back(LightCountTry{n, int(set.lights.size()), e});
     return std::make_pair(std::move(set), e);
   };
