@@ -504,6 +504,13 @@ TEST_F(CliParams, AutoCountBadTarget) {
   expectFailure({"lights", "--lights", "auto", "--max-lights", "0", "--out", path("l.json")},
                 {"--max-lights"});
 }
+// An error inside the progress bar's span (extraction, in reference) is still the only line: no
+// "100%" before it.
+TEST_F(CliParams, ReferenceErrorAfterProgressStartedIsOneLine) {
+  expectFailure({"reference", "--size", "16x9", "--spp", "1", "--lights", "200", "--face-size", "4",
+                 "--out", path("r.exr")},
+                {"--lights", "96 texels"});
+}
 TEST_F(CliParams, LightsOverlayNotPng) {
   expectFailure({"lights", "--lights", "4", "--overlay", path("o.exr")}, {"--overlay"});
 }
@@ -870,6 +877,20 @@ TEST_F(CliReference, ProgressLinesWhenNotATerminal) {
 }
 
 // --spp is bounded (1 to 1048576, stated in --help): beyond it, one line naming the flag.
+// Any extraction option asks for the light-set reference, not only --lights and --extract (the
+// help says so; --face-size alone used to be checked and then ignored).
+TEST_F(CliReference, AnyExtractionOptionMeansTheLightSet) {
+  for (const std::vector<std::string>& option :
+       {std::vector<std::string>{"--face-size", "16"}, {"--light-texture", "2"}, {"--no-ambient"}}) {
+    Result r = run(cat({"reference", "--size", "16x9", "--spp", "1", "-q", "--out", "r.exr"},
+                       option));
+    ASSERT_EQ(r.code, 0) << describe(r);
+    EXPECT_NE(r.out.find("light-set reference"), std::string::npos) << option[0] << describe(r);
+  }
+  Result env = run({"reference", "--size", "16x9", "--spp", "1", "-q", "--out", "r.exr"});
+  ASSERT_EQ(env.code, 0) << describe(env);
+  EXPECT_EQ(env.out.find("light-set reference"), std::string::npos) << describe(env);
+}
 TEST_F(CliReference, SppBeyondTheMaximumIsRefused) {
   expectFailure({"reference", "--size", "16x9", "--spp", "1048577", "--out", path("ref.exr")},
                 {"--spp", "1048576"});
@@ -939,6 +960,11 @@ TEST_F(CliCompare, HeatmapShowsWhereTheImagesDiffer) {
   ASSERT_EQ(r.code, 0) << describe(r);
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["heatmap"], "h.png") << r.out;
+  // A heat-map name that is not UTF-8 is written into the metrics as U+FFFD, still valid JSON.
+  Result latin = run({"compare", "a.exr", "b.exr", "--heatmap", "caf\xe9.png"});
+  ASSERT_EQ(latin.code, 0) << describe(latin);
+  EXPECT_EQ(nlohmann::json::parse(latin.out)["heatmap"], "caf\xef\xbf\xbd.png") << latin.out;
+  fs::remove(dir_ / "caf\xe9.png");
   EXPECT_GT(j["heatmap_scale"].get<double>(), 0.0) << r.out;
   const Image h = readImage(path("h.png"));
   EXPECT_EQ(h.width, 40);

@@ -156,6 +156,20 @@ TEST(LightCount, AMissedTargetIsReported) {
   EXPECT_GT(search.predicted, 1e-4);
 }
 
+// The search stops at the cube's texels: median cut cannot cut more regions than 6 x face^2.
+TEST(LightCount, SearchStopsAtTheCubesTexels) {
+  const Environment env = builtinEnvironment(64);
+  ExtractOptions eo;
+  eo.medianCut.faceSize = 2;
+  eo.medianCut.lights = 256;
+  eo.targetError = 1e-4;
+  LightCountSearch search;
+  extractToTargetError(ctx(), env, eo, &search);
+  EXPECT_FALSE(search.reached);
+  EXPECT_EQ(search.lights, 24);
+  EXPECT_EQ(search.tried.back().asked, 24);
+}
+
 TEST(LightCount, RefusesBadTargetsAndOtherMethods) {
   const Environment env = builtinEnvironment(64);
   ExtractOptions eo;

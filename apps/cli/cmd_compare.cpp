@@ -71,7 +71,8 @@ int runCompare(const Args& a) {
     json["heatmap"] = a.get("heatmap");
     json["heatmap_scale"] = writeHeatmap(a.get("heatmap"), A, B, heat);
   }
-  const std::string text = json.dump(2) + "\n";
+  const std::string text =
+      json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   std::cout << text;
   if (haveNoise && m.relativeRmse < 2.0 * noise->second)
     std::cerr << "penumbra: compare: relative RMSE " << percentText(m.relativeRmse)

@@ -36,7 +36,12 @@ int runReference(const Args& a) {
   if (a.has("size")) parseSize("size", a.get("size"), 16384, ro.width, ro.height);
   parseSampling(a, ro);
   const float exposure = parseExposure(a);
-  bool lightMode = a.has("lights") || a.has("extract") || a.has("light-shape");
+  // Any extraction option asks for the light-set reference (as the help says).
+  bool lightMode = false;
+  for (const char* o : {"lights", "extract", "light-shape", "face-size", "threshold", "rect", "stop",
+                        "sizes", "no-ambient", "ambient", "ambient-size", "light-texture",
+                        "target-error", "max-lights"})
+    lightMode = lightMode || a.has(o);
   ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
   const bool useLightSet = userLightSet(a, userLights);

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <locale>
@@ -378,9 +379,11 @@ void checkOutput(const std::string& path, const std::vector<std::string>& exts,
              ")");
   }
   fs::path dir = fs::path(path).parent_path();
-  if (!dir.empty() && !fs::is_directory(dir))
-    badInput("--" + option + " " + path + ": directory " + dir.string() + " does not exist");
-  if (fs::is_directory(path)) badInput("--" + option + " " + path + ": is a directory");
+  std::error_code ec;  // a directory the user cannot search is "does not exist" to us, not a crash
+  if (!dir.empty() && !fs::is_directory(dir, ec))
+    badInput("--" + option + " " + path + ": directory " + dir.string() +
+             (ec ? " cannot be read (" + ec.message() + ")" : " does not exist"));
+  if (fs::is_directory(path, ec)) badInput("--" + option + " " + path + ": is a directory");
 }
 
 void writeTextAtomic(const std::string& path, const std::string& text) {
@@ -492,6 +495,11 @@ Progress::Progress(std::string label, bool quiet)
 
 Progress::~Progress() {
   if (quiet_) return;
+  // Unwinding from an error: no "100%", only the bar cleared, so the error is the last word.
+  if (std::uncaught_exceptions() > 0) {
+    if (tty_) std::fprintf(stderr, "\r\033[K");
+    return;
+  }
   const std::string took = durationText(secondsSince(start_));
   if (tty_)
     std::fprintf(stderr, "\r%s [##########] 100%% in %s\033[K\n", label_.c_str(), took.c_str());

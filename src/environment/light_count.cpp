@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "common/shared.h"
@@ -155,8 +156,10 @@ LightSet extractToTargetError(Context& ctx, const Environment& env, const Extrac
   if (!(opt.targetError > 0) || !std::isfinite(opt.targetError))
     badInput("ExtractOptions.targetError must be a finite number > 0, got " +
              detail::numberText(opt.targetError));
-  const int most = opt.medianCut.lights;
-  if (most < 1) badInput("MedianCutOptions.lights (the most lights) must be >= 1");
+  if (opt.medianCut.lights < 1) badInput("MedianCutOptions.lights (the most lights) must be >= 1");
+  // Median cut cannot cut more regions than the cube has texels: the search stops there.
+  const std::int64_t m = opt.medianCut.faceSize;
+  const int most = int(std::min<std::int64_t>(opt.medianCut.lights, std::max<std::int64_t>(1, 6 * m * m)));
   checkMap(env);
   const std::vector<Ray> mapR = mapRays(env);
   LightCountSearch s;
