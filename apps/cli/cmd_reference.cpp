@@ -38,10 +38,7 @@ int runReference(const Args& a) {
   const float exposure = parseExposure(a);
   // Any extraction option asks for the light-set reference (as the help says).
   bool lightMode = false;
-  for (const char* o : {"lights", "extract", "light-shape", "face-size", "threshold", "rect", "stop",
-                        "sizes", "no-ambient", "ambient", "ambient-size", "light-texture",
-                        "target-error", "max-lights"})
-    lightMode = lightMode || a.has(o);
+  for (const char* o : kExtractionOptionNames) lightMode = lightMode || a.has(o);
   ExtractOptions eo = parseExtractOptions(a);
   LightSet userLights;
   const bool useLightSet = userLightSet(a, userLights);

@@ -39,6 +39,9 @@ SceneSetup loadSetup(const Args& a, int width, int height, bool loadEnv = true);
 // --lights auto: the target error and the most lights when not given.
 constexpr double kAutoTargetError = 0.03;
 constexpr int kAutoMaxLights = 256;
+// The long names of every extraction option (addExtractOptions): any of them asks `reference` for
+// the light-set truth, and none may stand beside --light-set.
+extern const char* const kExtractionOptionNames[14];
 // The extraction options; an option that does not belong to the chosen method is refused.
 ExtractOptions parseExtractOptions(const Args& a);
 // extractLights; with --lights auto, says on stderr (unless --quiet) which count it chose, each

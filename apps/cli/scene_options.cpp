@@ -203,11 +203,13 @@ LightSet extractNoting(Context& ctx, const Environment& env, ExtractOptions& eo,
   return set;
 }
 
+const char* const kExtractionOptionNames[14] = {
+    "extract", "lights", "target-error", "max-lights", "face-size", "threshold", "rect",
+    "stop", "sizes", "no-ambient", "ambient", "ambient-size", "light-shape", "light-texture"};
+
 bool userLightSet(const Args& a, LightSet& out) {
   if (!a.has("light-set")) return false;
-  for (const char* o : {"extract", "lights", "target-error", "max-lights", "face-size",
-                        "threshold", "rect", "stop", "sizes",
-                        "no-ambient", "ambient", "ambient-size", "light-shape", "light-texture"})
+  for (const char* o : kExtractionOptionNames)
     if (a.has(o))
       badInput(std::string("--") + o + " extracts lights from the map; it cannot be combined "
                "with --light-set");
