@@ -2,7 +2,7 @@
 
 `pip install .` runs build_ext below: it configures the CMake project in a build directory of its
 own (tests and benchmarks off, this interpreter's Python), builds the `penumbra_python` target,
-and copies the extension and libpenumbra into the package with the extension's RPATH set to
+and copies the extension, libpenumbra and its OpenImageIO module into the package with the extension's RPATH set to
 $ORIGIN, so the installed package needs nothing from the build tree. The pure files
 (bindings/python/penumbra: __init__.py, __init__.pyi, py.typed) are packed as they are.
 
@@ -56,7 +56,7 @@ class CMakeBuild(build_ext):
 
         # bindings/python/CMakeLists.txt lists the extension and the library (by SONAME).
         listed = (build / "bindings" / "python" / "package_files.txt").read_text().split()
-        module, library = pathlib.Path(listed[0]), pathlib.Path(listed[1])
+        module, library, codec = (pathlib.Path(p) for p in listed[:3])
         suffix = sysconfig.get_config_var("EXT_SUFFIX")
         if not module.name.endswith(suffix):
             sys.exit(f"setup.py: {module.name} was built for another Python than "
@@ -66,6 +66,8 @@ class CMakeBuild(build_ext):
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(module, target)
         shutil.copyfile(library, target.parent / library.name)  # the file, not the symlink
+        # libpenumbra loads its OpenImageIO module from its own directory.
+        shutil.copyfile(codec, target.parent / codec.name)
         # The copy finds libpenumbra beside itself: CMake's own ELF editor rewrites the RPATH
         # (file(RPATH_SET), CMake >= 3.21), so no patchelf is needed.
         script = pathlib.Path(self.build_temp).resolve() / "set_rpath.cmake"

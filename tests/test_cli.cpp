@@ -619,6 +619,65 @@ TEST_F(CliDevices, OutOfDeviceMemoryIsOneLineAndWritesNothing) {
 
 class CliRender : public CliFixture {};
 
+// OpenImageIO (about 260 shared libraries) is loaded only by a process that touches an image: the
+// library reaches it through its own module, libpenumbra_oiio.so (core/image_codec.hpp). ld.so's
+// LD_DEBUG=files lists every library a process loads, on stderr.
+using CliImageModule = CliFixture;
+
+TEST_F(CliImageModule, OnlyCommandsThatTouchImagesLoadOpenImageIO) {
+  const std::vector<std::string> debug = {"LD_DEBUG=files"};
+  const auto loadsOiio = [](const Result& r) {
+    return r.err.find("libOpenImageIO.so") != std::string::npos;
+  };
+  const Result version = runCli({"--version"}, dir_, 120, debug);
+  EXPECT_EQ(version.code, 0) << describe(version);
+  EXPECT_FALSE(loadsOiio(version)) << describe(version);
+  const Result devices = runCli({"devices"}, dir_, 120, debug);
+  EXPECT_EQ(devices.code, 0) << describe(devices);
+  EXPECT_FALSE(loadsOiio(devices)) << describe(devices);
+  // lights prints and writes JSON only.
+  const Result lights = runCli({"lights", "--lights", "4", "--out", "l.json"}, dir_, 120, debug);
+  EXPECT_EQ(lights.code, 0) << describe(lights);
+  EXPECT_FALSE(loadsOiio(lights)) << describe(lights);
+  // The control: writing an EXR loads it, through the module beside libpenumbra.
+  const Result render =
+      runCli({"render", "--size", "32x18", "--out", "a.exr"}, dir_, 120, debug);
+  EXPECT_EQ(render.code, 0) << describe(render);
+  EXPECT_TRUE(loadsOiio(render)) << describe(render);
+  EXPECT_NE(render.err.find("libpenumbra_oiio.so"), std::string::npos) << describe(render);
+}
+
+TEST_F(CliImageModule, AMissingModuleIsNamedAndNothingIsWritten) {
+  // A libpenumbra copied alone into a directory of its own (LD_LIBRARY_PATH comes before the
+  // CLI's RUNPATH) looks for the module beside itself and finds none.
+  const std::string soname = "libpenumbra.so." + std::to_string(PENUMBRA_VERSION_MAJOR) + "." +
+                             std::to_string(PENUMBRA_VERSION_MINOR);
+  const fs::path lib = fs::path(kCli).parent_path() / soname;
+  ASSERT_TRUE(fs::exists(lib)) << lib;
+  const fs::path alone = dir_ / "alone";
+  fs::create_directories(alone);
+  fs::copy_file(fs::canonical(lib), alone / soname);
+  const fs::path work = dir_ / "work";
+  fs::create_directories(work);
+  const std::vector<std::string> env = {"LD_LIBRARY_PATH=" + alone.string()};
+  const Result version = runCli({"--version"}, work, 120, env);
+  EXPECT_EQ(version.code, 0) << describe(version);
+  for (const std::string out : {"a.png", "a.exr"}) {
+    const Result r = runCli({"render", "--size", "32x18", "--out", out}, work, 120, env);
+    EXPECT_EQ(r.code, 2) << describe(r);
+    EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
+    EXPECT_NE(r.err.find((alone / "libpenumbra_oiio.so").string() +
+                         " (installed beside libpenumbra) cannot be loaded"),
+              std::string::npos)
+        << describe(r);
+  }
+  EXPECT_TRUE(fs::is_empty(work));
+  const Result compare = runCli({"compare", kData + "/envmaps/courtyard.hdr", kData + "/envmaps/courtyard.hdr"},
+                                work, 120, env);
+  EXPECT_EQ(compare.code, 2) << describe(compare);
+  EXPECT_NE(compare.err.find("libpenumbra_oiio.so"), std::string::npos) << describe(compare);
+}
+
 TEST_F(CliRender, PngAndReport) {
   Result r = run({"render", "--size", "96x54", "--lights", "8", "--shadow-map-size", "64",
                   "--face-size", "32", "--out", "a.png", "--report", "r.json"});

@@ -18,8 +18,6 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
 
 #include <cctype>
 #include <charconv>
@@ -171,15 +169,7 @@ py::bytes pngBytes(const Image& img, float exposure) {
   std::vector<unsigned char> png;
   {
     py::gil_scoped_release release;
-    const std::vector<unsigned char> px = toneMap(img, exposure);
-    OIIO::Filesystem::IOVecOutput memory(png);
-    auto out = OIIO::ImageOutput::create("png");
-    if (!out) badInput("_repr_png_: no PNG writer (" + OIIO::geterror() + ")");
-    OIIO::ImageSpec spec(img.width, img.height, 3, OIIO::TypeDesc::UINT8);
-    bool ok = out->set_ioproxy(&memory) && out->open("frame.png", spec) &&
-              out->write_image(OIIO::TypeDesc::UINT8, px.data());
-    ok = out->close() && ok;
-    if (!ok) badInput("_repr_png_: encoding failed (" + out->geterror() + ")");
+    png = encodePng(img, exposure);
   }
   return py::bytes(reinterpret_cast<const char*>(png.data()), png.size());
 }

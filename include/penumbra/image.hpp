@@ -42,6 +42,18 @@ using ImageText = std::map<std::string, std::string>;
 void writeImage(const std::string& path, const Image& image, float exposure = 1.0f,
                 const ImageAttributes& numbers = {}, const ImageText& text = {});
 
+/// The bytes of the PNG file writeImage(path.png, image, exposure) would write (8-bit RGB through
+/// toneMap, no header attributes), for a notebook or a network rather than a file. Throws
+/// Error(BadInput) on an empty image.
+std::vector<unsigned char> encodePng(const Image& image, float exposure = 1.0f);
+
+/// The file functions here (readImage, writeImage, canWriteImage, encodePng, readImageAttributes)
+/// and the heat maps reach OpenImageIO through a module of libpenumbra's own,
+/// libpenumbra_oiio.so, installed beside it and loaded the first time one of them needs it:
+/// OpenImageIO loads about 260 shared libraries, which took about 0.45 s of every process that
+/// linked it. A module that cannot be loaded is reported by that call as Error(Internal), naming
+/// the file.
+
 /// True when writeImage can write `path`'s format (an OpenImageIO writer exists for its extension).
 bool canWriteImage(const std::string& path);
 

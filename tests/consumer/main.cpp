@@ -3,7 +3,9 @@
 #include <penumbra/penumbra.hpp>
 
 #include <cstdio>
+#include <filesystem>
 #include <string>
+#include <unistd.h>
 
 int main() {
   try {
@@ -23,6 +25,13 @@ int main() {
     double sum = 0;
     for (float v : f.image.pixels) sum += v;
     std::printf("penumbra %s: %zu lights, image sum %.3f\n", PENUMBRA_VERSION, lights.lights.size(), sum);
+    // Image files go through the OpenImageIO module installed beside libpenumbra.
+    const std::string file = (std::filesystem::temp_directory_path() /
+                              ("penumbra_consumer_" + std::to_string(::getpid()) + ".exr")).string();
+    penumbra::writeImage(file, f.image);
+    const penumbra::Image back = penumbra::readImage(file);
+    std::filesystem::remove(file);
+    if (back.width != f.image.width || back.height != f.image.height) return 1;
     return sum > 0 ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "consumer: %s\n", e.what());

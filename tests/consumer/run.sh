@@ -19,6 +19,8 @@ PKG_CONFIG_PATH="$libdir" c++ -std=c++17 "$src/tests/consumer/main.cpp" -o "$wor
 LD_LIBRARY_PATH="$(dirname "$libdir")" "$work/consumer-pc"
 # the installed CLI runs from the prefix (its RPATH points at ../lib)
 "$work/prefix/bin/penumbra" --version
+"$work/prefix/bin/penumbra" render --size 32x18 --out "$work/cli.png" > /dev/null
+test -s "$work/cli.png"
 # the installed Python package imports from outside the source tree and makes a map
 pkg=$(find "$work/prefix" -path '*python*' -path '*/penumbra/__init__.py' | head -1)
 if [ -z "$pkg" ]; then echo "run.sh: no installed Python package under $work/prefix" >&2; exit 1; fi

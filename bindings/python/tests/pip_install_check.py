@@ -37,6 +37,16 @@ for name in ("penumbra/__init__.py", "penumbra/__init__.pyi", "penumbra/py.typed
 libs = {line.split()[-1] for line in open("/proc/self/maps") if "libpenumbra.so" in line}
 assert libs and all(pathlib.Path(l).resolve().is_relative_to(site) for l in libs), libs
 assert penumbra.builtin_environment(16).width == 16
+# Images go through the OpenImageIO module libpenumbra loads from its own directory: the package
+# carries it, and `import penumbra` alone does not load OpenImageIO.
+assert not any("libOpenImageIO" in line for line in open("/proc/self/maps"))
+import numpy as np
+import tempfile
+with tempfile.TemporaryDirectory() as tmp:
+    penumbra.write_image(tmp + "/a.exr", np.full((3, 5, 3), 0.5, np.float32))
+    assert penumbra.read_image(tmp + "/a.exr").shape == (3, 5, 3)
+codecs = {line.split()[-1] for line in open("/proc/self/maps") if "libpenumbra_oiio.so" in line}
+assert codecs and all(pathlib.Path(l).resolve().is_relative_to(site) for l in codecs), codecs
 print("pip_install_check: penumbra", version, "from", site)
 '''
 

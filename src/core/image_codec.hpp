@@ -1,0 +1,60 @@
+// The OpenImageIO half of penumbra's image I/O: a module of its own (libpenumbra_oiio.so, built
+// from src/oiio/, installed beside libpenumbra) that libpenumbra loads with dlopen the first time
+// an image is read, written, encoded or drawn on. OpenImageIO brings about 260 shared libraries
+// (OpenCV, ffmpeg, GDAL, ...) whose loading and relocation took 0.45 s of every process, `penumbra
+// --version` and `penumbra devices` included; now only the processes that touch an image pay it.
+// Loading it on a thread of its own would not hide it: dlopen holds one process-wide lock, and
+// PoCL dlopens every kernel library it builds, so the two would only take turns.
+//
+// Both sides are built from the same tree, so the table passes C++ types and exceptions
+// (penumbra::Error, whose type information lives in libpenumbra, which the module links).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "metrics/heatmap.hpp"
+#include "penumbra/image.hpp"
+
+namespace penumbra::detail {
+
+// Raised whenever the table's layout or meaning changes; the loader refuses a module built with
+// another value or another PENUMBRA_VERSION.
+inline constexpr int kImageCodecAbi = 1;
+
+// The file name the loader looks for in the directory libpenumbra was loaded from.
+inline constexpr const char* kImageCodecFile = "libpenumbra_oiio.so";
+
+// The symbol the module exports (extern "C"): returns its table.
+inline constexpr const char* kImageCodecSymbol = "penumbra_image_codec";
+
+struct ImageCodec {
+  int abi;
+  const char* version;  // PENUMBRA_VERSION the module was built with
+  // The public functions of penumbra/image.hpp and penumbra/heatmap.hpp with the same names.
+  Image (*readImage)(const std::string& path, bool linearize);
+  ImageAttributes (*readImageAttributes)(const std::string& path);
+  bool (*canWriteImage)(const std::string& path);
+  void (*writeImage)(const std::string& path, const Image& image, float exposure,
+                     const ImageAttributes& numbers, const ImageText& text);
+  void (*writeDisplayImage)(const std::string& path, const Image& display);
+  std::vector<unsigned char> (*encodePng)(const Image& image, float exposure);
+  // metrics/heatmap.hpp's functions of the same names; colourMap is colourMapped without the
+  // geometry mask, which libpenumbra applies.
+  ColourMap (*magmaColourMap)();
+  Image (*colourMap)(const std::vector<float>& values, int width, int height, const ColourMap& map);
+  Image (*withScaleBar)(const Image& rgb, const ColourMap& map, const std::string& low,
+                        const std::string& mid, const std::string& high);
+  bool (*drawText)(Image& image, int x, int y, const std::string& text, int size,
+                   const std::vector<float>& colour, TextAlign align, int shadow);
+  int (*textWidth)(const std::string& text, int size);
+};
+
+// The module's table, loaded on the first call (thread-safe). Throws Error(Internal) naming the module's path and
+// what went wrong when it is missing, unloadable or from another build.
+const ImageCodec& imageCodec();
+
+// The extension of `path`, dot included, in lower case ("" when it has none); defined in
+// core/image.cpp.
+std::string lowerExtension(const std::string& path);
+
+}  // namespace penumbra::detail

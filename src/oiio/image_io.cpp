@@ -1,0 +1,247 @@
+// Image files through OpenImageIO: reading, atomic writing and PNG encoding (the bodies of
+// penumbra/image.hpp's and penumbra/heatmap.hpp's functions of the same names, which forward here
+// through core/image_codec.hpp).
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "core/image_codec.hpp"
+#include "oiio/oiio.hpp"
+#include "penumbra/error.hpp"
+
+namespace penumbra::oiio {
+
+namespace fs = std::filesystem;
+using detail::lowerExtension;
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+namespace {
+
+// What an OpenEXR header declares, checked against the file before OpenEXR reads it: OpenEXR
+// allocates each attribute's declared size while it parses the header, so a 1 KB file declaring
+// a string of gigabytes cost 1.9 GB and 8 s before it was refused (found by fuzz_envmap). The
+// layout (OpenEXR file format: magic 20000630, a 4-byte version, then per header attributes of
+// name\0 type\0 int32 size and value, an empty name ending each header; multi-part files add an
+// empty header after the last) is walked without reading any value.
+void checkExrDeclarations(const std::string& path, std::uintmax_t fileBytes) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[8] = {};
+  in.read(reinterpret_cast<char*>(head), 8);
+  if (in.gcount() < 8 || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 || head[3] != 0x01)
+    return;  // not an OpenEXR file
+  const bool multipart = (head[5] & 0x10) != 0;
+  std::uintmax_t at = 8;
+  const auto readName = [&](std::string& out) {
+    out.clear();
+    for (char c; in.get(c);) {
+      ++at;
+      if (c == '\0') return true;
+      if (out.size() >= 255) return false;  // names are at most 255 bytes (31 in old files)
+      out += c;
+    }
+    return false;
+  };
+  for (int part = 0;; ++part) {
+    std::string name, type;
+    int attributes = 0;
+    for (;; ++attributes) {
+      if (!readName(name)) badInput(path + ": the EXR header is cut short or malformed");
+      if (name.empty()) break;
+      if (!readName(type)) badInput(path + ": the EXR header is cut short or malformed");
+      unsigned char sz[4];
+      in.read(reinterpret_cast<char*>(sz), 4);
+      if (in.gcount() < 4) badInput(path + ": the EXR header is cut short");
+      at += 4;
+      const std::uint32_t size = std::uint32_t(sz[0]) | std::uint32_t(sz[1]) << 8 |
+                                 std::uint32_t(sz[2]) << 16 | std::uint32_t(sz[3]) << 24;
+      if (size > fileBytes - std::min(at, fileBytes))
+        badInput(path + ": EXR header attribute '" + name + "' (" + type + ") declares " +
+                 std::to_string(size) + " bytes but only " +
+                 std::to_string(fileBytes - std::min(at, fileBytes)) + " remain in the file");
+      at += size;
+      in.seekg(static_cast<std::streamoff>(at));
+    }
+    // A single-part file has one header; a multi-part one ends with an empty header.
+    if (!multipart || attributes == 0 || part > 4096) return;
+  }
+}
+
+}  // namespace
+
+Image readImage(const std::string& path, bool linearize) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) badInput(path + ": no such file");
+  if (fs::is_directory(path, ec)) badInput(path + ": is a directory, not an image");
+  const std::uintmax_t fileBytes = fs::file_size(path, ec);
+  if (!ec) checkExrDeclarations(path, fileBytes);
+  auto in = ImageInput::open(path);
+  if (!in) {
+    std::string err = OIIO::geterror();
+    if (err.empty()) err = "not a readable image";
+    std::replace(err.begin(), err.end(), '\n', ' ');
+    badInput(path + ": cannot read image (" + err + ")");
+  }
+  const ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    badInput(path + ": image has no pixels (" + std::to_string(spec.width) + "x" +
+             std::to_string(spec.height) + ")");
+  if (std::int64_t(spec.width) * spec.height > (std::int64_t(1) << 28))
+    badInput(path + ": image is too large (" + std::to_string(spec.width) + "x" +
+             std::to_string(spec.height) + ")");
+  Image img(spec.width, spec.height, spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.pixels.data())) {
+    std::string err = in->geterror();
+    std::replace(err.begin(), err.end(), '\n', ' ');
+    badInput(path + ": image data is corrupt or truncated (" + err + ")");
+  }
+  const std::string space = spec.get_string_attribute("oiio:ColorSpace");
+  const bool integer = !spec.format.is_floating_point();
+  if (linearize && integer && (space.empty() || space == "sRGB")) {
+    // The alpha channel (if any) is not colour: left as stored.
+    const int colour = std::min(spec.nchannels, spec.alpha_channel >= 0 ? spec.alpha_channel : 3);
+    for (std::size_t p = 0; p < img.pixels.size(); p += std::size_t(spec.nchannels))
+      for (int c = 0; c < colour; ++c) {
+        float& v = img.pixels[p + std::size_t(c)];
+        v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+      }
+  }
+  in->close();
+  return img;
+}
+
+ImageAttributes readImageAttributes(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) badInput(path + ": no such file");
+  auto in = ImageInput::open(path);
+  if (!in) badInput(path + ": cannot read image (" + OIIO::geterror() + ")");
+  ImageAttributes out;
+  for (const OIIO::ParamValue& p : in->spec().extra_attribs) {
+    const std::string name = p.name().string();
+    if (name.rfind("penumbra:", 0) != 0 || p.nvalues() != 1) continue;
+    if (p.type() == TypeDesc::DOUBLE) out[name] = *static_cast<const double*>(p.data());
+    else if (p.type() == TypeDesc::FLOAT) out[name] = *static_cast<const float*>(p.data());
+  }
+  in->close();
+  return out;
+}
+
+bool canWriteImage(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  if (ext.size() < 2) return false;
+  // ImageOutput::create only looks the extension up in OpenImageIO's plugin table; nothing is
+  // opened or created on disk.
+  auto out = ImageOutput::create(ext.substr(1));
+  OIIO::geterror();  // a failed lookup leaves a message behind; clear it
+  return bool(out);
+}
+
+void writeImage(const std::string& path, const Image& image, float exposure,
+                const ImageAttributes& numbers, const ImageText& text) {
+  const std::string ext = lowerExtension(path);
+  if (!canWriteImage(path))
+    badInput(path + ": unsupported output format '" + ext +
+             "' (no OpenImageIO writer for it; use e.g. .exr, .png, .jpg, .tif or .hdr)");
+  if (image.empty()) badInput(path + ": nothing to write (empty image)");
+  const bool linear = isFloatImageFormat(path);
+  fs::path target(path);
+  fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
+  // Write beside the target, then rename: a crash or error never leaves a half-written file.
+  fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ext);
+  auto out = ImageOutput::create(tmp.string());
+  if (!out) badInput(path + ": cannot create writer (" + OIIO::geterror() + ")");
+  // .hdr holds RGB only; other float formats keep every channel.
+  const int channels = linear ? (ext == ".hdr" || ext == ".pfm" ? std::min(image.channels, 3) : image.channels) : 3;
+  ImageSpec spec(image.width, image.height, channels, linear ? TypeDesc::FLOAT : TypeDesc::UINT8);
+  if (linear && channels == 4) spec.alpha_channel = 3;
+  if (ext == ".exr") spec.attribute("compression", "zip");
+  // OpenImageIO stamps the current time into the header (capDate) unless the spec holds a
+  // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
+  spec.attribute("DateTime", "");
+  for (const auto& [name, value] : numbers) spec.attribute(name, TypeDesc::DOUBLE, &value);
+  for (const auto& [name, value] : text) spec.attribute(name, value);
+  bool ok = out->open(tmp.string(), spec);
+  if (ok && linear) {
+    if (channels == image.channels) {
+      ok = out->write_image(TypeDesc::FLOAT, image.pixels.data());
+    } else {
+      std::vector<float> px(std::size_t(image.width) * image.height * channels);
+      for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
+        for (int c = 0; c < channels; ++c) px[i * channels + c] = image.pixels[i * image.channels + c];
+      ok = out->write_image(TypeDesc::FLOAT, px.data());
+    }
+  } else if (ok) {
+    std::vector<unsigned char> px = toneMap(image, exposure);
+    ok = out->write_image(TypeDesc::UINT8, px.data());
+  }
+  ok = ok && out->close();
+  if (!ok) {
+    std::string err = out->geterror();
+    out.reset();
+    fs::remove(tmp, ec);
+    badInput(path + ": writing failed (" + err + ")");
+  }
+  out.reset();
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    std::string why = ec.message();
+    fs::remove(tmp, ec);
+    badInput(path + ": cannot move the finished image into place (" + why + ")");
+  }
+}
+
+void writeDisplayImage(const std::string& path, const Image& display) {
+  if (!canWriteImage(path))
+    badInput(path + ": unsupported output format (no OpenImageIO writer for its extension)");
+  if (display.empty()) badInput(path + ": nothing to write (empty image)");
+  const fs::path target(path);
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
+  // Beside the target, then renamed into place, as writeImage does.
+  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" +
+                              std::to_string(::getpid()) + target.extension().string());
+  OIIO::ImageBuf buf(ImageSpec(display.width, display.height, display.channels, TypeDesc::FLOAT));
+  buf.set_pixels(buf.roi(), TypeDesc::FLOAT, display.pixels.data());
+  if (!buf.write(tmp.string(), isFloatImageFormat(path) ? OIIO::TypeDesc::FLOAT
+                                                         : OIIO::TypeDesc::UINT8)) {
+    const std::string why = buf.geterror();
+    fs::remove(tmp, ec);
+    badInput(path + ": writing failed (" + why + ")");
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    const std::string why = ec.message();
+    fs::remove(tmp, ec);
+    badInput(path + ": cannot move the finished image into place (" + why + ")");
+  }
+}
+
+std::vector<unsigned char> encodePng(const Image& image, float exposure) {
+  if (image.empty()) badInput("encodePng: nothing to encode (empty image)");
+  const std::vector<unsigned char> px = toneMap(image, exposure);
+  std::vector<unsigned char> png;
+  OIIO::Filesystem::IOVecOutput memory(png);
+  auto out = ImageOutput::create("png");
+  if (!out) badInput("encodePng: no PNG writer (" + OIIO::geterror() + ")");
+  ImageSpec spec(image.width, image.height, 3, TypeDesc::UINT8);
+  bool ok = out->set_ioproxy(&memory) && out->open("frame.png", spec) &&
+            out->write_image(TypeDesc::UINT8, px.data());
+  ok = out->close() && ok;
+  if (!ok) badInput("encodePng: encoding failed (" + out->geterror() + ")");
+  return png;
+}
+
+}  // namespace penumbra::oiio
