@@ -639,6 +639,11 @@ TEST_F(CliImageModule, OnlyCommandsThatTouchImagesLoadOpenImageIO) {
   const Result lights = runCli({"lights", "--lights", "4", "--out", "l.json"}, dir_, 120, debug);
   EXPECT_EQ(lights.code, 0) << describe(lights);
   EXPECT_FALSE(loadsOiio(lights)) << describe(lights);
+  // A PNG, the default output, is written with libpng (core/png.hpp).
+  const Result png = runCli({"render", "--size", "32x18", "--out", "a.png"}, dir_, 120, debug);
+  EXPECT_EQ(png.code, 0) << describe(png);
+  EXPECT_FALSE(loadsOiio(png)) << describe(png);
+  EXPECT_TRUE(fs::exists(path("a.png")));
   // The control: writing an EXR loads it, through the module beside libpenumbra.
   const Result render =
       runCli({"render", "--size", "32x18", "--out", "a.exr"}, dir_, 120, debug);
@@ -662,7 +667,7 @@ TEST_F(CliImageModule, AMissingModuleIsNamedAndNothingIsWritten) {
   const std::vector<std::string> env = {"LD_LIBRARY_PATH=" + alone.string()};
   const Result version = runCli({"--version"}, work, 120, env);
   EXPECT_EQ(version.code, 0) << describe(version);
-  for (const std::string out : {"a.png", "a.exr"}) {
+  for (const std::string out : {"a.exr", "a.jpg"}) {
     const Result r = runCli({"render", "--size", "32x18", "--out", out}, work, 120, env);
     EXPECT_EQ(r.code, 2) << describe(r);
     EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
@@ -672,6 +677,10 @@ TEST_F(CliImageModule, AMissingModuleIsNamedAndNothingIsWritten) {
         << describe(r);
   }
   EXPECT_TRUE(fs::is_empty(work));
+  // PNG needs no module.
+  const Result png = runCli({"render", "--size", "32x18", "--out", "a.png"}, work, 120, env);
+  EXPECT_EQ(png.code, 0) << describe(png);
+  EXPECT_TRUE(fs::exists(work / "a.png"));
   const Result compare = runCli({"compare", kData + "/envmaps/courtyard.hdr", kData + "/envmaps/courtyard.hdr"},
                                 work, 120, env);
   EXPECT_EQ(compare.code, 2) << describe(compare);
@@ -711,6 +720,11 @@ TEST_F(CliRender, PngAndReport) {
   EXPECT_TRUE(report["startup_ms"]["loader"].is_number()) << json;
   EXPECT_GE(report["startup_ms"]["loader"].get<double>(), 0.0) << json;
   EXPECT_GT(report["startup_ms"]["setup"].get<double>(), 0.0) << json;
+  // The frame's programs, from the program cache or compiled (Context::programCacheStats).
+  ASSERT_TRUE(report.contains("programs")) << json;
+  EXPECT_GT(report["programs"]["from_cache"].get<int>() + report["programs"]["compiled"].get<int>(),
+            0) << json;
+  EXPECT_TRUE(report["programs"]["cache"].is_string()) << json;
   // Exactly the two outputs, no leftover temporaries.
   auto left = entries();
   EXPECT_EQ(left.size(), 2u);

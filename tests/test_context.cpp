@@ -1,11 +1,16 @@
-// OpenCL context: device selection, typed errors.
+// OpenCL context: device selection, typed errors, the program cache.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common.hpp"
+#include "core/program_cache.hpp"
 
 using namespace penumbra;
 
@@ -141,4 +146,148 @@ TEST(Context, ScratchBuffersAreReusedPerRoleAndGrow) {
   Context::ScratchLease again = ctx.scratch("test scratch a", 1000);
   EXPECT_EQ(again.buffer()(), bigMem);
   EXPECT_EQ(ctx.download<int>(again.buffer(), 1024, "scratch"), v);
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh cache directory for one test, removed after it.
+struct CacheDir {
+  fs::path dir;
+  explicit CacheDir(const std::string& name)
+      : dir(fs::path(testing::TempDir()) /
+            ("penumbra_program_cache_" + std::to_string(::getpid()) + "_" + name)) {
+    fs::remove_all(dir);
+  }
+  ~CacheDir() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  std::vector<fs::path> files() const {
+    std::vector<fs::path> out;
+    std::error_code ec;
+    if (fs::is_directory(dir / "programs", ec))
+      for (const auto& e : fs::directory_iterator(dir / "programs")) out.push_back(e.path());
+    return out;
+  }
+};
+
+// A 13x7 summed-area table of ones through `ctx`, in float and in 64-bit integers (the scan built
+// for two element types: two programs), checked against its closed form (x+1)(y+1): a program
+// made from a cached binary must compute the same.
+template <typename T>
+void expectSatOfOnes(Context& ctx, ScanType type) {
+  const int w = 13, h = 7;
+  std::vector<T> host(std::size_t(w) * h, T(1));
+  cl::Buffer buf(ctx.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, host.size() * sizeof(T),
+                 host.data());
+  summedAreaTable(ctx, buf, type, w, h);
+  ctx.queue().enqueueReadBuffer(buf, CL_TRUE, 0, host.size() * sizeof(T), host.data());
+  int wrong = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) wrong += host[std::size_t(y) * w + x] != T((x + 1) * (y + 1));
+  EXPECT_EQ(wrong, 0);
+}
+
+void expectSatOfOnes(Context& ctx) {
+  expectSatOfOnes<float>(ctx, ScanType::Float);
+  expectSatOfOnes<cl_long>(ctx, ScanType::Long);
+}
+
+// A Context of its own through expectSatOfOnes: what it took from the cache, compiled and stored.
+Context::ProgramCacheStats runOnce() {
+  Context ctx;
+  expectSatOfOnes(ctx);
+  return ctx.programCacheStats();
+}
+
+}  // namespace
+
+TEST(ProgramCache, SecondContextMakesItsProgramsFromTheCache) {
+  CacheDir cache("second");
+  ScopedEnv env("PENUMBRA_CACHE_DIR", cache.dir.string());
+  const Context::ProgramCacheStats first = runOnce();
+  EXPECT_EQ(first.directory, (cache.dir / "programs").string());
+  EXPECT_EQ(first.compiled, 2u);
+  EXPECT_EQ(first.stored, first.compiled);
+  EXPECT_EQ(first.fromCache, 0u);
+  EXPECT_EQ(cache.files().size(), first.stored);
+  const std::size_t compiled = first.compiled;
+  Context second;
+  expectSatOfOnes(second);
+  const Context::ProgramCacheStats s = second.programCacheStats();
+  EXPECT_EQ(s.fromCache, compiled);
+  EXPECT_EQ(s.compiled, 0u);
+  EXPECT_EQ(s.stored, 0u);
+  // A program that fails to build is not stored.
+  EXPECT_THROW(second.kernel("scan.cl", "scan_rows", "-DSCAN_T=not_a_type"), Error);
+  EXPECT_EQ(cache.files().size(), compiled);
+}
+
+TEST(ProgramCache, DamagedFilesAreNeverUsedAndAreReplaced) {
+  CacheDir cache("damaged");
+  ScopedEnv env("PENUMBRA_CACHE_DIR", cache.dir.string());
+  const std::size_t compiled = runOnce().compiled;
+  const std::vector<fs::path> files = cache.files();
+  ASSERT_EQ(files.size(), compiled);
+  ASSERT_GE(files.size(), 2u);
+  // One truncated, the rest with a byte of the binary flipped (the checksum catches it).
+  fs::resize_file(files[0], fs::file_size(files[0]) / 2);
+  for (std::size_t i = 1; i < files.size(); ++i) {
+    std::fstream f(files[i], std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff(fs::file_size(files[i]) - 100));
+    char c = 0;
+    f.seekg(f.tellp());
+    f.get(c);
+    f.seekp(std::streamoff(fs::file_size(files[i]) - 100));
+    f.put(char(c ^ 0x5a));
+  }
+  const Context::ProgramCacheStats second = runOnce();
+  EXPECT_EQ(second.fromCache, 0u);
+  EXPECT_EQ(second.compiled, compiled);
+  EXPECT_EQ(second.stored, compiled);
+  EXPECT_EQ(runOnce().fromCache, compiled);
+}
+
+TEST(ProgramCache, OffKeepsNothingAndAnUnwritableDirectoryCostsNothingButTime) {
+  {
+    CacheDir cache("off");
+    ScopedEnv env("PENUMBRA_CACHE_DIR", std::string("off"));
+    const Context::ProgramCacheStats s = runOnce();
+    EXPECT_EQ(s.directory, "");
+    EXPECT_EQ(s.stored, 0u);
+    EXPECT_EQ(s.fromCache, 0u);
+    EXPECT_GE(s.compiled, 1u);
+  }
+  {
+    // A regular file where the directory should be: nothing can be stored, nothing fails.
+    CacheDir cache("blocked");
+    fs::create_directories(cache.dir);
+    std::ofstream(cache.dir / "programs") << "not a directory";
+    ScopedEnv env("PENUMBRA_CACHE_DIR", cache.dir.string());
+    const Context::ProgramCacheStats s = runOnce();
+    EXPECT_GE(s.compiled, 1u);
+    EXPECT_EQ(s.stored, 0u);
+  }
+}
+
+TEST(ProgramCache, KeyCoversDeviceOptionsAndSource) {
+  CacheDir cache("keys");
+  const std::string dir = (cache.dir / "programs").string();
+  const detail::ProgramCache a(dir, "device A"), b(dir, "device B");
+  EXPECT_NE(a.fileFor("src", "-O"), b.fileFor("src", "-O"));
+  EXPECT_NE(a.fileFor("src", "-O"), a.fileFor("src", "-O2"));
+  EXPECT_NE(a.fileFor("src", "-O"), a.fileFor("src2", "-O"));
+  // Where the options end and the source begins is part of the key.
+  EXPECT_NE(a.fileFor("xy", "-O"), a.fileFor("y", "-Ox"));
+  EXPECT_TRUE(a.load("src", "-O").empty());
+  const std::vector<unsigned char> binary = {1, 2, 3, 0, 255};
+  EXPECT_TRUE(a.store("src", "-O", binary));
+  EXPECT_EQ(a.load("src", "-O"), binary);
+  EXPECT_TRUE(b.load("src", "-O").empty());
+  EXPECT_TRUE(a.load("src", "-O2").empty());
+  // A file renamed to another key's name is not that key's.
+  fs::copy_file(a.fileFor("src", "-O"), a.fileFor("other", "-O"));
+  EXPECT_TRUE(a.load("other", "-O").empty());
 }

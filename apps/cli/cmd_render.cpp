@@ -125,6 +125,11 @@ int runRender(const Args& a) {
       report["startup_ms"] = {
           {"loader", loader >= 0 ? nlohmann::ordered_json(loader) : nlohmann::ordered_json()},
           {"setup", std::chrono::duration<double, std::milli>(t0 - mainStart()).count()}};
+      // The first frame's programs: made from the program cache's binaries, or compiled.
+      const Context::ProgramCacheStats programs = ctx.programCacheStats();
+      report["programs"] = {{"from_cache", programs.fromCache},
+                            {"compiled", programs.compiled},
+                            {"cache", programs.directory}};
     }
     if (animate) {
       // The frame's own fields first, then the single-frame report's.

@@ -64,6 +64,7 @@ std::vector<DeviceInfo> listDevices();
 
 namespace detail {
 struct BufferLedger;  ///< src/core/context.cpp
+class ProgramCache;   ///< src/core/program_cache.hpp
 }
 
 class Context {
@@ -202,6 +203,19 @@ class Context {
   static constexpr std::size_t kEventBound = 4096;
   std::size_t heldEvents() const;
 
+  /// Compiled programs are kept between processes, per device, driver and penumbra version, in
+  /// $PENUMBRA_CACHE_DIR/programs (else $XDG_CACHE_HOME/penumbra/programs, else
+  /// ~/.cache/penumbra/programs; PENUMBRA_CACHE_DIR=off keeps none), read when the Context is
+  /// made: a program found there is made from its binary, which on PoCL takes 2-6 ms where
+  /// building from source takes 50-100 ms even with PoCL's own cache warm. A file that is
+  /// truncated or corrupt is never used; a binary the driver refuses is built again from source.
+  /// This Context's programs so far: from the cache, compiled from source, and stored.
+  struct ProgramCacheStats {
+    std::size_t fromCache = 0, compiled = 0, stored = 0;
+    std::string directory;  ///< "" when the cache is off
+  };
+  ProgramCacheStats programCacheStats() const;
+
  private:
   DeviceInfo info_;
   cl::Context context_;
@@ -209,8 +223,13 @@ class Context {
   cl::CommandQueue queue_;
   /// Each mutex guards the members below it. Held while a program builds (a second thread asking
   /// for the same program waits for it rather than building it again).
-  std::mutex programsMutex_;
+  mutable std::mutex programsMutex_;
   std::map<std::pair<std::string, std::string>, cl::Program> programs_;
+  std::shared_ptr<const detail::ProgramCache> programCache_;
+  ProgramCacheStats programStats_;
+  /// Builds `source` into `program` and stores its binary (programsMutex_ held).
+  void compileProgram(cl::Program& program, const std::string& source, const std::string& path,
+                      const std::string& opts);
   /// Held across enqueue and append in launch(), so that events_ is in queue order (the folding
   /// relies on it); never held by a thread waiting on something other than the queue.
   mutable std::mutex eventsMutex_;

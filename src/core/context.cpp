@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "core/program_cache.hpp"
+
 namespace penumbra {
 namespace detail {
 const std::map<std::string, std::string>& embeddedKernels();
@@ -184,6 +186,24 @@ Context::Context(const std::string& selectorIn) : ledger_(std::make_shared<detai
   } catch (const cl::Error& e) {
     rethrowCl(e, "creating an OpenCL context on " + info_.name);
   }
+  // The compiler a binary comes from: a new driver, device or platform version is a new key.
+  std::string compiler;
+  try {
+    const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
+    compiler = info_.platform + '\n' + platform.getInfo<CL_PLATFORM_VERSION>() + '\n' + info_.name +
+               '\n' + device_.getInfo<CL_DEVICE_VERSION>() + '\n' +
+               device_.getInfo<CL_DRIVER_VERSION>();
+  } catch (const cl::Error&) {
+  }
+  if (!compiler.empty())
+    programCache_ = std::make_shared<const detail::ProgramCache>(
+        detail::ProgramCache::defaultDirectory(), compiler);
+  if (programCache_) programStats_.directory = programCache_->directory();
+}
+
+Context::ProgramCacheStats Context::programCacheStats() const {
+  std::lock_guard<std::mutex> lock(programsMutex_);
+  return programStats_;
 }
 
 cl::Kernel Context::kernel(const std::string& file, const std::string& name,
@@ -197,25 +217,23 @@ cl::Kernel Context::kernel(const std::string& file, const std::string& name,
     if (src == sources.end())
       throw Error(ErrorKind::Internal, "kernel file " + file + " is not embedded in the library");
     const std::string path = detail::embeddedKernelPaths().at(file);  // kernels/<family>/<file>
-    cl::Program program;
-    try {
-      program = cl::Program(context_, src->second);
-    } catch (const cl::Error& e) {
-      rethrowCl(e, "creating program " + path);
-    }
     std::string opts = "-cl-std=CL1.2 " + options;
     if (info_.fp64) opts += " -DPB_HAS_FP64=1";
-    try {
-      program.build({device_}, opts.c_str());
-    } catch (const cl::Error& e) {
-      std::string log;
-      try {
-        log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
-      } catch (...) {
+    cl::Program program;
+    const bool cached = programCache_ && programCache_->enabled();
+    if (cached) {
+      const std::vector<unsigned char> binary = programCache_->load(src->second, opts);
+      if (!binary.empty()) {
+        try {
+          program = cl::Program(context_, {device_}, cl::Program::Binaries{binary});
+          program.build({device_}, opts.c_str());
+          ++programStats_.fromCache;
+        } catch (const cl::Error&) {
+          program = cl::Program();  // refused by this driver: built from source below
+        }
       }
-      throw Error(ErrorKind::KernelBuild, path + " failed to build on " + info_.name +
-                                              " with options '" + opts + "':\n" + log);
     }
+    if (!program()) compileProgram(program, src->second, path, opts);
     it = programs_.emplace(key, program).first;
   }
   const cl::Program program = it->second;
@@ -224,6 +242,35 @@ cl::Kernel Context::kernel(const std::string& file, const std::string& name,
     return cl::Kernel(program, name.c_str());
   } catch (const cl::Error& e) {
     rethrowCl(e, "creating kernel " + name + " from kernels/" + file);
+  }
+}
+
+void Context::compileProgram(cl::Program& program, const std::string& source,
+                             const std::string& path, const std::string& opts) {
+  try {
+    program = cl::Program(context_, source);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "creating program " + path);
+  }
+  try {
+    program.build({device_}, opts.c_str());
+  } catch (const cl::Error& e) {
+    std::string log;
+    try {
+      log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+    } catch (...) {
+    }
+    throw Error(ErrorKind::KernelBuild, path + " failed to build on " + info_.name +
+                                            " with options '" + opts + "':\n" + log);
+  }
+  ++programStats_.compiled;
+  if (programCache_ && programCache_->enabled()) {
+    try {
+      const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+      if (binaries.size() == 1 && programCache_->store(source, opts, binaries[0]))
+        ++programStats_.stored;
+    } catch (const cl::Error&) {  // a driver without binaries: nothing to keep
+    }
   }
 }
 

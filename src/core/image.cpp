@@ -2,11 +2,14 @@
 // penumbra/image.hpp, which forward to the OpenImageIO module (core/image_codec.hpp).
 #include "penumbra/image.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 #include "core/image_codec.hpp"
+#include "core/png.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra {
@@ -55,6 +58,27 @@ std::string lowerExtension(const std::string& path) {
   return ext;
 }
 
+void writeBeside(const std::string& path, const std::function<void(const std::string&)>& write) {
+  const fs::path target(path);
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
+  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" +
+                              std::to_string(::getpid()) + lowerExtension(path));
+  try {
+    write(tmp.string());
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    const std::string why = ec.message();
+    fs::remove(tmp, ec);
+    badInput(path + ": cannot move the finished image into place (" + why + ")");
+  }
+}
+
 }  // namespace detail
 
 bool isFloatImageFormat(const std::string& path) {
@@ -62,7 +86,9 @@ bool isFloatImageFormat(const std::string& path) {
   return ext == ".exr" || ext == ".hdr" || ext == ".pfm";
 }
 
-bool canWriteImage(const std::string& path) { return detail::imageCodec().canWriteImage(path); }
+bool canWriteImage(const std::string& path) {
+  return detail::lowerExtension(path) == ".png" || detail::imageCodec().canWriteImage(path);
+}
 
 std::vector<unsigned char> toneMap(const Image& image, float exposure) {
   if (!(exposure > 0.0f)) exposure = autoExposure(image);
@@ -79,7 +105,18 @@ std::vector<unsigned char> toneMap(const Image& image, float exposure) {
 
 void writeImage(const std::string& path, const Image& image, float exposure,
                 const ImageAttributes& numbers, const ImageText& text) {
-  detail::imageCodec().writeImage(path, image, exposure, numbers, text);
+  // PNG, the CLI's default output, is written here with libpng (core/png.hpp), so that writing it
+  // does not load OpenImageIO's module; every other format goes through the module. A PNG keeps
+  // the text attributes only, as OpenImageIO's PNG writer does.
+  if (detail::lowerExtension(path) != ".png") {
+    detail::imageCodec().writeImage(path, image, exposure, numbers, text);
+    return;
+  }
+  if (image.empty()) badInput(path + ": nothing to write (empty image)");
+  const std::vector<unsigned char> rgb = toneMap(image, exposure);
+  detail::writeBeside(path, [&](const std::string& tmp) {
+    detail::writePng(tmp, path, image.width, image.height, rgb, text);
+  });
 }
 
 std::vector<unsigned char> encodePng(const Image& image, float exposure) {

@@ -9,6 +9,7 @@
 // Both sides are built from the same tree, so the table passes C++ types and exceptions
 // (penumbra::Error, whose type information lives in libpenumbra, which the module links).
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,12 @@ struct ImageCodec {
 // The module's table, loaded on the first call (thread-safe). Throws Error(Internal) naming the module's path and
 // what went wrong when it is missing, unloadable or from another build.
 const ImageCodec& imageCodec();
+
+// Has `write` write a temporary file beside `path` (same directory, hidden name, same extension),
+// then renames it into place: a crash or an error never leaves a half-written file. The temporary
+// file is removed when `write` throws, and the exception goes on. Throws Error(BadInput) when the
+// directory does not exist or the rename fails. Defined in core/image.cpp.
+void writeBeside(const std::string& path, const std::function<void(const std::string& tmp)>& write);
 
 // The extension of `path`, dot included, in lower case ("" when it has none); defined in
 // core/image.cpp.

@@ -4,7 +4,6 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -154,79 +153,49 @@ void writeImage(const std::string& path, const Image& image, float exposure,
              "' (no OpenImageIO writer for it; use e.g. .exr, .png, .jpg, .tif or .hdr)");
   if (image.empty()) badInput(path + ": nothing to write (empty image)");
   const bool linear = isFloatImageFormat(path);
-  fs::path target(path);
-  fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
-  // Write beside the target, then rename: a crash or error never leaves a half-written file.
-  fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + ext);
-  auto out = ImageOutput::create(tmp.string());
-  if (!out) badInput(path + ": cannot create writer (" + OIIO::geterror() + ")");
-  // .hdr holds RGB only; other float formats keep every channel.
-  const int channels = linear ? (ext == ".hdr" || ext == ".pfm" ? std::min(image.channels, 3) : image.channels) : 3;
-  ImageSpec spec(image.width, image.height, channels, linear ? TypeDesc::FLOAT : TypeDesc::UINT8);
-  if (linear && channels == 4) spec.alpha_channel = 3;
-  if (ext == ".exr") spec.attribute("compression", "zip");
-  // OpenImageIO stamps the current time into the header (capDate) unless the spec holds a
-  // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
-  spec.attribute("DateTime", "");
-  for (const auto& [name, value] : numbers) spec.attribute(name, TypeDesc::DOUBLE, &value);
-  for (const auto& [name, value] : text) spec.attribute(name, value);
-  bool ok = out->open(tmp.string(), spec);
-  if (ok && linear) {
-    if (channels == image.channels) {
-      ok = out->write_image(TypeDesc::FLOAT, image.pixels.data());
-    } else {
-      std::vector<float> px(std::size_t(image.width) * image.height * channels);
-      for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
-        for (int c = 0; c < channels; ++c) px[i * channels + c] = image.pixels[i * image.channels + c];
-      ok = out->write_image(TypeDesc::FLOAT, px.data());
+  detail::writeBeside(path, [&](const std::string& tmp) {
+    auto out = ImageOutput::create(tmp);
+    if (!out) badInput(path + ": cannot create writer (" + OIIO::geterror() + ")");
+    // .hdr holds RGB only; other float formats keep every channel.
+    const int channels =
+        linear ? (ext == ".hdr" || ext == ".pfm" ? std::min(image.channels, 3) : image.channels) : 3;
+    ImageSpec spec(image.width, image.height, channels, linear ? TypeDesc::FLOAT : TypeDesc::UINT8);
+    if (linear && channels == 4) spec.alpha_channel = 3;
+    if (ext == ".exr") spec.attribute("compression", "zip");
+    // OpenImageIO stamps the current time into the header (capDate) unless the spec holds a
+    // DateTime; an empty one writes no time, so two identical runs give byte-identical files.
+    spec.attribute("DateTime", "");
+    for (const auto& [name, value] : numbers) spec.attribute(name, TypeDesc::DOUBLE, &value);
+    for (const auto& [name, value] : text) spec.attribute(name, value);
+    bool ok = out->open(tmp, spec);
+    if (ok && linear) {
+      if (channels == image.channels) {
+        ok = out->write_image(TypeDesc::FLOAT, image.pixels.data());
+      } else {
+        std::vector<float> px(std::size_t(image.width) * image.height * channels);
+        for (std::size_t i = 0; i < std::size_t(image.width) * image.height; ++i)
+          for (int c = 0; c < channels; ++c) px[i * channels + c] = image.pixels[i * image.channels + c];
+        ok = out->write_image(TypeDesc::FLOAT, px.data());
+      }
+    } else if (ok) {
+      std::vector<unsigned char> px = toneMap(image, exposure);
+      ok = out->write_image(TypeDesc::UINT8, px.data());
     }
-  } else if (ok) {
-    std::vector<unsigned char> px = toneMap(image, exposure);
-    ok = out->write_image(TypeDesc::UINT8, px.data());
-  }
-  ok = ok && out->close();
-  if (!ok) {
-    std::string err = out->geterror();
-    out.reset();
-    fs::remove(tmp, ec);
-    badInput(path + ": writing failed (" + err + ")");
-  }
-  out.reset();
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    std::string why = ec.message();
-    fs::remove(tmp, ec);
-    badInput(path + ": cannot move the finished image into place (" + why + ")");
-  }
+    ok = ok && out->close();
+    if (!ok) badInput(path + ": writing failed (" + out->geterror() + ")");
+  });
 }
 
 void writeDisplayImage(const std::string& path, const Image& display) {
   if (!canWriteImage(path))
     badInput(path + ": unsupported output format (no OpenImageIO writer for its extension)");
   if (display.empty()) badInput(path + ": nothing to write (empty image)");
-  const fs::path target(path);
-  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) badInput(path + ": directory " + dir.string() + " does not exist");
-  // Beside the target, then renamed into place, as writeImage does.
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" +
-                              std::to_string(::getpid()) + target.extension().string());
-  OIIO::ImageBuf buf(ImageSpec(display.width, display.height, display.channels, TypeDesc::FLOAT));
-  buf.set_pixels(buf.roi(), TypeDesc::FLOAT, display.pixels.data());
-  if (!buf.write(tmp.string(), isFloatImageFormat(path) ? OIIO::TypeDesc::FLOAT
-                                                         : OIIO::TypeDesc::UINT8)) {
-    const std::string why = buf.geterror();
-    fs::remove(tmp, ec);
-    badInput(path + ": writing failed (" + why + ")");
-  }
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    const std::string why = ec.message();
-    fs::remove(tmp, ec);
-    badInput(path + ": cannot move the finished image into place (" + why + ")");
-  }
+  detail::writeBeside(path, [&](const std::string& tmp) {
+    OIIO::ImageBuf buf(ImageSpec(display.width, display.height, display.channels, TypeDesc::FLOAT));
+    buf.set_pixels(buf.roi(), TypeDesc::FLOAT, display.pixels.data());
+    if (!buf.write(tmp, isFloatImageFormat(path) ? TypeDesc::FLOAT : TypeDesc::UINT8))
+      badInput(path + ": writing failed (" + buf.geterror() + ")");
+  });
 }
 
 std::vector<unsigned char> encodePng(const Image& image, float exposure) {

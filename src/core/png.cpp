@@ -1,0 +1,94 @@
+// PNG writing through libpng (core/png.hpp). libpng reports errors by longjmp, so the part that
+// calls it holds no C++ object whose destructor a jump would skip.
+#include "core/png.hpp"
+
+#include <png.h>
+#include <zlib.h>
+
+#include <cerrno>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra::detail {
+
+namespace {
+
+struct PngFailure {
+  char message[256];
+};
+
+void onError(png_structp png, png_const_charp message) {
+  auto* failure = static_cast<PngFailure*>(png_get_error_ptr(png));
+  std::snprintf(failure->message, sizeof failure->message, "%s", message ? message : "libpng error");
+  png_longjmp(png, 1);
+}
+
+void onWarning(png_structp, png_const_charp) {}
+
+// False with failure->message set when libpng gives up.
+bool writeRows(std::FILE* f, int width, int height, png_bytep* rows, png_text* text, int ntext,
+               PngFailure* failure) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, failure, onError, onWarning);
+  if (!png) {
+    std::snprintf(failure->message, sizeof failure->message, "libpng could not start");
+    return false;
+  }
+  png_infop info = png_create_info_struct(png);
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    std::snprintf(failure->message, sizeof failure->message, "libpng could not start");
+    return false;
+  }
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_init_io(png, f);
+  // zlib level 6 with the default strategy, as OpenImageIO's writer sets it (libpng alone would
+  // pick Z_FILTERED for filtered rows).
+  png_set_compression_level(png, 6);
+  png_set_compression_strategy(png, Z_DEFAULT_STRATEGY);
+  png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), 8, PNG_COLOR_TYPE_RGB,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_oFFs(png, info, 0, 0, PNG_OFFSET_PIXEL);
+  if (ntext > 0) png_set_text(png, info, text, ntext);
+  png_write_info(png, info);
+  png_write_image(png, rows);
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+}  // namespace
+
+void writePng(const std::string& file, const std::string& nameForMessages, int width, int height,
+              const std::vector<unsigned char>& rgb, const ImageText& text) {
+  std::vector<png_bytep> rows(static_cast<std::size_t>(height));
+  for (int y = 0; y < height; ++y)
+    rows[std::size_t(y)] = const_cast<png_bytep>(rgb.data() + std::size_t(y) * width * 3);
+  // png_text points into `text`, which outlives the call.
+  std::vector<png_text> chunks;
+  for (const auto& [name, value] : text) {
+    png_text t{};
+    t.compression = PNG_TEXT_COMPRESSION_NONE;
+    t.key = const_cast<png_charp>(name.c_str());
+    t.text = const_cast<png_charp>(value.c_str());
+    t.text_length = value.size();
+    chunks.push_back(t);
+  }
+  std::FILE* f = std::fopen(file.c_str(), "wb");
+  if (!f) badInput(nameForMessages + ": cannot open for writing (" + std::strerror(errno) + ")");
+  PngFailure failure{};
+  const bool ok = writeRows(f, width, height, rows.data(), chunks.data(), int(chunks.size()), &failure);
+  const bool flushed = std::fflush(f) == 0;
+  const int flushErrno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!ok) badInput(nameForMessages + ": writing failed (" + failure.message + ")");
+  if (!flushed || !closed)
+    badInput(nameForMessages + ": writing failed (" + std::strerror(flushed ? errno : flushErrno) + ")");
+}
+
+}  // namespace penumbra::detail

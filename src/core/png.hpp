@@ -1,0 +1,19 @@
+// PNG files written with libpng directly: the default output of `penumbra render` and of most
+// frames, which so never load OpenImageIO's module (core/image_codec.hpp). The file holds what
+// OpenImageIO's PNG writer put in it for the same image (IHDR, an oFFs of 0,0, the text
+// attributes as tEXt in name order, IDAT at zlib level 6), so switching writers changed no byte.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "penumbra/image.hpp"
+
+namespace penumbra::detail {
+
+// Writes `rgb` (width*height*3 bytes, row 0 at the top) to `file` with `text` as tEXt chunks.
+// Throws Error(BadInput) naming `nameForMessages` and libpng's or the system's reason; a file it
+// started is left for the caller to remove.
+void writePng(const std::string& file, const std::string& nameForMessages, int width, int height,
+              const std::vector<unsigned char>& rgb, const ImageText& text);
+
+}  // namespace penumbra::detail

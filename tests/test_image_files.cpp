@@ -1,0 +1,154 @@
+// Image files: PNG written with libpng (core/png.hpp) against OpenImageIO's writer in the module
+// (core/image_codec.hpp), byte for byte; the module's loading; the PNG writer's failures.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/image_codec.hpp"
+#include "core/png.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/version.hpp"
+
+namespace fs = std::filesystem;
+using namespace penumbra;
+
+namespace {
+
+std::string bytesOf(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class ImageFiles : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(testing::TempDir()) /
+           ("penumbra_image_files_" + std::to_string(::getpid()) + "_" +
+            testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!HasFailure()) fs::remove_all(dir_, ec);
+  }
+  fs::path dir_;
+};
+
+// A deterministic image with HDR values, negatives and NaN (tone mapping sends them to 0).
+Image pattern(int w, int h, int channels) {
+  Image im(w, h, channels);
+  std::uint32_t s = 12345u + std::uint32_t(w * 31 + h);
+  for (float& v : im.pixels) {
+    s = s * 1664525u + 1013904223u;
+    v = float(s >> 8) / float(1u << 24) * 4.0f - 0.5f;
+  }
+  if (!im.pixels.empty()) im.pixels[0] = std::numeric_limits<float>::quiet_NaN();
+  return im;
+}
+
+}  // namespace
+
+// The PNG path changed writers; the files must not change: the same IHDR, oFFs, tEXt chunks in
+// name order and zlib stream as OpenImageIO's PNG writer gives, on awkward sizes and channel
+// counts, with and without text and numbers (a PNG keeps the text only).
+TEST_F(ImageFiles, PngMatchesOpenImageIOsWriterByteForByte) {
+  const detail::ImageCodec& oiio = detail::imageCodec();
+  const ImageText text = {{"penumbra:version", PENUMBRA_VERSION},
+                          {"penumbra:command", "penumbra render --out \"a b.png\" ü"}};
+  const ImageAttributes numbers = {{"penumbra:relative_noise", 0.0125}};
+  struct Case {
+    int w, h, channels;
+    float exposure;
+  };
+  for (const Case c : {Case{1, 1, 3, 1.0f}, Case{1, 37, 3, 0.5f}, Case{37, 1, 4, 2.0f},
+                       Case{33, 17, 1, 1.0f}, Case{300, 201, 3, 0.0f}}) {
+    const Image im = pattern(c.w, c.h, c.channels);
+    const std::string tag = std::to_string(c.w) + "x" + std::to_string(c.h) + "x" +
+                            std::to_string(c.channels);
+    for (bool withText : {false, true}) {
+      const fs::path ours = dir_ / ("ours_" + tag + ".png");
+      const fs::path theirs = dir_ / ("oiio_" + tag + ".png");
+      writeImage(ours.string(), im, c.exposure, withText ? numbers : ImageAttributes{},
+                 withText ? text : ImageText{});
+      oiio.writeImage(theirs.string(), im, c.exposure, withText ? numbers : ImageAttributes{},
+                      withText ? text : ImageText{});
+      const std::string a = bytesOf(ours), b = bytesOf(theirs);
+      ASSERT_FALSE(a.empty()) << tag;
+      EXPECT_EQ(a.size(), b.size()) << tag << " text " << withText;
+      EXPECT_TRUE(a == b) << tag << " text " << withText;
+      // And it decodes to the bytes toneMap gives.
+      const Image back = readImage(ours.string());
+      const std::vector<unsigned char> rgb = toneMap(im, c.exposure);
+      ASSERT_EQ(back.channels, 3) << tag;
+      ASSERT_EQ(back.pixels.size(), rgb.size()) << tag;
+      int wrong = 0;
+      for (std::size_t i = 0; i < rgb.size(); ++i)
+        wrong += std::lround(back.pixels[i] * 255.0f) != rgb[i];
+      EXPECT_EQ(wrong, 0) << tag;
+    }
+  }
+  // Nothing but the outputs: no temporary file left behind.
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_NE(e.path().filename().string()[0], '.') << e.path();
+}
+
+TEST_F(ImageFiles, PngNeedsNoModuleAndRefusesWhatItCannotWrite) {
+  EXPECT_TRUE(canWriteImage("x.png"));
+  EXPECT_TRUE(canWriteImage("dir/x.PNG"));
+  EXPECT_FALSE(canWriteImage("x.nosuchformat"));
+  const Image im = pattern(4, 3, 3);
+  try {
+    writeImage((dir_ / "missing" / "x.png").string(), im);
+    ADD_FAILURE() << "no error for a missing directory";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  try {
+    writeImage((dir_ / "empty.png").string(), Image());
+    ADD_FAILURE() << "no error for an empty image";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("empty image"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+// A device that takes no byte: libpng's failure (or the flush's) comes back as one BadInput
+// naming the file, through the longjmp, with nothing leaked (the sanitized run checks that).
+TEST_F(ImageFiles, PngWriteFailureIsReported) {
+  const Image im = pattern(64, 64, 3);
+  const std::vector<unsigned char> rgb = toneMap(im, 1.0f);
+  try {
+    detail::writePng("/dev/full", "out.png", im.width, im.height, rgb, {{"penumbra:x", "y"}});
+    ADD_FAILURE() << "no error writing to /dev/full";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("out.png: writing failed (", 0), 0u) << what;
+  }
+  try {
+    detail::writePng((dir_ / "no" / "such.png").string(), "such.png", im.width, im.height, rgb, {});
+    ADD_FAILURE() << "no error for a file that cannot be opened";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("such.png: cannot open for writing"), std::string::npos)
+        << e.what();
+  }
+}
+
+// The module comes from this build: its table says so, and a second call returns the same one.
+TEST(ImageModule, LoadsOnceFromBesideLibpenumbra) {
+  const detail::ImageCodec& a = detail::imageCodec();
+  EXPECT_EQ(a.abi, detail::kImageCodecAbi);
+  EXPECT_STREQ(a.version, PENUMBRA_VERSION);
+  EXPECT_EQ(&a, &detail::imageCodec());
+}
