@@ -68,12 +68,13 @@ class CMakeBuild(build_ext):
         shutil.copyfile(library, target.parent / library.name)  # the file, not the symlink
         # libpenumbra loads its OpenImageIO module from its own directory.
         shutil.copyfile(codec, target.parent / codec.name)
-        # The copy finds libpenumbra beside itself: CMake's own ELF editor rewrites the RPATH
+        # The copies find libpenumbra beside themselves: CMake's own ELF editor rewrites the RPATH
         # (file(RPATH_SET), CMake >= 3.21), so no patchelf is needed.
         script = pathlib.Path(self.build_temp).resolve() / "set_rpath.cmake"
         script.parent.mkdir(parents=True, exist_ok=True)
         script.write_text('file(RPATH_SET FILE "${FILE}" NEW_RPATH "$ORIGIN")\n')
-        run(["cmake", f"-DFILE={target}", "-P", script])
+        for packed in (target, target.parent / codec.name):
+            run(["cmake", f"-DFILE={packed}", "-P", script])
 
 
 # With a reused build tree, setuptools' own build directory and egg-info go inside it too, not

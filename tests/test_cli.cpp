@@ -620,8 +620,8 @@ TEST_F(CliDevices, OutOfDeviceMemoryIsOneLineAndWritesNothing) {
 class CliRender : public CliFixture {};
 
 // OpenImageIO (about 260 shared libraries) is loaded only by a process that touches an image: the
-// library reaches it through its own module, libpenumbra_oiio.so (core/image_codec.hpp). ld.so's
-// LD_DEBUG=files lists every library a process loads, on stderr.
+// library reaches it through its own module, libpenumbra_oiio.so.<version>
+// (core/image_codec.hpp). ld.so's LD_DEBUG=files lists every library a process loads, on stderr.
 using CliImageModule = CliFixture;
 
 TEST_F(CliImageModule, OnlyCommandsThatTouchImagesLoadOpenImageIO) {
@@ -671,7 +671,7 @@ TEST_F(CliImageModule, AMissingModuleIsNamedAndNothingIsWritten) {
     const Result r = runCli({"render", "--size", "32x18", "--out", out}, work, 120, env);
     EXPECT_EQ(r.code, 2) << describe(r);
     EXPECT_EQ(lines(r.err).size(), 1u) << describe(r);
-    EXPECT_NE(r.err.find((alone / "libpenumbra_oiio.so").string() +
+    EXPECT_NE(r.err.find((alone / ("libpenumbra_oiio.so." PENUMBRA_VERSION)).string() +
                          " (installed beside libpenumbra) cannot be loaded"),
               std::string::npos)
         << describe(r);

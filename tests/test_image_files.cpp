@@ -102,6 +102,17 @@ TEST_F(ImageFiles, PngMatchesOpenImageIOsWriterByteForByte) {
     EXPECT_NE(e.path().filename().string()[0], '.') << e.path();
 }
 
+// encodePng is the file writeImage writes (without text), in memory.
+TEST_F(ImageFiles, EncodePngIsTheFileInMemory) {
+  for (const Image& im : {pattern(1, 1, 3), pattern(7, 5, 4), pattern(64, 33, 1)}) {
+    const fs::path file = dir_ / "e.png";
+    writeImage(file.string(), im, 0.7f);
+    const std::vector<unsigned char> png = encodePng(im, 0.7f);
+    EXPECT_EQ(std::string(png.begin(), png.end()), bytesOf(file)) << im.width << "x" << im.height;
+  }
+  EXPECT_THROW(encodePng(Image(), 1.0f), Error);
+}
+
 TEST_F(ImageFiles, PngNeedsNoModuleAndRefusesWhatItCannotWrite) {
   EXPECT_TRUE(canWriteImage("x.png"));
   EXPECT_TRUE(canWriteImage("dir/x.PNG"));

@@ -31,11 +31,15 @@ for b in "${bins[@]}"; do
   fi
 done
 cp -L "$BUILD/libpenumbra.so.0.1" "$OUT/lib/"
-strip --strip-unneeded "${present[@]}" "$OUT/lib/libpenumbra.so.0.1"
+# The OpenImageIO module libpenumbra loads from its own directory (nothing links it, so ldd
+# below does not find it; its own libraries are found through it).
+module=$(cd "$BUILD" && ls libpenumbra_oiio.so.* | head -1)
+cp -L "$BUILD/$module" "$OUT/lib/"
+strip --strip-unneeded "${present[@]}" "$OUT/lib/libpenumbra.so.0.1" "$OUT/lib/$module"
 
 glibc='^(libc|libm|libpthread|libdl|librt|libresolv|libutil|ld-linux-x86-64|linux-vdso)\.so'
 # ldd gives the whole closure; copy each library under its SONAME (the name the loader asks for).
-for f in "${present[@]}" "$OUT/lib/libpenumbra.so.0.1"; do ldd "$f"; done |
+for f in "${present[@]}" "$OUT/lib/libpenumbra.so.0.1" "$OUT/lib/$module"; do ldd "$f"; done |
   awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
   while read -r name path; do
     [[ $name =~ $glibc ]] && continue

@@ -205,10 +205,13 @@ class Context {
 
   /// Compiled programs are kept between processes, per device, driver and penumbra version, in
   /// $PENUMBRA_CACHE_DIR/programs (else $XDG_CACHE_HOME/penumbra/programs, else
-  /// ~/.cache/penumbra/programs; PENUMBRA_CACHE_DIR=off keeps none), read when the Context is
-  /// made: a program found there is made from its binary, which on PoCL takes 2-6 ms where
+  /// ~/.cache/penumbra/programs; PENUMBRA_CACHE_DIR=off keeps none; the directory is chosen when
+  /// the Context is made, each file read when its program is first needed): a program found
+  /// there is made from its binary, which on PoCL takes 2-6 ms where
   /// building from source takes 50-100 ms even with PoCL's own cache warm. A file that is
-  /// truncated or corrupt is never used; a binary the driver refuses is built again from source.
+  /// truncated or corrupt, or owned by another user, is never used; a binary the driver refuses
+  /// is built again from source. The checksum finds damage, not tampering: the directory must be
+  /// writable by its user only, as PoCL's own cache is.
   /// This Context's programs so far: from the cache, compiled from source, and stored.
   struct ProgramCacheStats {
     std::size_t fromCache = 0, compiled = 0, stored = 0;

@@ -13,7 +13,7 @@ enum class ErrorKind {
   KernelBuild,  // an embedded kernel failed to compile; the message carries the build log
   OutOfMemory,  // the device could not allocate a buffer
   Device,       // any other OpenCL failure
-  Internal,     // a bug in penumbra
+  Internal,     // a bug in penumbra, or a broken installation (libpenumbra_oiio.so.* missing)
   Cancelled,    // the caller asked a long call to stop (ReferenceOptions::cancel); not a failure
 };
 

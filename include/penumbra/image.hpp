@@ -47,12 +47,13 @@ void writeImage(const std::string& path, const Image& image, float exposure = 1.
 /// Error(BadInput) on an empty image.
 std::vector<unsigned char> encodePng(const Image& image, float exposure = 1.0f);
 
-/// The file functions here (readImage, writeImage, canWriteImage, encodePng, readImageAttributes)
-/// and the heat maps reach OpenImageIO through a module of libpenumbra's own,
-/// libpenumbra_oiio.so, installed beside it and loaded the first time one of them needs it:
-/// OpenImageIO loads about 260 shared libraries, which took about 0.45 s of every process that
-/// linked it. A module that cannot be loaded is reported by that call as Error(Internal), naming
-/// the file.
+/// Writing a PNG (writeImage, encodePng) is libpenumbra's own, through libpng. Every other file
+/// function here (readImage of any format, writeImage of any other, canWriteImage of any other,
+/// readImageAttributes) and the heat maps reach OpenImageIO through a module of libpenumbra's
+/// own, libpenumbra_oiio.so.<version>, installed beside it and loaded the first time one of them
+/// needs it: OpenImageIO loads about 260 shared libraries, which took about 0.45 s of every
+/// process that linked it. A module that cannot be loaded is reported by that call as
+/// Error(Internal), naming the file.
 
 /// True when writeImage can write `path`'s format (an OpenImageIO writer exists for its extension).
 bool canWriteImage(const std::string& path);

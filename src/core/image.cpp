@@ -120,7 +120,8 @@ void writeImage(const std::string& path, const Image& image, float exposure,
 }
 
 std::vector<unsigned char> encodePng(const Image& image, float exposure) {
-  return detail::imageCodec().encodePng(image, exposure);
+  if (image.empty()) badInput("encodePng: nothing to encode (empty image)");
+  return detail::encodePngBytes(image.width, image.height, toneMap(image, exposure), {});
 }
 
 }  // namespace penumbra

@@ -24,7 +24,7 @@ Loaded load() {
   Loaded out;
   Dl_info self{};
   if (!dladdr(reinterpret_cast<const void*>(&imageCodec), &self) || !self.dli_fname) {
-    out.error = std::string("image support: cannot find where libpenumbra was loaded from, so not ") +
+    out.error = "image support: cannot find where libpenumbra was loaded from, so not " +
                 kImageCodecFile + " beside it either";
     return out;
   }

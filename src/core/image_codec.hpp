@@ -1,8 +1,9 @@
-// The OpenImageIO half of penumbra's image I/O: a module of its own (libpenumbra_oiio.so, built
+// The OpenImageIO half of penumbra's image I/O: a module of its own (libpenumbra_oiio.so.*, built
 // from src/oiio/, installed beside libpenumbra) that libpenumbra loads with dlopen the first time
-// an image is read, written, encoded or drawn on. OpenImageIO brings about 260 shared libraries
-// (OpenCV, ffmpeg, GDAL, ...) whose loading and relocation took 0.45 s of every process, `penumbra
-// --version` and `penumbra devices` included; now only the processes that touch an image pay it.
+// an image is read, written (but for PNG: core/png.hpp) or drawn on. OpenImageIO brings about
+// 260 shared libraries (OpenCV, ffmpeg, GDAL, ...) whose loading and relocation took 0.45 s of
+// every process, `penumbra --version` and `penumbra devices` included; now only the processes
+// that touch an image pay it.
 // Loading it on a thread of its own would not hide it: dlopen holds one process-wide lock, and
 // PoCL dlopens every kernel library it builds, so the two would only take turns.
 //
@@ -15,6 +16,7 @@
 
 #include "metrics/heatmap.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/version.hpp"
 
 namespace penumbra::detail {
 
@@ -22,8 +24,9 @@ namespace penumbra::detail {
 // another value or another PENUMBRA_VERSION.
 inline constexpr int kImageCodecAbi = 1;
 
-// The file name the loader looks for in the directory libpenumbra was loaded from.
-inline constexpr const char* kImageCodecFile = "libpenumbra_oiio.so";
+// The file name the loader looks for in the directory libpenumbra was loaded from:
+// libpenumbra_oiio.so.<version>, so that two versions installed side by side keep their own.
+inline const std::string kImageCodecFile = std::string("libpenumbra_oiio.so.") + PENUMBRA_VERSION;
 
 // The symbol the module exports (extern "C"): returns its table.
 inline constexpr const char* kImageCodecSymbol = "penumbra_image_codec";
@@ -31,14 +34,14 @@ inline constexpr const char* kImageCodecSymbol = "penumbra_image_codec";
 struct ImageCodec {
   int abi;
   const char* version;  // PENUMBRA_VERSION the module was built with
-  // The public functions of penumbra/image.hpp and penumbra/heatmap.hpp with the same names.
+  // The public functions of penumbra/image.hpp and penumbra/heatmap.hpp with the same names (PNG
+  // files are libpenumbra's own: core/png.hpp).
   Image (*readImage)(const std::string& path, bool linearize);
   ImageAttributes (*readImageAttributes)(const std::string& path);
   bool (*canWriteImage)(const std::string& path);
   void (*writeImage)(const std::string& path, const Image& image, float exposure,
                      const ImageAttributes& numbers, const ImageText& text);
   void (*writeDisplayImage)(const std::string& path, const Image& display);
-  std::vector<unsigned char> (*encodePng)(const Image& image, float exposure);
   // metrics/heatmap.hpp's functions of the same names; colourMap is colourMapped without the
   // geometry mask, which libpenumbra applies.
   ColourMap (*magmaColourMap)();

@@ -9,6 +9,7 @@
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
+#include <new>
 
 #include "penumbra/error.hpp"
 
@@ -28,9 +29,25 @@ void onError(png_structp png, png_const_charp message) {
 
 void onWarning(png_structp, png_const_charp) {}
 
-// False with failure->message set when libpng gives up.
-bool writeRows(std::FILE* f, int width, int height, png_bytep* rows, png_text* text, int ntext,
-               PngFailure* failure) {
+// Appends to the std::vector<unsigned char> that is the write's io pointer. Memory running out
+// becomes libpng's error (a longjmp), outside the handler: no exception crosses libpng's frames.
+void appendToMemory(png_structp png, png_bytep data, png_size_t size) {
+  auto* memory = static_cast<std::vector<unsigned char>*>(png_get_io_ptr(png));
+  bool full = false;
+  try {
+    memory->insert(memory->end(), data, data + size);
+  } catch (const std::bad_alloc&) {
+    full = true;
+  }
+  if (full) png_error(png, "out of memory");
+}
+
+void flushMemory(png_structp) {}
+
+// Writes to `f`, or when it is null appends to `memory`. False with failure->message set when
+// libpng gives up.
+bool writeRows(std::FILE* f, std::vector<unsigned char>* memory, int width, int height,
+               png_bytep* rows, png_text* text, int ntext, PngFailure* failure) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, failure, onError, onWarning);
   if (!png) {
     std::snprintf(failure->message, sizeof failure->message, "libpng could not start");
@@ -46,7 +63,8 @@ bool writeRows(std::FILE* f, int width, int height, png_bytep* rows, png_text* t
     png_destroy_write_struct(&png, &info);
     return false;
   }
-  png_init_io(png, f);
+  if (f) png_init_io(png, f);
+  else png_set_write_fn(png, memory, appendToMemory, flushMemory);
   // zlib level 6 with the default strategy, as OpenImageIO's writer sets it (libpng alone would
   // pick Z_FILTERED for filtered rows).
   png_set_compression_level(png, 6);
@@ -62,27 +80,48 @@ bool writeRows(std::FILE* f, int width, int height, png_bytep* rows, png_text* t
   return true;
 }
 
+// What writeRows reads: row pointers into `rgb` and tEXt entries pointing into `text`, both of
+// which outlive the write.
+struct PngInput {
+  std::vector<png_bytep> rows;
+  std::vector<png_text> chunks;
+  PngInput(int width, int height, const std::vector<unsigned char>& rgb, const ImageText& text)
+      : rows(static_cast<std::size_t>(height)) {
+    for (int y = 0; y < height; ++y)
+      rows[std::size_t(y)] = const_cast<png_bytep>(rgb.data() + std::size_t(y) * width * 3);
+    for (const auto& [name, value] : text) {
+      png_text t{};
+      t.compression = PNG_TEXT_COMPRESSION_NONE;
+      t.key = const_cast<png_charp>(name.c_str());
+      t.text = const_cast<png_charp>(value.c_str());
+      t.text_length = value.size();
+      chunks.push_back(t);
+    }
+  }
+};
+
 }  // namespace
+
+std::vector<unsigned char> encodePngBytes(int width, int height,
+                                          const std::vector<unsigned char>& rgb,
+                                          const ImageText& text) {
+  PngInput input(width, height, rgb, text);
+  std::vector<unsigned char> png;
+  PngFailure failure{};
+  if (!writeRows(nullptr, &png, width, height, input.rows.data(), input.chunks.data(),
+                 int(input.chunks.size()), &failure))
+    badInput(std::string("encodePng: encoding failed (") + failure.message + ")");
+  return png;
+}
 
 void writePng(const std::string& file, const std::string& nameForMessages, int width, int height,
               const std::vector<unsigned char>& rgb, const ImageText& text) {
-  std::vector<png_bytep> rows(static_cast<std::size_t>(height));
-  for (int y = 0; y < height; ++y)
-    rows[std::size_t(y)] = const_cast<png_bytep>(rgb.data() + std::size_t(y) * width * 3);
-  // png_text points into `text`, which outlives the call.
-  std::vector<png_text> chunks;
-  for (const auto& [name, value] : text) {
-    png_text t{};
-    t.compression = PNG_TEXT_COMPRESSION_NONE;
-    t.key = const_cast<png_charp>(name.c_str());
-    t.text = const_cast<png_charp>(value.c_str());
-    t.text_length = value.size();
-    chunks.push_back(t);
-  }
+  PngInput input(width, height, rgb, text);
   std::FILE* f = std::fopen(file.c_str(), "wb");
   if (!f) badInput(nameForMessages + ": cannot open for writing (" + std::strerror(errno) + ")");
   PngFailure failure{};
-  const bool ok = writeRows(f, width, height, rows.data(), chunks.data(), int(chunks.size()), &failure);
+  const bool ok = writeRows(f, nullptr, width, height, input.rows.data(), input.chunks.data(),
+                            int(input.chunks.size()), &failure);
   const bool flushed = std::fflush(f) == 0;
   const int flushErrno = errno;
   const bool closed = std::fclose(f) == 0;

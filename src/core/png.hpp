@@ -16,4 +16,9 @@ namespace penumbra::detail {
 void writePng(const std::string& file, const std::string& nameForMessages, int width, int height,
               const std::vector<unsigned char>& rgb, const ImageText& text);
 
+// The same file's bytes, in memory (penumbra::encodePng). Throws Error(BadInput) when libpng fails.
+std::vector<unsigned char> encodePngBytes(int width, int height,
+                                          const std::vector<unsigned char>& rgb,
+                                          const ImageText& text);
+
 }  // namespace penumbra::detail

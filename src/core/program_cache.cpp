@@ -1,7 +1,10 @@
 // ProgramCache (core/program_cache.hpp).
 #include "core/program_cache.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include <atomic>
 
 #include <cstdint>
 #include <cstdio>
@@ -73,6 +76,8 @@ std::vector<unsigned char> ProgramCache::load(const std::string& source,
                                               const std::string& options) const {
   if (!enabled()) return {};
   const std::string file = fileFor(source, options);
+  struct stat st{};
+  if (::stat(file.c_str(), &st) != 0 || st.st_uid != ::geteuid()) return {};
   std::ifstream in(file, std::ios::binary);
   if (!in) return {};
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -104,7 +109,10 @@ bool ProgramCache::store(const std::string& source, const std::string& options,
   std::error_code ec;
   fs::create_directories(directory_, ec);
   const std::string file = fileFor(source, options);
-  const std::string tmp = file + ".tmp" + std::to_string(::getpid());
+  // Two Contexts of one process may store the same program at once: each store its own file.
+  static std::atomic<unsigned> stores{0};
+  const std::string tmp =
+      file + ".tmp" + std::to_string(::getpid()) + "." + std::to_string(stores.fetch_add(1));
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) return false;

@@ -5,9 +5,12 @@
 //
 // One file per (device, driver, penumbra version, build options, source), named by a 128-bit hash
 // of all of them, holding a header that repeats the hash, the binary's size and a checksum of it:
-// a file that is truncated, foreign or corrupt is never handed to the driver. A binary the driver
-// refuses all the same is built again from source and stored over. Files are written beside their
-// final name and renamed into place, so processes sharing the cache never see half a file.
+// a file that is truncated, corrupt, stored under another key's name or owned by another user is
+// never handed to the driver. The checksum finds damage, not tampering: a binary holds native
+// code, so the directory must be writable by its user only (as PoCL's own cache is). A binary the
+// driver refuses all the same is built again from source and stored over. Files are written
+// beside their final name (a name of their own per process and store) and renamed into place, so
+// readers never see half a file.
 // Failing to read or write the cache only costs the time it would have saved: nothing throws.
 #pragma once
 #include <string>

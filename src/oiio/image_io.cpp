@@ -1,7 +1,6 @@
-// Image files through OpenImageIO: reading, atomic writing and PNG encoding (the bodies of
+// Image files through OpenImageIO: reading and atomic writing (the bodies of
 // penumbra/image.hpp's and penumbra/heatmap.hpp's functions of the same names, which forward here
 // through core/image_codec.hpp).
-#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 
@@ -196,21 +195,6 @@ void writeDisplayImage(const std::string& path, const Image& display) {
     if (!buf.write(tmp, isFloatImageFormat(path) ? TypeDesc::FLOAT : TypeDesc::UINT8))
       badInput(path + ": writing failed (" + buf.geterror() + ")");
   });
-}
-
-std::vector<unsigned char> encodePng(const Image& image, float exposure) {
-  if (image.empty()) badInput("encodePng: nothing to encode (empty image)");
-  const std::vector<unsigned char> px = toneMap(image, exposure);
-  std::vector<unsigned char> png;
-  OIIO::Filesystem::IOVecOutput memory(png);
-  auto out = ImageOutput::create("png");
-  if (!out) badInput("encodePng: no PNG writer (" + OIIO::geterror() + ")");
-  ImageSpec spec(image.width, image.height, 3, TypeDesc::UINT8);
-  bool ok = out->set_ioproxy(&memory) && out->open("frame.png", spec) &&
-            out->write_image(TypeDesc::UINT8, px.data());
-  ok = out->close() && ok;
-  if (!ok) badInput("encodePng: encoding failed (" + out->geterror() + ")");
-  return png;
 }
 
 }  // namespace penumbra::oiio

@@ -13,7 +13,6 @@ const penumbra::detail::ImageCodec kCodec = {
     penumbra::oiio::canWriteImage,
     penumbra::oiio::writeImage,
     penumbra::oiio::writeDisplayImage,
-    penumbra::oiio::encodePng,
     penumbra::oiio::magmaColourMap,
     penumbra::oiio::colourMap,
     penumbra::oiio::withScaleBar,

@@ -16,7 +16,6 @@ bool canWriteImage(const std::string& path);
 void writeImage(const std::string& path, const Image& image, float exposure,
                 const ImageAttributes& numbers, const ImageText& text);
 void writeDisplayImage(const std::string& path, const Image& display);
-std::vector<unsigned char> encodePng(const Image& image, float exposure);
 
 // drawing.cpp
 detail::ColourMap magmaColourMap();
