@@ -50,8 +50,8 @@ std::vector<unsigned char> encodePng(const Image& image, float exposure = 1.0f);
 /// Writing a PNG (writeImage, encodePng) is libpenumbra's own, through libpng. Every other file
 /// function here (readImage of any format, writeImage of any other, canWriteImage of any other,
 /// readImageAttributes) and the heat maps reach OpenImageIO through a module of libpenumbra's
-/// own, libpenumbra_oiio.so.<version>, installed beside it and loaded the first time one of them
-/// needs it: OpenImageIO loads about 260 shared libraries, which took about 0.45 s of every
+/// own, libpenumbra_oiio.so.VERSION (penumbra's version), installed beside it and loaded the
+/// first time one of them needs it: OpenImageIO loads about 260 shared libraries, which took about 0.45 s of every
 /// process that linked it. A module that cannot be loaded is reported by that call as
 /// Error(Internal), naming the file.
 
