@@ -16,11 +16,24 @@ namespace penumbra {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// What needs no codec is refused before the module is loaded (0.45 s) for it.
+void checkReadable(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) badInput(path + ": no such file");
+  if (fs::is_directory(path, ec)) badInput(path + ": is a directory, not an image");
+}
+
+}  // namespace
+
 Image readImage(const std::string& path, bool linearize) {
+  checkReadable(path);
   return detail::imageCodec().readImage(path, linearize);
 }
 
 ImageAttributes readImageAttributes(const std::string& path) {
+  checkReadable(path);
   return detail::imageCodec().readImageAttributes(path);
 }
 

@@ -77,10 +77,9 @@ void checkExrDeclarations(const std::string& path, std::uintmax_t fileBytes) {
 
 }  // namespace
 
+// The path was checked by libpenumbra (core/image.cpp) before it loaded this module.
 Image readImage(const std::string& path, bool linearize) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) badInput(path + ": no such file");
-  if (fs::is_directory(path, ec)) badInput(path + ": is a directory, not an image");
   const std::uintmax_t fileBytes = fs::file_size(path, ec);
   if (!ec) checkExrDeclarations(path, fileBytes);
   auto in = ImageInput::open(path);
@@ -119,8 +118,6 @@ Image readImage(const std::string& path, bool linearize) {
 }
 
 ImageAttributes readImageAttributes(const std::string& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) badInput(path + ": no such file");
   auto in = ImageInput::open(path);
   if (!in) badInput(path + ": cannot read image (" + OIIO::geterror() + ")");
   ImageAttributes out;
