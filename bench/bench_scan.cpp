@@ -1,8 +1,13 @@
 // Summed-area table throughput against the device's own copy bandwidth, measured in the same run.
 // A minimal SAT reads and writes each element once, so it is counted as 2 x image bytes, the same
 // traffic as a clEnqueueCopyBuffer of the image; fraction_of_copy_bw = SAT bytes/s / copy bytes/s
-// says how close the four launches come to that bound. Times are device time from profiling
-// events (the sum of the stage kernels' durations), reported through UseManualTime.
+// says how close the launches come to that bound. Times are device time from profiling events
+// (the sum of the stage kernels' durations), reported through UseManualTime.
+//
+// Cases: square images of 256^2 to 2048^2, one at a time, and the renderer's own batch (32 shadow
+// maps of 256^2, long4 moments). Each runs with the device's default method (on CPUs the banded
+// sweep for long4, the passes for float4) and, as "passes", with the row and column passes forced,
+// the baseline the banded method is measured against in the same run.
 //
 //   ./bench/bench_scan [--benchmark_filter=...]   (PENUMBRA_DEVICE picks the device)
 #include <benchmark/benchmark.h>
@@ -75,16 +80,18 @@ void BM_Copy(benchmark::State& state, std::size_t bytes) {
   if (total > 0) g_copyBytesPerSec[bytes] = moved / total;
 }
 
-void BM_Sat(benchmark::State& state, ScanType type, int n) {
-  const std::size_t bytes = std::size_t(n) * n * penumbra::scanElementBytes(type);
+void BM_Sat(benchmark::State& state, ScanType type, int n, int batch, bool passes) {
+  const std::size_t bytes = std::size_t(n) * n * batch * penumbra::scanElementBytes(type);
+  penumbra::ScanTuning tune;
+  if (passes) tune.bands = 0;
   // Zeros stay zeros under repeated in-place scans: no overflow or infinities between iterations.
   cl::Buffer data = zeroed(bytes, "sat bench image");
-  penumbra::summedAreaTable(*g_ctx, data, type, n, n);  // warm-up: builds the kernels
+  penumbra::summedAreaTable(*g_ctx, data, type, n, n, batch, "sat", tune);  // warm-up: builds
   g_ctx->finish();
   double total = 0;
   for (auto _ : state) {
     g_ctx->resetTimings();
-    penumbra::summedAreaTable(*g_ctx, data, type, n, n);
+    penumbra::summedAreaTable(*g_ctx, data, type, n, n, batch, "sat", tune);
     double s = 0;
     for (auto& [stage, ms] : g_ctx->stageTimesMs()) s += ms * 1e-3;
     state.SetIterationTime(s);
@@ -109,15 +116,14 @@ int main(int argc, char** argv) {
     struct Case {
       ScanType type;
       const char* name;
-      int n;
+      int n, batch;
     };
-    const Case cases[] = {{ScanType::Float4, "float4", 256},
-                          {ScanType::Float4, "float4", 1024},
-                          {ScanType::Float4, "float4", 2048},
-                          {ScanType::Long4, "long4", 1024},
-                          {ScanType::Long4, "long4", 2048}};
+    const Case cases[] = {{ScanType::Float4, "float4", 256, 1},  {ScanType::Float4, "float4", 1024, 1},
+                          {ScanType::Float4, "float4", 2048, 1}, {ScanType::Long4, "long4", 256, 1},
+                          {ScanType::Long4, "long4", 1024, 1},   {ScanType::Long4, "long4", 2048, 1},
+                          {ScanType::Long4, "long4", 256, 32}};
     for (const Case& c : cases) {
-      std::size_t bytes = std::size_t(c.n) * c.n * penumbra::scanElementBytes(c.type);
+      std::size_t bytes = std::size_t(c.n) * c.n * c.batch * penumbra::scanElementBytes(c.type);
       if (!g_copyBytesPerSec.count(bytes)) {
         g_copyBytesPerSec[bytes] = measureCopy(bytes);
         benchmark::RegisterBenchmark(("BM_Copy/" + std::to_string(bytes >> 10) + "KiB").c_str(),
@@ -125,11 +131,14 @@ int main(int argc, char** argv) {
             ->UseManualTime()
             ->Unit(benchmark::kMillisecond);
       }
-      benchmark::RegisterBenchmark(
-          (std::string("BM_Sat/") + c.name + "/" + std::to_string(c.n)).c_str(), BM_Sat, c.type,
-          c.n)
-          ->UseManualTime()
-          ->Unit(benchmark::kMillisecond);
+      for (bool passes : {false, true}) {
+        std::string name = std::string("BM_Sat/") + c.name + "/" + std::to_string(c.n);
+        if (c.batch > 1) name += "x" + std::to_string(c.batch);
+        if (passes) name += "/passes";
+        benchmark::RegisterBenchmark(name.c_str(), BM_Sat, c.type, c.n, c.batch, passes)
+            ->UseManualTime()
+            ->Unit(benchmark::kMillisecond);
+      }
     }
     benchmark::RunSpecifiedBenchmarks();
   } catch (const std::exception& e) {

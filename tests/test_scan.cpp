@@ -88,7 +88,10 @@ std::vector<Acc> referenceSat(const std::vector<S>& in, Size s, int L, F value) 
 // (2 log2 WG), one carry per earlier tile, the column segment (SEG), the segment offsets
 // (height/SEG) and a few joins. Unset knobs take the larger of the GPU and CPU defaults in
 // src/core/scan.cpp (VPT 4 or 64, WG 8..256, SEG 64) and the smallest default tile (8 x 4).
+// The banded method (t.bands > 0) adds serially: along its row (width), the running sum of the
+// band offsets along the first row (width), one per row above within the band and one per band.
 double additionDepth(Size s, const ScanTuning& t) {
+  if (t.bands > 0) return 2.0 * s.w + s.h + t.bands + 8;
   const int vpt = t.valuesPerItem ? t.valuesPerItem : 64;
   const int wg = t.workGroup ? t.workGroup : 256;
   const int tile = (t.workGroup ? t.workGroup : 8) * (t.valuesPerItem ? t.valuesPerItem : 4);
@@ -182,6 +185,36 @@ TEST(Scan, Long4AwkwardSizes) {
 TEST(Scan, Float4At2048) { check(ScanType::Float4, {2048, 2048, 1}, 21); }
 TEST(Scan, Long4At2048IsExact) { check(ScanType::Long4, {2048, 2048, 1}, 22); }
 
+// The banded one-pass method (kernels/common/scan.cl) on every awkward size, with one band, a few,
+// more bands than rows (clamped) and a band count that leaves the last band short; integer types
+// exactly, float types within the serial sum's bound. The passes forced (bands 0) on the same
+// sizes, as the CPU default no longer runs them for integer types.
+TEST(Scan, BandedAwkwardSizes) {
+  for (int bands : {1, 2, 3, 7, 5000}) {
+    SCOPED_TRACE("bands " + std::to_string(bands));
+    ScanTuning tune;
+    tune.bands = bands;
+    for (Size s : kAwkward) {
+      check(ScanType::Long4, s, 15, tune);
+      check(ScanType::Long, s, 16, tune);
+      check(ScanType::Float4, s, 17, tune);
+    }
+  }
+}
+TEST(Scan, PassesForcedAwkwardSizes) {
+  ScanTuning passes;
+  passes.bands = 0;
+  for (Size s : kAwkward) {
+    check(ScanType::Long4, s, 18, passes);
+    check(ScanType::Long, s, 19, passes);
+  }
+}
+TEST(Scan, BandedAt2048IsExact) {
+  ScanTuning tune;
+  tune.bands = 6;  // 2048 rows: five bands of 342 and a short one
+  check(ScanType::Long4, {2048, 2048, 1}, 23, tune);
+}
+
 // Small integers are exact in float while the sums stay below 2^24, so the float kernels must then
 // match exactly: catches indexing slips that a rounding tolerance could hide.
 TEST(Scan, FloatIntegerValuesAreExact) {
@@ -230,13 +263,17 @@ TEST(Scan, TuningKeepsLongTablesIdentical) {
   const Size s{203, 131, 2};
   // All within the 32 KiB of local memory OpenCL 1.2 guarantees (256 x 2 long4 needs 25 KiB);
   // both column modes, and the device's defaults with each column mode forced.
-  const ScanTuning tunings[] = {{1, 1, 1, 0},    {2, 3, 5, 1},  {4, 2, 7, 0}, {64, 8, 64, 1},
-                                {256, 2, 200, 0}, {8, 64, 64, 1}, {0, 0, 0, 0}, {0, 0, 0, 1}};
+  // bands 0: the passes (the CPU default for integer types is the banded method); then the banded
+  // method with one band, several, and the device's choice.
+  const ScanTuning tunings[] = {{1, 1, 1, 0, 0},    {2, 3, 5, 1, 0},  {4, 2, 7, 0, 0},
+                                {64, 8, 64, 1, 0},  {256, 2, 200, 0, 0}, {8, 64, 64, 1, 0},
+                                {0, 0, 0, 0, 0},    {0, 0, 0, 1, 0},  {0, 0, 0, -1, 1},
+                                {0, 0, 0, -1, 4},   {0, 0, 0, -1, 131}, {0, 0, 0, -1, -1}};
   for (const auto& tune : tunings) {
     SCOPED_TRACE("workGroup " + std::to_string(tune.workGroup) + " valuesPerItem " +
                  std::to_string(tune.valuesPerItem) + " segmentRows " +
                  std::to_string(tune.segmentRows) + " columnLockstep " +
-                 std::to_string(tune.columnLockstep));
+                 std::to_string(tune.columnLockstep) + " bands " + std::to_string(tune.bands));
     check(ScanType::Long, s, 51, tune);
     check(ScanType::Long4, s, 52, tune);
   }
@@ -338,6 +375,7 @@ TEST(Scan, BadInputThrows) {
   expectBad(sat(ScanType::Float, 4, 4, 1, {3, 0, 0}), "power of two");
   expectBad(sat(ScanType::Float, 4, 4, 1, {0, -1, 0}), "tuning");
   expectBad(sat(ScanType::Float, 4, 4, 1, {0, 0, 0, 2}), "columnLockstep");
+  expectBad(sat(ScanType::Long, 4, 4, 1, {0, 0, 0, -1, -2}), "bands -2");
   expectBad(sat(ScanType::Float, 4, 4, 1, {1 << 20, 0, 0}), "work-group limit");
   cl::Buffer null;
   EXPECT_THROW(penumbra::summedAreaTable(ctx(), null, ScanType::Float, 1, 1), penumbra::Error);
@@ -353,6 +391,21 @@ TEST(Scan, StageNames) {
   for (auto& [stage, ms] : ctx().stageTimesMs()) names.push_back(stage);
   EXPECT_EQ(names, (std::vector<std::string>{"env/sat/rows", "env/sat/cols/segments",
                                              "env/sat/cols/offsets", "env/sat/cols"}));
+  // The banded method: one band is one sweep; more add the band sums and their offsets.
+  for (int bands : {1, 3}) {
+    ctx().resetTimings();
+    ScanTuning tune;
+    tune.bands = bands;
+    cl::Buffer lb = ctx().upload(std::vector<std::int64_t>(8 * 200, 1), "stage test");
+    penumbra::summedAreaTable(ctx(), lb, ScanType::Long, 8, 200, 1, "mssm4/sat", tune);
+    names.clear();
+    for (auto& [stage, ms] : ctx().stageTimesMs()) names.push_back(stage);
+    if (bands == 1)
+      EXPECT_EQ(names, (std::vector<std::string>{"mssm4/sat/bands"}));
+    else
+      EXPECT_EQ(names, (std::vector<std::string>{"mssm4/sat/bands/sums",
+                                                 "mssm4/sat/bands/offsets", "mssm4/sat/bands"}));
+  }
   ctx().resetTimings();
 }
 
@@ -379,13 +432,24 @@ TEST(OclgrindScan, Long4) {
 }
 TEST(OclgrindScan, ManyTilesAndSegments) {
   for (int lockstep : {0, 1}) {
-    const ScanTuning tune{4, 2, 4, lockstep};
+    const ScanTuning tune{4, 2, 4, lockstep, 0};
     check(ScanType::Float, {33, 17, 2}, 79, tune);
     check(ScanType::Long4, {33, 17, 2}, 80, tune);
   }
 }
+// The banded method under the simulator: one band (the one-pass sweep) and three (band sums,
+// offsets, sweeps from the offsets), a batch, integer and float.
+TEST(OclgrindScan, Banded) {
+  for (int bands : {1, 3}) {
+    ScanTuning tune;
+    tune.bands = bands;
+    check(ScanType::Long4, {5, 7, 2}, 83, tune);
+    check(ScanType::Long, {33, 17, 1}, 84, tune);
+    check(ScanType::Float, {33, 17, 2}, 85, tune);
+  }
+}
 TEST(OclgrindScan, CpuKnobs) {
-  const ScanTuning cpu{8, 64, 64, 1};
+  const ScanTuning cpu{8, 64, 64, 1, 0};
   check(ScanType::Float4, {5, 3, 2}, 81, cpu);
   check(ScanType::Long, {33, 70, 1}, 82, cpu);
 }

@@ -30,6 +30,12 @@ struct ScanTuning {
   int valuesPerItem = 0;    ///< elements each work-item scans serially per tile (GPU 4, CPU 64)
   int segmentRows = 0;      ///< rows per column segment in the column pass (default 64)
   int columnLockstep = -1;  ///< 1: column steps synchronize each row (CPU default), 0: not (GPU)
+  /// The banded one-pass method instead of the row and column passes: each image's rows in this
+  /// many bands, each swept top to bottom by one work-item (kernels/common/scan.cl). 0: the
+  /// passes; -1: the device's choice (CPUs: banded for Long/Long4, with enough bands to give every
+  /// compute unit two sweeps; GPUs and float types: the passes). The other knobs apply to the
+  /// passes only.
+  int bands = -1;
 };
 
 /// As above with explicit tuning; throws Error(BadInput) for a work-group size the kernel or the

@@ -205,3 +205,72 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
     ROW_STEP();
   }
 }
+
+// ---- Banded one-pass method (CPU devices) ----
+//
+// The passes above read and write every element twice and read it a third time (rows, column
+// segments, column rescan): five image transfers where a copy makes two. On a CPU, where a
+// work-item is a thread that may run a long serial loop, the table can instead be built in one
+// sweep down the image: row y of the table is the running sum along row y of the input plus row
+// y - 1 of the table, which the sweep has just written and finds in cache:
+//   S(x, y) = sum_{x' <= x} I(x', y) + S(x, y - 1).
+// One work-item per (band of rows, image) sweeps its band. A band below the first needs row
+// y0 - 1 of the table, the running sum along x of the column sums of every row above it: step 1
+// sums each band's columns (scan_band_sums), scan_col_offsets turns those sums into each band's
+// exclusive offsets, and step 2 (scan_band_apply) starts its sweep from them. With one band per
+// image only step 2 runs, and the image is read and written once: a copy's traffic. With B > 1
+// bands it is read once more. Integer tables come out identical to the passes' (integer addition
+// is associative); float ones round differently (a serial sum along each row, error growing with
+// the width rather than with its logarithm), so the host uses this method for integer types only
+// unless asked (src/core/scan.cpp).
+
+// Step 1: band_sums[(image * nbands + band) * width + x] = sum of column x over the band's rows.
+// Global size (nbands, batch), one work-item per group.
+kernel void scan_band_sums(global const T* data, global T* band_sums, int width, int height,
+                           int band_rows) {
+  const int band = get_global_id(0), nbands = get_global_size(0);
+  const size_t img = get_global_id(1);
+  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
+  global T* out = band_sums + (img * nbands + band) * (size_t)width;
+  for (int x = 0; x < width; ++x) out[x] = ZERO;
+  for (int y = y0; y < y1; ++y) {
+    global const T* row = data + (img * height + y) * (size_t)width;
+    for (int x = 0; x < width; ++x) out[x] += row[x];
+  }
+}
+
+// Step 2: the sweep over one band, in place. band_offsets as scan_col_offsets leaves band_sums:
+// the column sums of every row above the band (read only when nbands > 1).
+kernel void scan_band_apply(global T* data, global const T* band_offsets, int width, int height,
+                            int band_rows) {
+  const int band = get_global_id(0), nbands = get_global_size(0);
+  const size_t img = get_global_id(1);
+  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
+  if (y0 >= y1) return;
+  global T* row = data + (img * height + y0) * (size_t)width;
+  // First row: its running sum plus row y0 - 1 of the table (the running sum of the offsets).
+  T acc = ZERO;
+  if (band > 0) {
+    global const T* off = band_offsets + (img * nbands + band) * (size_t)width;
+    T above = ZERO;
+    for (int x = 0; x < width; ++x) {
+      acc += row[x];
+      above += off[x];
+      row[x] = acc + above;
+    }
+  } else {
+    for (int x = 0; x < width; ++x) {
+      acc += row[x];
+      row[x] = acc;
+    }
+  }
+  for (int y = y0 + 1; y < y1; ++y) {
+    global const T* prev = row;
+    row += width;
+    acc = ZERO;
+    for (int x = 0; x < width; ++x) {
+      acc += row[x];
+      row[x] = acc + prev[x];
+    }
+  }
+}

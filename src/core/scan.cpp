@@ -87,6 +87,49 @@ std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
          " -DCOL_LOCKSTEP=" + (lockstep ? "1" : "0");
 }
 
+// Bands per image for the banded method: two sweeps per compute unit over the whole batch, so
+// that neither core idles while the other finishes (a batch that already has that many images
+// keeps one band each, the one-pass case).
+int defaultBands(Context& ctx, int batch) {
+  cl_uint units = 1;
+  try {
+    units = ctx.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "summedAreaTable: querying the compute units");
+  }
+  const long long want = 2LL * std::max<cl_uint>(units, 1);
+  return int(std::max<long long>(1, (want + batch - 1) / batch));
+}
+
+// The banded one-pass method (kernels/common/scan.cl, "Banded one-pass method"): `bands` bands
+// per image (1 <= bands <= height). Stages: STAGE/bands/sums and STAGE/bands/offsets with more than
+// one band, then STAGE/bands.
+void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height, int batch,
+                 int bands, const std::string& stage) {
+  const std::string opts = options(type, 1, 1, 1, false);  // the pass knobs are unused here
+  const int bandRows = (height + bands - 1) / bands;
+  bands = (height + bandRows - 1) / bandRows;  // no empty band
+  const std::size_t elemBytes = scanElementBytes(type);
+  const std::size_t sumsElems =
+      bands > 1 ? checkedMul(checkedMul(std::size_t(bands), std::size_t(batch), "band count"),
+                             std::size_t(width), "band-sum count")
+                : 1;
+  cl::Buffer sums = ctx.buffer(checkedMul(sumsElems, elemBytes, "band-sum bytes"),
+                               stage + " band sums");
+  if (bands > 1) {
+    cl::Kernel sumK = ctx.kernel(kFile, "scan_band_sums", opts);
+    cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets", opts);
+    ctx.launchWith(stage + "/bands/sums", sumK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                   sums, cl_int(width), cl_int(height), cl_int(bandRows));
+    const std::size_t owg = std::min<std::size_t>(ctx.workGroupSize(offK, kColumnWg), nextPow2(width));
+    ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
+                   cl::NDRange(owg, 1), sums, cl_int(width), cl_int(bands));
+  }  // one band: the sums are never read, the one element only keeps the argument valid
+  cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply", opts);
+  ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                 sums, cl_int(width), cl_int(height), cl_int(bandRows));
+}
+
 }  // namespace
 
 std::size_t scanElementBytes(ScanType t) {
@@ -133,12 +176,13 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
              " needs " + std::to_string(bytes) + " (" + std::to_string(elemBytes) +
              " bytes per element: wrong ScanType or size?)");
   if (tuning.workGroup < 0 || tuning.valuesPerItem < 0 || tuning.segmentRows < 0 ||
-      tuning.columnLockstep < -1 || tuning.columnLockstep > 1)
+      tuning.columnLockstep < -1 || tuning.columnLockstep > 1 || tuning.bands < -1)
     badInput("summedAreaTable: tuning values out of range (workGroup " +
              std::to_string(tuning.workGroup) + ", valuesPerItem " +
              std::to_string(tuning.valuesPerItem) + ", segmentRows " +
              std::to_string(tuning.segmentRows) + ", columnLockstep " +
-             std::to_string(tuning.columnLockstep) + ")");
+             std::to_string(tuning.columnLockstep) + ", bands " + std::to_string(tuning.bands) +
+             ")");
   if (tuning.workGroup > 0 && !isPow2(tuning.workGroup))
     badInput("summedAreaTable: tuning.workGroup must be a power of two, got " +
              std::to_string(tuning.workGroup));
@@ -152,6 +196,13 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
 
   // --- knobs -----------------------------------------------------------------------------------
   const Knobs& knobs = defaultKnobs(ctx);
+  const bool integer = type == ScanType::Long || type == ScanType::Long4;
+  int bands = tuning.bands;
+  if (bands < 0) bands = knobs.lockstep && integer ? defaultBands(ctx, batch) : 0;
+  if (bands > 0) {
+    bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), stage);
+    return;
+  }
   const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : knobs.vpt;
   const int seg = tuning.segmentRows ? tuning.segmentRows : knobs.seg;
   const bool lockstep = tuning.columnLockstep < 0 ? knobs.lockstep : tuning.columnLockstep != 0;
