@@ -415,6 +415,228 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   vis[out] = clamp(visibility, 0.0f, 1.0f);
 }
 
+// ---- MSSM4 visibility for CPU devices: a batch of pixels per work-item, SIMD across the batch ----
+//
+// CPU drivers (PoCL) run a work-group as a loop over its work-items and count on LLVM's loop
+// vectorizer to run that loop SIMD-wide. Here it cannot: the float4/long4 values above and the
+// calls it does not inline make it give up, and mssm4_visibility runs one work-item at a time
+// (PoCL 3.1 on AVX-512: not one zmm instruction in its code). mssm4_visibility_batch hands the
+// vectorizer a loop it can take instead: each work-item runs VIS_BATCH pixels of one light in an
+// explicit loop over scalar values only, every branch a select and every load in bounds, so the
+// loop runs VIS_BATCH lanes wide and each lattice read is a gather (many loads in flight, where the
+// one-at-a-time kernel waits on each). A batch in which no pixel needs the light (background, or
+// the light below every pixel's horizon: coherent regions of the frame) is skipped before the
+// loop. Each helper repeats its float4 counterpart operation for operation, and the library's
+// dot() and mix() as PoCL's library computes them (products rounded before the sums: no fused
+// multiply-add), so both kernels give the same bits (tests/test_mssm.cpp compares them).
+#ifndef VIS_BATCH
+#define VIS_BATCH 16
+#endif
+#define M4S static inline __attribute__((always_inline))
+
+typedef struct {
+  float x, y, z, w;
+} m4s;
+
+// box_runs without arrays: a loop or an array inside the batch loop is vectorized (or kept in
+// memory) on its own, and that blocks the batch loop.
+typedef struct {
+  int i0, i1, i2, i3;  // lattice coordinates bounding the three runs
+  float w0, w1, w2;    // their coverage weights
+} runs_s;
+
+M4S runs_s box_runs_s(float x0, float x1, int size) {
+  int i0 = min((int)x0, size - 1), i1 = min((int)x1, size - 1);  // x0, x1 >= 0: as box_runs
+  float f0 = x0 - i0, f1 = x1 - i1;
+  bool one = i0 == i1;
+  runs_s r;
+  r.i0 = i0;
+  r.i1 = i0 + 1;
+  r.i2 = one ? i0 + 1 : i1;
+  r.i3 = one ? i0 + 1 : i1 + 1;
+  r.w0 = one ? f1 - f0 : 1.0f - f0;
+  r.w1 = one ? 0.0f : 1.0f;
+  r.w2 = one ? 0.0f : f1;
+  return r;
+}
+
+// Channel c of lattice value P(i, j) (filter.clh's lattice); the index is clamped at both ends so
+// that lanes past the frame's last pixel stay in bounds too.
+M4S long lattice_s(global const long* sat, int size, int i, int j, int c) {
+  long v = sat[((size_t)clamp(j - 1, 0, size - 1) * size + clamp(i - 1, 0, size - 1)) * 4 + c];
+  return i <= 0 || j <= 0 ? 0 : v;
+}
+
+// box_mean's sum for channel c (before the division by the area).
+M4S float box_sum_channel(global const long* sat, int size, runs_s X, runs_s Y, int c) {
+#define PB_ROW(j, Yj)                                                                           \
+  long p##j##0 = lattice_s(sat, size, X.i0, Yj, c), p##j##1 = lattice_s(sat, size, X.i1, Yj, c), \
+       p##j##2 = lattice_s(sat, size, X.i2, Yj, c), p##j##3 = lattice_s(sat, size, X.i3, Yj, c);
+  PB_ROW(0, Y.i0)
+  PB_ROW(1, Y.i1)
+  PB_ROW(2, Y.i2)
+  PB_ROW(3, Y.i3)
+#undef PB_ROW
+  float acc = 0.0f;
+  // sub-rectangle (a, b) = P[b+1][a+1] - P[b+1][a] - P[b][a+1] + P[b][a], b outer, a inner
+#define PB_RECT(a, b, a1, b1, wa, wb)          \
+  {                                            \
+    float w = (wa) * (wb);                     \
+    long s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a; \
+    acc += w * (float)s;                       \
+  }
+  PB_RECT(0, 0, 1, 1, X.w0, Y.w0)
+  PB_RECT(1, 0, 2, 1, X.w1, Y.w0)
+  PB_RECT(2, 0, 3, 1, X.w2, Y.w0)
+  PB_RECT(0, 1, 1, 2, X.w0, Y.w1)
+  PB_RECT(1, 1, 2, 2, X.w1, Y.w1)
+  PB_RECT(2, 1, 3, 2, X.w2, Y.w1)
+  PB_RECT(0, 2, 1, 3, X.w0, Y.w2)
+  PB_RECT(1, 2, 2, 3, X.w1, Y.w2)
+  PB_RECT(2, 2, 3, 3, X.w2, Y.w2)
+#undef PB_RECT
+  return acc;
+}
+
+M4S m4s box_mean_s(global const long* sat, int size, float x0, float y0, float x1, float y1) {
+  runs_s X = box_runs_s(x0, x1, size), Y = box_runs_s(y0, y1, size);
+  float area = (x1 - x0) * (y1 - y0);
+  float div = area * (float)PB_MOMENT_SCALE;
+  m4s r;
+  r.x = box_sum_channel(sat, size, X, Y, 0) / div;
+  r.y = box_sum_channel(sat, size, X, Y, 1) / div;
+  r.z = box_sum_channel(sat, size, X, Y, 2) / div;
+  r.w = box_sum_channel(sat, size, X, Y, 3) / div;
+  return r;
+}
+
+// mix(x, y, a) as the library computes it: (y - x) * a + x, the product rounded.
+M4S float mix_s(float x, float y, float a) {
+  float d = y - x;
+  float m = d * a;
+  return m + x;
+}
+
+// dot() of two float3 as the library computes it: (p0 + p1) + p2 of rounded products.
+M4S float dot3_s(float ax, float ay, float az, float bx, float by, float bz) {
+  float p0 = ax * bx;
+  float p1 = ay * by;
+  float p2 = az * bz;
+  float s = p0 + p1;
+  return p2 + s;
+}
+
+// hamburger4 on four scalars, with its branches as selects.
+M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
+                       float* blocker_sum, float* receiver_weight) {
+  float b1 = mix_s(b_raw.x, 0.5f, moment_bias), b2 = mix_s(b_raw.y, 1.0f / 3.0f, moment_bias);
+  float b3 = mix_s(b_raw.z, 0.25f, moment_bias), b4 = mix_s(b_raw.w, 0.2f, moment_bias);
+  float d22 = b2 - b1 * b1;
+  float l32 = (b3 - b1 * b2) / d22;
+  float d33 = b4 - b2 * b2 - l32 * l32 * d22;
+  float y2 = zf - b1;
+  float y3 = zf * zf - b2 - l32 * y2;
+  float c3 = y3 / d33;
+  float c2 = y2 / d22 - l32 * c3;
+  float c1 = 1.0f - b1 * c2 - b2 * c3;
+  float p = c2 / c3, q = c1 / c3;
+  float disc = sqrt(fmax(0.25f * p * p - q, 0.0f));
+  float z2 = -0.5f * p - disc, z3 = -0.5f * p + disc;
+  float w2 = (b2 - b1 * (zf + z3) + zf * z3) / ((z2 - zf) * (z2 - z3));
+  float w3 = (b2 - b1 * (zf + z2) + zf * z2) / ((z3 - zf) * (z3 - z2));
+  float shadow = 0.0f, zsum = 0.0f;
+  // as hamburger4: shadow += w2, zsum += w2 * z2 when z2 < zf, then the same for z3
+  float s2 = shadow + w2, zs2 = zsum + w2 * z2;
+  shadow = z2 < zf ? s2 : shadow;
+  zsum = z2 < zf ? zs2 : zsum;
+  float s3 = shadow + w3, zs3 = zsum + w3 * z3;
+  shadow = z3 < zf ? s3 : shadow;
+  zsum = z3 < zf ? zs3 : zsum;
+  float wf = (b2 - b1 * (z2 + z3) + z2 * z3) / ((zf - z2) * (zf - z3));
+  bool bad = !(shadow == shadow) || !(zsum == zsum);
+  shadow = bad ? 0.0f : shadow;
+  zsum = bad ? 0.0f : zsum;
+  *blockers = clamp(shadow, 0.0f, 1.0f);
+  *blocker_sum = zsum;
+  *receiver_weight = wf == wf ? clamp(wf, 0.0f, 1.0f) : 0.0f;
+  return 1.0f - *blockers;
+}
+
+M4S m4s mssm_box_s(global const long* sat, int size, const mssm_pixel* q, float h) {
+  return box_mean_s(sat, size, fmax(q->u - h * q->texel / q->texel_x, 0.0f),
+                    fmax(q->v - h * q->texel / q->texel_y, 0.0f),
+                    fmin(q->u + h * q->texel / q->texel_x, (float)size),
+                    fmin(q->v + h * q->texel / q->texel_y, (float)size));
+}
+
+// Whether pixel px needs light L (mssm_pixel_setup's early outs, negated).
+M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
+                     global const pb_light* L) {
+  float sin_a = sqrt(fmax(1.0f - L->dir[3] * L->dir[3], 0.0f));
+  return gpos[4 * px + 3] != 0.0f &&
+         !(dot3_s(gnrm[4 * px], gnrm[4 * px + 1], gnrm[4 * px + 2], L->dir[0], L->dir[1],
+                  L->dir[2]) <= -sin_a);
+}
+
+// Global size (ceil(npixels / VIS_GROUP), lights): each work-item takes VIS_GROUP consecutive
+// pixels of one light, writes 1 where the light is not needed, lists the others, and runs the list
+// VIS_BATCH lanes at a time (only the last batch has idle lanes). Pixels are the float4 G-buffers
+// read as floats, the SATs the long4 tables read as longs (4 per texel).
+#ifndef VIS_GROUP
+#define VIS_GROUP 64
+#endif
+kernel void mssm4_visibility_batch(global const float* gpos, global const float* gnrm,
+                                   global const float* ggeo, global const pb_light* lights,
+                                   global const long* sats, int size, ulong stride, int npixels,
+                                   mssm_params P, global float* vis) {
+  const int l = get_global_id(1), px0 = get_global_id(0) * VIS_GROUP;
+  global const pb_light* L = lights + l;
+  global float* out = vis + (size_t)l * npixels;
+  int list[VIS_GROUP];
+  int n = 0;
+  for (int k = 0; k < VIS_GROUP && px0 + k < npixels; ++k) {
+    if (mssm_live_s(gpos, gnrm, px0 + k, L))
+      list[n++] = px0 + k;
+    else
+      out[px0 + k] = 1.0f;
+  }
+  global const long* sat = sats + (size_t)l * stride * 4;
+  for (int b = 0; b < n; b += VIS_BATCH) {
+#pragma clang loop vectorize(assume_safety) vectorize_width(VIS_BATCH)
+    for (int k = 0; k < VIS_BATCH; ++k) {
+      const int px = list[min(b + k, n - 1)];
+      // mssm_pixel_setup
+      const float wx = L->dir[0], wy = L->dir[1], wz = L->dir[2];
+      float rx = gpos[4 * px] - L->origin[0], ry = gpos[4 * px + 1] - L->origin[1],
+            rz = gpos[4 * px + 2] - L->origin[2];
+      float hx = L->ex[3], hy = L->ey[3];
+      mssm_pixel q;
+      q.range = L->origin[3];
+      q.u = clamp((dot3_s(rx, ry, rz, L->ex[0], L->ex[1], L->ex[2]) / hx + 1.0f) * 0.5f * size,
+                  0.0f, (float)size);
+      q.v = clamp((1.0f - dot3_s(rx, ry, rz, L->ey[0], L->ey[1], L->ey[2]) / hy) * 0.5f * size,
+                  0.0f, (float)size);
+      q.d = dot3_s(rx, ry, rz, -wx, -wy, -wz) / q.range;
+      q.texel_x = 2.0f * hx / size;
+      q.texel_y = 2.0f * hy / size;
+      q.texel = fmin(q.texel_x, q.texel_y);
+      float cos_a = L->dir[3];
+      q.tan_a = sqrt(fmax(1.0f - cos_a * cos_a, 0.0f)) / fmax(cos_a, 1e-4f) * P.light_size_scale;
+      float cn = fabs(dot3_s(ggeo[4 * px], ggeo[4 * px + 1], ggeo[4 * px + 2], wx, wy, wz));
+      q.slope = fmin(sqrt(fmax(1.0f - cn * cn, 0.0f)) / fmax(cn, 1e-3f), 10.0f);
+      // the three steps of mssm4_visibility
+      float hs = mssm_half_width(&q, &P, q.d * q.range * q.tan_a);
+      float zf = mssm_receiver(&q, &P, hs);
+      float wb, zb, wr;
+      hamburger4_s(mssm_box_s(sat, size, &q, hs), zf, P.moment_bias, &wb, &zb, &wr);
+      float hf = mssm_filter_half_width(&q, &P, zf, wb, zb, wr);
+      float visibility = hamburger4_s(mssm_box_s(sat, size, &q, hf), mssm_receiver(&q, &P, hf),
+                                      P.moment_bias, &wb, &zb, &wr);
+      if (b + k < n) out[px] = clamp(visibility, 0.0f, 1.0f);
+    }
+  }
+}
+
 // MSSM6's visibility, the same three steps with the six-moment reconstruction. Light l's images
 // are 3 (l/2) + (l%2) (t1..t4) and 3 (l/2) + 2 (t5, t6 in .xy or .zw), depth_to_moments6's packing.
 kernel void mssm6_visibility(global const float4* gpos, global const float4* gnrm,

@@ -29,6 +29,34 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
   return P;
 }
 
+bool mssm4PrefersBatched(Context& ctx) {
+  cl_device_type type = 0;
+  try {
+    type = ctx.device().getInfo<CL_DEVICE_TYPE>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "mssm4: querying the device type");
+  }
+  return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU);
+}
+
+void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
+                     const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
+                     int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
+                     cl::Buffer& vis, const std::string& stage) {
+  const std::string sat = prefilterOption(Prefilter::SAT);
+  if (batched) {
+    cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility_batch",
+                              sat + " -DVIS_GROUP=" + std::to_string(kMssm4Group));
+    const std::size_t groups = (std::size_t(pixels) + kMssm4Group - 1) / kMssm4Group;
+    ctx.launchWith(stage, k, cl::NDRange(groups, nlights), cl::NullRange, gpos, gnrm, ggeo,
+                   lights, sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);
+    return;
+  }
+  cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility", sat);
+  ctx.launchWith(stage, k, cl::NDRange(pixels, nlights), cl::NullRange, gpos, gnrm, ggeo, lights,
+                 sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);
+}
+
 void MomentPass::computeVisibility(ShadowFrame& f) {
   validate(f.opt.mssm);
   Context& ctx = f.ctx;
@@ -37,6 +65,12 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
   cl::Buffer& maps = f.pool.buffer(technique_ + " moments", stride * n * sizeof(cl_long4));
   moments(f, maps, stride, technique_ + "/moments");
   prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
+  if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT) {
+    mssm4Visibility(ctx, mssm4PrefersBatched(ctx), f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S,
+                    stride, f.pixels, nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis,
+                    technique_ + "/visibility");
+    return;
+  }
   cl::Kernel k = ctx.kernel("moments.cl", technique_ + "_visibility", prefilterOption(f.opt.prefilter));
   ctx.launchWith(technique_ + "/visibility", k, cl::NDRange(f.pixels, nl), cl::NullRange, f.gpos,
                  f.gnrm, f.ggeo, f.lightBuffer, maps, cl_int(S), cl_ulong(stride),

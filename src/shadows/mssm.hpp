@@ -15,6 +15,17 @@ namespace penumbra::detail {
 // clamps).
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
 
+// MSSM4's visibility kernel on SAT-prefiltered moments: kernels/shadows/moments.cl's
+// mssm4_visibility (one pixel per work-item, for GPUs) or mssm4_visibility_batch (kMssm4Group
+// pixels per work-item, SIMD across the pixels that need the light; CPU devices, where the first
+// runs one work-item at a time). The two give the same bits.
+constexpr int kMssm4Group = 64;
+bool mssm4PrefersBatched(Context& ctx);
+void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
+                     const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
+                     int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
+                     cl::Buffer& vis, const std::string& stage);
+
 // Moment soft shadow mapping (Kneiphof 2017): the lights' moments from their depth maps,
 // prefiltered
 // (RenderOptions::prefilter), then kernels/shadows/moments.cl's "<technique>_visibility" for every
