@@ -2,6 +2,13 @@
 // follows a changing scene, and the Context's event list stays bounded over long runs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
 #include "common.hpp"
 #include "render/device_scene.hpp"
 
@@ -117,4 +124,125 @@ TEST(RenderStages, ContextEventListIsBounded) {
   c.resetTimings();
   EXPECT_EQ(c.heldEvents(), 0u);
   EXPECT_TRUE(c.stageTimesMs().empty());
+}
+
+namespace {
+
+// Sets PENUMBRA_CPU_BATCHING for the scope, restores it after.
+struct CpuBatching {
+  explicit CpuBatching(const char* value) {
+    const char* old = std::getenv("PENUMBRA_CPU_BATCHING");
+    had_ = old != nullptr;
+    if (had_) old_ = old;
+    setenv("PENUMBRA_CPU_BATCHING", value, 1);
+  }
+  ~CpuBatching() {
+    if (had_)
+      setenv("PENUMBRA_CPU_BATCHING", old_.c_str(), 1);
+    else
+      unsetenv("PENUMBRA_CPU_BATCHING");
+  }
+  bool had_ = false;
+  std::string old_;
+};
+
+}  // namespace
+
+// The CPU forms of the kernels (core/device_kind.hpp: banded summed-area tables, MSSM4's batched
+// visibility, batched shading) render the frames the one-pixel-per-work-item kernels render, bit
+// for bit, on every shading path: cap lights with the ambient map and with SH9, polygon lights,
+// bent normals, no background, sizes that are not multiples of the 64-pixel groups (and a 1 x 1
+// frame). On PoCL the two paths differ; on a GPU both are the per-pixel kernels.
+TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
+  Context& c = test::ctx();
+  Environment env = builtinEnvironment(64);
+  const Scene scene = builtinScene(0.3f);
+  struct Case {
+    const char* name;
+    int w, h;
+    AmbientModel ambient;
+    LightShape shape;
+    ShadowTechnique shadows;
+    bool bent, background;
+  };
+  const Case cases[] = {
+      {"mssm4, ambient map", 97, 41, AmbientModel::IrradianceMap, LightShape::Cap,
+       ShadowTechnique::MSSM4, false, true},
+      {"mssm4, sh9, no background", 64, 33, AmbientModel::SH9, LightShape::Cap,
+       ShadowTechnique::MSSM4, false, false},
+      {"polygon lights, pcss", 65, 17, AmbientModel::IrradianceMap, LightShape::Polygon,
+       ShadowTechnique::PCSS, false, true},
+      {"bent normals, hard", 50, 29, AmbientModel::IrradianceMap, LightShape::Cap,
+       ShadowTechnique::Hard, true, true},
+      {"1 x 1", 1, 1, AmbientModel::IrradianceMap, LightShape::Cap, ShadowTechnique::MSSM4,
+       false, true},
+  };
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.name);
+    ExtractOptions eo;
+    eo.medianCut.lights = 8;
+    eo.medianCut.shape = k.shape;
+    eo.ambientOptions.model = k.ambient;
+    const LightSet lights = extractLights(c, env, eo);
+    RenderOptions ro;
+    ro.width = k.w;
+    ro.height = k.h;
+    ro.shadowMapSize = 64;
+    ro.shadows = k.shadows;
+    ro.bentNormals = k.bent;
+    ro.environmentBackground = k.background;
+    const Camera cam = frameCamera(scene, float(k.w) / float(k.h));
+    std::vector<float> frames[2];
+    for (int batched : {0, 1}) {
+      CpuBatching env_(batched ? "on" : "off");
+      Renderer r(c);
+      frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
+    }
+    ASSERT_EQ(frames[0].size(), frames[1].size());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < frames[0].size(); ++i)
+      differ += std::memcmp(&frames[0][i], &frames[1][i], sizeof(float)) != 0;
+    EXPECT_EQ(differ, 0u) << "of " << frames[0].size() << " values";
+    // the frame is lit: the comparison is not of two empty images
+    float sum = 0.0f;
+    for (float v : frames[0]) sum += v;
+    EXPECT_GT(sum, 0.0f);
+  }
+}
+
+// The CPU forms under the simulator (PENUMBRA_CPU_BATCHING=on: oclgrind calls itself a GPU): a
+// tiny MSSM4 frame with the ambient map and one with polygon lights, for bounds, races and
+// divergence. oclgrind's library rounds dot() otherwise than PoCL's, so the frames agree with the
+// per-pixel kernels' to that rounding only (as OclgrindMSSM4.BatchedVisibilityKernel).
+TEST(OclgrindFrame, CpuBatchedKernels) {
+  Context& c = test::ctx();
+  Environment env = builtinEnvironment(16);
+  const Scene scene = builtinScene(0.0f);
+  for (LightShape shape : {LightShape::Cap, LightShape::Polygon}) {
+    ExtractOptions eo;
+    eo.medianCut.lights = 3;
+    eo.medianCut.faceSize = 4;
+    eo.medianCut.shape = shape;
+    const LightSet lights = extractLights(c, env, eo);
+    RenderOptions ro;
+    ro.width = 13;
+    ro.height = 7;
+    ro.shadowMapSize = 8;
+    const Camera cam = frameCamera(scene, 13.0f / 7.0f);
+    std::vector<float> frames[2];
+    for (int batched : {0, 1}) {
+      CpuBatching env_(batched ? "on" : "off");
+      Renderer r(c);
+      frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
+    }
+    ASSERT_EQ(frames[0].size(), frames[1].size());
+    float peak = 0.0f, diff = 0.0f;
+    for (std::size_t i = 0; i < frames[0].size(); ++i) {
+      ASSERT_TRUE(std::isfinite(frames[1][i]));
+      peak = std::max(peak, std::fabs(frames[0][i]));
+      diff = std::max(diff, std::fabs(frames[0][i] - frames[1][i]));
+    }
+    EXPECT_GT(peak, 0.0f);
+    EXPECT_LE(diff, 0.01f * peak) << toString(shape);
+  }
 }

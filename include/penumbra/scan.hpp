@@ -33,8 +33,9 @@ struct ScanTuning {
   /// The banded one-pass method instead of the row and column passes: each image's rows in this
   /// many bands, each swept top to bottom by one work-item (kernels/common/scan.cl). 0: the
   /// passes; -1: the device's choice (CPUs: banded for Long/Long4, with enough bands to give every
-  /// compute unit two sweeps; GPUs and float types: the passes). The other knobs apply to the
-  /// passes only.
+  /// compute unit two sweeps; GPUs and float types: the passes; PENUMBRA_CPU_BATCHING=off or on
+  /// forces the passes or the banded method on any device). The other knobs apply to the passes
+  /// only.
   int bands = -1;
 };
 

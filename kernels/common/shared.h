@@ -7,6 +7,16 @@
 
 #ifdef __OPENCL_VERSION__
 #define PB_INLINE static inline
+/* An explicit SIMD loop for CPU drivers: vectorized `width` lanes wide by the compiler (the
+ * kernels' CPU forms, src/core/device_kind.hpp). -DPB_NO_SIMD_LOOPS leaves the loop scalar: the
+ * oclgrind simulator mis-runs some vectorized loops (masked loads and reductions), and there
+ * the loop's logic is what is checked. */
+#define PB_PRAGMA(x) _Pragma(#x)
+#ifdef PB_NO_SIMD_LOOPS
+#define PB_SIMD_LOOP(width)
+#else
+#define PB_SIMD_LOOP(width) PB_PRAGMA(clang loop vectorize(assume_safety) vectorize_width(width))
+#endif
 #else
 #include <math.h>
 #define PB_INLINE static inline

@@ -602,7 +602,7 @@ kernel void mssm4_visibility_batch(global const float* gpos, global const float*
   }
   global const long* sat = sats + (size_t)l * stride * 4;
   for (int b = 0; b < n; b += VIS_BATCH) {
-#pragma clang loop vectorize(assume_safety) vectorize_width(VIS_BATCH)
+PB_SIMD_LOOP(VIS_BATCH)
     for (int k = 0; k < VIS_BATCH; ++k) {
       const int px = list[min(b + k, n - 1)];
       // mssm_pixel_setup

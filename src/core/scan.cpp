@@ -9,6 +9,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
+#include "core/device_kind.hpp"
 
 namespace penumbra {
 
@@ -35,16 +36,9 @@ constexpr Knobs kGpuKnobs{32, 256, 4, 64, false};
 // float4: rows ~40 ms with 256 x 4, ~12 ms with 8 x 64; columns see kernels/common/scan.cl.
 constexpr Knobs kCpuKnobs{8, 8, 64, 64, true};
 
+// oclgrind, which calls itself a GPU too, gets the GPU table (core/device_kind.hpp).
 const Knobs& defaultKnobs(Context& ctx) {
-  cl_device_type type = 0;
-  try {
-    type = ctx.device().getInfo<CL_DEVICE_TYPE>();
-  } catch (const cl::Error& e) {
-    rethrowCl(e, "summedAreaTable: querying the device type");
-  }
-  // A device that also calls itself a GPU (oclgrind reports every type) gets the GPU table, so
-  // that the simulator checks the configuration GPUs run.
-  return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU) ? kCpuKnobs : kGpuKnobs;
+  return detail::isCpuDevice(ctx) ? kCpuKnobs : kGpuKnobs;
 }
 
 const char* typeName(ScanType t) {
@@ -198,7 +192,7 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   const Knobs& knobs = defaultKnobs(ctx);
   const bool integer = type == ScanType::Long || type == ScanType::Long4;
   int bands = tuning.bands;
-  if (bands < 0) bands = knobs.lockstep && integer ? defaultBands(ctx, batch) : 0;
+  if (bands < 0) bands = detail::useCpuBatching(ctx) && integer ? defaultBands(ctx, batch) : 0;
   if (bands > 0) {
     bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), stage);
     return;

@@ -4,16 +4,29 @@
 
 #include <vector>
 
+#include "core/device_kind.hpp"
 #include "lights/light_buffers.hpp"
 
 namespace penumbra::detail {
+
+namespace {
+constexpr int kShadeGroup = 64;
+}  // namespace
 
 cl::Buffer shade(Context& ctx, BufferPool& pool, const ShadeInputs& in, const LightSet& lightSet,
                  const Environment& env, const RenderOptions& opt) {
   const int npx = opt.width * opt.height, nl = int(lightSet.lights.size());
   cl::Buffer outB = pool.buffer("frame", std::size_t(npx) * 16);
-  cl::Kernel k = ctx.kernel("shade.cl", "shade");
-  std::size_t wg = ctx.workGroupSize(k, 64);
+  // CPU devices: shade_batch, kShadeGroup pixels per work-item with SIMD loops over the lights
+  // (kernels/render/shade.cl); the same bits as shade.
+  const bool batched = useCpuBatching(ctx);
+  cl::Kernel k = batched ? ctx.kernel("shade.cl", "shade_batch",
+                                      "-DSHADE_GROUP=" + std::to_string(kShadeGroup) +
+                                          simdLoopOption(ctx))
+                         : ctx.kernel("shade.cl", "shade");
+  std::size_t wg = batched ? 1 : ctx.workGroupSize(k, 64);
+  const std::size_t items = batched ? (std::size_t(npx) + kShadeGroup - 1) / kShadeGroup
+                                    : (std::size_t(npx) + wg - 1) / wg * wg;
   // The ambient residual, added unshadowed (zeros when the light set has none).
   std::vector<cl_float4> amb(9, cl_float4{{0, 0, 0, 0}});
   for (int i = 0; i < 9 && lightSet.hasAmbient; ++i)
@@ -29,7 +42,7 @@ cl::Buffer shade(Context& ctx, BufferPool& pool, const ShadeInputs& in, const Li
   cl::Buffer amapB = pool.upload("ambient irradiance map",
                                  amap ? lightSet.ambientMap.rgb : std::vector<float>(3, 0.0f));
   const DeviceGBuffer& g = in.gbuffer;
-  ctx.launchWith("shade", k, cl::NDRange((npx + wg - 1) / wg * wg), cl::NDRange(wg), g.position,
+  ctx.launchWith("shade", k, cl::NDRange(items), batched ? cl::NullRange : cl::NDRange(wg), g.position,
                  g.normal, g.albedo, in.lights, cl_int(nl), in.visibility, cl_int(npx), in.camera,
                  in.environment, cl_int(env.equirect.width), cl_int(env.equirect.height),
                  cl_float(env.rotationColumns()), cl_int(opt.environmentBackground ? 1 : 0), outB,

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "core/device_kind.hpp"
 #include "shadows/shadow_options.hpp"
 
 namespace penumbra::detail {
@@ -29,15 +30,7 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
   return P;
 }
 
-bool mssm4PrefersBatched(Context& ctx) {
-  cl_device_type type = 0;
-  try {
-    type = ctx.device().getInfo<CL_DEVICE_TYPE>();
-  } catch (const cl::Error& e) {
-    rethrowCl(e, "mssm4: querying the device type");
-  }
-  return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU);
-}
+bool mssm4PrefersBatched(Context& ctx) { return useCpuBatching(ctx); }
 
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
@@ -46,7 +39,8 @@ void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const c
   const std::string sat = prefilterOption(Prefilter::SAT);
   if (batched) {
     cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility_batch",
-                              sat + " -DVIS_GROUP=" + std::to_string(kMssm4Group));
+                              sat + " -DVIS_GROUP=" + std::to_string(kMssm4Group) +
+                                  simdLoopOption(ctx));
     const std::size_t groups = (std::size_t(pixels) + kMssm4Group - 1) / kMssm4Group;
     ctx.launchWith(stage, k, cl::NDRange(groups, nlights), cl::NullRange, gpos, gnrm, ggeo,
                    lights, sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);

@@ -1,0 +1,44 @@
+// Internal: whether a context's device is a CPU, for the kernels that run differently there
+// (a CPU driver such as PoCL runs a work-group's work-items one after another on one core and
+// vectorizes only what it can prove: serial sweeps and explicit SIMD loops beat work-item
+// parallelism there). A device that also calls itself a GPU (oclgrind reports every type) counts
+// as a GPU, so that the simulator checks what GPUs run.
+#pragma once
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+
+namespace penumbra::detail {
+
+inline bool isCpuDevice(Context& ctx) {
+  cl_device_type type = 0;
+  try {
+    type = ctx.device().getInfo<CL_DEVICE_TYPE>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "querying the device type");
+  }
+  return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU);
+}
+
+// Whether to run the CPU forms of the kernels that have one (the banded summed-area tables, MSSM4's
+// batched visibility, batched shading): on CPU devices. PENUMBRA_CPU_BATCHING=off asks for the
+// one-work-item-per-pixel kernels GPUs run on any device (the same images: a check, and a way
+// around a driver that mis-vectorizes), =on for the CPU forms on any device (the tests run them
+// under oclgrind, which calls itself a GPU).
+inline bool useCpuBatching(Context& ctx) {
+  const char* v = std::getenv("PENUMBRA_CPU_BATCHING");
+  if (v && std::strcmp(v, "off") == 0) return false;
+  if (v && std::strcmp(v, "on") == 0) return true;
+  return isCpuDevice(ctx);
+}
+
+// Build option of the CPU forms' kernels: their SIMD loops stay scalar on oclgrind
+// (kernels/common/shared.h, PB_SIMD_LOOP).
+inline std::string simdLoopOption(Context& ctx) {
+  return ctx.info().platform.find("Oclgrind") != std::string::npos ? " -DPB_NO_SIMD_LOOPS" : "";
+}
+
+}  // namespace penumbra::detail
