@@ -46,46 +46,59 @@ static float ray_triangle(float3 o, float3 d, float3 a, float3 b, float3 c, floa
   return t > 0.0f ? t : INFINITY;
 }
 
-// Screen-space pixel bounds of a triangle; false if it cannot cover any pixel.
-static bool triangle_bounds(const pb_view* v, float3 a, float3 b, float3 c, int* x0, int* y0,
-                            int* x1, int* y1) {
+// The triangle's outline on screen in continuous pixel coordinates (x right, y down; pixel (i, j)
+// covers [i, i+1] x [j, j+1]): its 3 projected vertices, or for a perspective view the up to 4
+// vertices of its part in front of the plane z = near (a triangle crossing it is clipped;
+// *clipped says so). Returns the vertex count, 0 if nothing is in front of the eye.
+static int triangle_outline(const pb_view* v, float3 a, float3 b, float3 c, float2 out[4],
+                            bool* clipped) {
   float3 right = f3(v->right), up = f3(v->up), fwd = f3(v->forward), org = f3(v->origin);
   float3 P[3] = {a, b, c};
-  float minx = INFINITY, miny = INFINITY, maxx = -INFINITY, maxy = -INFINITY;
+  int n = 0;
+  *clipped = false;
   if (v->ortho) {
     for (int i = 0; i < 3; ++i) {
       float3 r = P[i] - org;
       float sx = dot(r, right) / v->right[3], sy = dot(r, up) / v->up[3];
-      minx = fmin(minx, sx); maxx = fmax(maxx, sx);
-      miny = fmin(miny, sy); maxy = fmax(maxy, sy);
+      out[n++] = (float2)((sx + 1.0f) * 0.5f * v->width, (1.0f - sy) * 0.5f * v->height);
     }
-  } else {
-    // Clip the triangle against the plane z = near in front of the eye, project what remains.
-    const float near_z = 1e-4f;
-    float z[3];
-    for (int i = 0; i < 3; ++i) z[i] = dot(P[i] - org, fwd);
-    if (z[0] < near_z && z[1] < near_z && z[2] < near_z) return false;
-    for (int i = 0; i < 3; ++i) {
-      int j = (i + 1) % 3;
-      float3 q[2];
-      int nq = 0;
-      if (z[i] >= near_z) q[nq++] = P[i];
-      if ((z[i] < near_z) != (z[j] < near_z)) {
-        float f = (near_z - z[i]) / (z[j] - z[i]);
-        q[nq++] = P[i] + f * (P[j] - P[i]);
-      }
-      for (int k = 0; k < nq; ++k) {
-        float3 r = q[k] - org;
-        float zz = fmax(dot(r, fwd), near_z);
-        float sx = dot(r, right) / (zz * v->right[3]), sy = dot(r, up) / (zz * v->up[3]);
-        minx = fmin(minx, sx); maxx = fmax(maxx, sx);
-        miny = fmin(miny, sy); maxy = fmax(maxy, sy);
-      }
+    return n;
+  }
+  // Clip the triangle against the plane z = near in front of the eye, project what remains.
+  const float near_z = 1e-4f;
+  float z[3];
+  for (int i = 0; i < 3; ++i) z[i] = dot(P[i] - org, fwd);
+  if (z[0] < near_z && z[1] < near_z && z[2] < near_z) return 0;
+  *clipped = z[0] < near_z || z[1] < near_z || z[2] < near_z;
+  for (int i = 0; i < 3; ++i) {
+    int j = (i + 1) % 3;
+    float3 q[2];
+    int nq = 0;
+    if (z[i] >= near_z) q[nq++] = P[i];
+    if ((z[i] < near_z) != (z[j] < near_z)) {
+      float f = (near_z - z[i]) / (z[j] - z[i]);
+      q[nq++] = P[i] + f * (P[j] - P[i]);
+    }
+    for (int k = 0; k < nq; ++k) {
+      float3 r = q[k] - org;
+      float zz = fmax(dot(r, fwd), near_z);
+      float sx = dot(r, right) / (zz * v->right[3]), sy = dot(r, up) / (zz * v->up[3]);
+      out[n++] = (float2)((sx + 1.0f) * 0.5f * v->width, (1.0f - sy) * 0.5f * v->height);
     }
   }
-  // screen [-1,1] -> pixel centres; one pixel of margin, the ray test decides coverage.
-  float pminx = (minx + 1.0f) * 0.5f * v->width, pmaxx = (maxx + 1.0f) * 0.5f * v->width;
-  float pminy = (1.0f - maxy) * 0.5f * v->height, pmaxy = (1.0f - miny) * 0.5f * v->height;
+  return n;
+}
+
+// Screen-space pixel bounds of an outline of n points; false if it cannot cover any pixel.
+static bool outline_bounds(const pb_view* v, const float2* P, int n, int* x0, int* y0, int* x1,
+                           int* y1) {
+  if (n == 0) return false;
+  float pminx = INFINITY, pminy = INFINITY, pmaxx = -INFINITY, pmaxy = -INFINITY;
+  for (int i = 0; i < n; ++i) {
+    pminx = fmin(pminx, P[i].x); pmaxx = fmax(pmaxx, P[i].x);
+    pminy = fmin(pminy, P[i].y); pmaxy = fmax(pmaxy, P[i].y);
+  }
+  // one pixel of margin, the ray test decides coverage.
   if (!(pmaxx >= -1.0f && pminx <= v->width + 1.0f && pmaxy >= -1.0f &&
         pminy <= v->height + 1.0f))
     return false;
@@ -94,6 +107,38 @@ static bool triangle_bounds(const pb_view* v, float3 a, float3 b, float3 c, int*
   *y0 = max(0, (int)floor(pminy - 0.5f) - 1);
   *y1 = min(v->height - 1, (int)ceil(pmaxy - 0.5f) + 1);
   return *x0 <= *x1 && *y0 <= *y1;
+}
+
+// The pixels of row y whose centres the outline (a convex polygon of n points) can cover: the
+// outline's extent in x over the row's band [y, y + 1] (its points inside the band and its edges'
+// crossings of the band's two lines), widened by a pixel as outline_bounds widens the box, and
+// cut to [*xs, *xe]. Every centre (x + 1/2, y + 1/2) the ray test can hit lies in that extent:
+// the test's tolerance (RASTER_EPS in barycentrics) and the projection's rounding move an edge by
+// far less than the pixel of margin. An empty span leaves *xs > *xe.
+static void outline_row_span(const float2* P, int n, int y, int* xs, int* xe) {
+  const float lo = (float)y, hi = (float)(y + 1);
+  float minx = INFINITY, maxx = -INFINITY;
+  for (int i = 0; i < n; ++i) {
+    float2 p = P[i], q = P[(i + 1) % n];
+    if (p.y >= lo && p.y <= hi) {
+      minx = fmin(minx, p.x);
+      maxx = fmax(maxx, p.x);
+    }
+    for (int k = 0; k < 2; ++k) {
+      float line = k ? hi : lo;
+      if ((p.y < line) != (q.y < line)) {
+        float x = p.x + (line - p.y) / (q.y - p.y) * (q.x - p.x);
+        minx = fmin(minx, x);
+        maxx = fmax(maxx, x);
+      }
+    }
+  }
+  if (!(minx <= maxx)) {
+    *xs = *xe + 1;
+    return;
+  }
+  *xs = max(*xs, (int)floor(minx - 0.5f) - 1);
+  *xe = min(*xe, (int)ceil(maxx - 0.5f) + 1);
 }
 
 // pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among
@@ -113,22 +158,34 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
     float facing = dot(cross(b - a, c - a), (float3)(v.forward[0], v.forward[1], v.forward[2]));
     if ((cull == 1 && facing >= 0.0f) || (cull == 2 && facing <= 0.0f)) return;
   }
+  float2 outline[4];
+  bool clipped;
+  int n = triangle_outline(&v, a, b, c, outline, &clipped);
   int x0, y0, x1, y1;
-  if (!triangle_bounds(&v, a, b, c, &x0, &y0, &x1, &y1)) return;
+  if (!outline_bounds(&v, outline, n, &x0, &y0, &x1, &y1)) return;
   size_t base = (size_t)vi * v.width * v.height;
-  for (int y = y0 + stripe; y <= y1; y += stripes)
-    for (int x = x0; x <= x1; ++x) {
+  for (int y = y0 + stripe; y <= y1; y += stripes) {
+    // Only the row's span of the outline is tested, not the whole box (a triangle covers half of
+    // its box at most). A triangle clipped at the near plane keeps the box: its sliver between
+    // the eye and the plane is not in the outline.
+    int xs = x0, xe = x1;
+    if (!clipped) outline_row_span(outline, n, y, &xs, &xe);
+    for (int x = xs; x <= xe; ++x) {
       float3 o, d;
       view_ray(&v, x + 0.5f, y + 0.5f, &o, &d);
       float b1, b2;
       float tt = ray_triangle(o, d, a, b, c, &b1, &b2);
       if (tt == INFINITY) continue;
       size_t i = base + (size_t)y * v.width + x;
-      if (pass == 0)
-        atomic_min(&depth[i], as_uint(tt));
-      else if (as_uint(tt) == depth[i])
+      // atomic_min only where it can lower the depth (a plain read first: depths only fall, so
+      // a texel already nearer keeps its value either way, without the locked operation)
+      if (pass == 0) {
+        if (as_uint(tt) < depth[i]) atomic_min(&depth[i], as_uint(tt));
+      } else if (as_uint(tt) == depth[i]) {
         atomic_min(&ids[i], (uint)tri);
+      }
     }
+  }
 }
 
 // Camera G-buffer from the visibility pass: world position (w = 1 on geometry, 0 elsewhere),
