@@ -177,13 +177,13 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
       float tt = ray_triangle(o, d, a, b, c, &b1, &b2);
       if (tt == INFINITY) continue;
       size_t i = base + (size_t)y * v.width + x;
-      // atomic_min only where it can lower the depth (a plain read first: depths only fall, so
-      // a texel already nearer keeps its value either way, without the locked operation)
-      if (pass == 0) {
-        if (as_uint(tt) < depth[i]) atomic_min(&depth[i], as_uint(tt));
-      } else if (as_uint(tt) == depth[i]) {
+      // (a plain read of depth[i] before the atomic_min, to skip it where the texel is already
+      // nearer, would race with other work-items' atomics under OpenCL's memory model: oclgrind
+      // reports it)
+      if (pass == 0)
+        atomic_min(&depth[i], as_uint(tt));
+      else if (as_uint(tt) == depth[i])
         atomic_min(&ids[i], (uint)tri);
-      }
     }
   }
 }
