@@ -3,10 +3,24 @@
 // counter in ms per frame; `vs_unshadowed` is the frame's time over that of the same frame without
 // shadows, measured in the same run (what soft shadows cost relative to plain shading, or what
 // bent normals cost); `vs_eq7` the default frame's and auto's time over MSSM4 with eq. 7 alone.
+//
+// Throughput of the stages that scale, for MSSM4 (README "Speed on a CPU"):
+//   sat_fraction_of_copy   the moments' summed-area tables (read and written once each: 2 x the
+//                          maps' bytes) over the bandwidth of a device buffer copy of the same
+//                          bytes, measured in the same process;
+//   visibility_Mpairs_s    pixel-light pairs a second in mssm4/visibility;
+//   raster_Mtexels_s       shadow-map texels a second in shadow-maps/raster;
+//   shade_Mpairs_s         pixel-light pairs a second in shade;
+//   vs_per_pixel           the frame's time over the same frame with PENUMBRA_CPU_BATCHING=off
+//                          (the kernels GPUs run, one pixel per work-item), in the same run: what
+//                          the CPU forms of the kernels gain (1 on a GPU, where both are the same).
 #include <benchmark/benchmark.h>
 #include <penumbra/penumbra.hpp>
 
+#include <algorithm>
+#include <cstdlib>
 #include <map>
+#include <string>
 
 using namespace penumbra;
 
@@ -25,13 +39,33 @@ Setup& setup() {
 }
 
 double unshadowedMs = 0;
+// The default frame with the CPU forms off (PENUMBRA_CPU_BATCHING=off), measured before it.
+double perPixelMs = 0;
+
+// Bytes a second of a device buffer copy of `bytes` (read + write), best of 5, profiled.
+double copyBytesPerSec(Context& ctx, std::size_t bytes) {
+  cl::Buffer a = ctx.buffer(bytes, "bench copy a"), b = ctx.buffer(bytes, "bench copy b");
+  const cl_uchar zero = 0;
+  ctx.fill(a, &zero, 1, bytes, "bench copy a");
+  ctx.fill(b, &zero, 1, bytes, "bench copy b");
+  double best = 0;
+  for (int i = 0; i < 6; ++i) {  // the first is a warm-up (first touch of the pages)
+    cl::Event ev;
+    ctx.queue().enqueueCopyBuffer(a, b, 0, 0, bytes, nullptr, &ev);
+    ev.wait();
+    const double s = (ev.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
+                      ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-9;
+    if (i > 0 && s > 0) best = std::max(best, 2.0 * double(bytes) / s);
+  }
+  return best;
+}
 // The default frame with Kneiphof's (2017) eq. 7 alone (MSSM4's default until issue 13), measured
 // first:
 // the default frame's and auto's `vs_eq7` is their time over it, in the same run.
 double eq7Ms = 0;
 
 void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, int mapSize,
-               bool bentNormals = false, bool eq7 = false) {
+               bool bentNormals = false, bool eq7 = false, bool perPixel = false) {
   Setup& s = setup();
   Renderer renderer(s.ctx);
   RenderOptions ro;
@@ -62,9 +96,38 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
   if (!baseline && unshadowedMs > 0)
     state.counters["vs_unshadowed"] = (frameMs / n) / unshadowedMs;
   if (eq7) eq7Ms = frameMs / n;
-  else if (eq7Ms > 0 && lights == 32 && mapSize == 256)
+  else if (eq7Ms > 0 && lights == 32 && mapSize == 256 && !perPixel)
     state.counters["vs_eq7"] = (frameMs / n) / eq7Ms;
+  if (perPixel) perPixelMs = frameMs / n;
+  if (technique != ShadowTechnique::MSSM4 || eq7) return;
+  if (!perPixel && perPixelMs > 0 && lights == 32 && mapSize == 256)
+    state.counters["vs_per_pixel"] = (frameMs / n) / perPixelMs;
+  auto stageMs = [&](const std::string& prefix) {
+    double ms = 0;
+    for (auto& [stage, t] : sum)
+      if (stage.compare(0, prefix.size(), prefix) == 0) ms += t;
+    return ms / n;
+  };
+  const double pairs = 640.0 * 360.0 * lights;
+  const std::size_t mapBytes = std::size_t(lights) * mapSize * mapSize * 32;  // long4 moments
+  static std::map<std::size_t, double> copyBw;
+  if (!copyBw.count(mapBytes)) copyBw[mapBytes] = copyBytesPerSec(s.ctx, mapBytes);
+  const double satMs = stageMs("mssm4/sat");
+  if (satMs > 0 && copyBw[mapBytes] > 0)
+    state.counters["sat_fraction_of_copy"] = 2.0 * mapBytes / (satMs * 1e-3) / copyBw[mapBytes];
+  if (stageMs("mssm4/visibility") > 0)
+    state.counters["visibility_Mpairs_s"] = pairs / (stageMs("mssm4/visibility") * 1e3);
+  if (stageMs("shadow-maps/raster") > 0)
+    state.counters["raster_Mtexels_s"] =
+        double(lights) * mapSize * mapSize / (stageMs("shadow-maps/raster") * 1e3);
+  if (stageMs("shade") > 0) state.counters["shade_Mpairs_s"] = pairs / (stageMs("shade") * 1e3);
 }
+
+// Sets PENUMBRA_CPU_BATCHING for the scope.
+struct CpuBatchingOff {
+  CpuBatchingOff() { setenv("PENUMBRA_CPU_BATCHING", "off", 1); }
+  ~CpuBatchingOff() { unsetenv("PENUMBRA_CPU_BATCHING"); }
+};
 
 void BM_FrameUnshadowed(benchmark::State& state) {
   runFrames(state, ShadowTechnique::None, 32, 256);
@@ -82,6 +145,10 @@ void BM_FrameMSSM4Eq7(benchmark::State& state) {
 void BM_FrameAuto(benchmark::State& state) {
   runFrames(state, ShadowTechnique::Auto, 32, 256);
 }
+void BM_FrameMSSM4PerPixel(benchmark::State& state) {
+  CpuBatchingOff off;
+  runFrames(state, ShadowTechnique::MSSM4, 32, 256, false, false, true);
+}
 void BM_FrameMSSM4(benchmark::State& state) {
   runFrames(state, ShadowTechnique::MSSM4, int(state.range(0)), int(state.range(1)));
 }
@@ -92,6 +159,7 @@ BENCHMARK(BM_FrameUnshadowed)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameUnshadowedBentNormals)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4Eq7)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameAuto)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_FrameMSSM4PerPixel)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4)
     ->Args({32, 256})
     ->Args({16, 256})
