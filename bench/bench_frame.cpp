@@ -123,10 +123,22 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
   if (stageMs("shade") > 0) state.counters["shade_Mpairs_s"] = pairs / (stageMs("shade") * 1e3);
 }
 
-// Sets PENUMBRA_CPU_BATCHING for the scope.
+// PENUMBRA_CPU_BATCHING=off for the scope; the caller's value (or its absence) after.
 struct CpuBatchingOff {
-  CpuBatchingOff() { setenv("PENUMBRA_CPU_BATCHING", "off", 1); }
-  ~CpuBatchingOff() { unsetenv("PENUMBRA_CPU_BATCHING"); }
+  CpuBatchingOff() {
+    const char* v = std::getenv("PENUMBRA_CPU_BATCHING");
+    had = v != nullptr;
+    if (had) old = v;
+    setenv("PENUMBRA_CPU_BATCHING", "off", 1);
+  }
+  ~CpuBatchingOff() {
+    if (had)
+      setenv("PENUMBRA_CPU_BATCHING", old.c_str(), 1);
+    else
+      unsetenv("PENUMBRA_CPU_BATCHING");
+  }
+  bool had = false;
+  std::string old;
 };
 
 void BM_FrameUnshadowed(benchmark::State& state) {

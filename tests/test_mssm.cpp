@@ -234,23 +234,34 @@ void expectSameVisibility(int pixels, int nl, int S, unsigned seed, float tolera
 
 }  // namespace
 
+namespace {
+
+// The bit-for-bit claim holds where the driver's library rounds dot() and mix() as PoCL's does
+// (kernels/shadows/moments.cl). Elsewhere (oclgrind; a GPU driver, with PENUMBRA_CPU_BATCHING=on)
+// the two agree only up to that rounding as the moment reconstruction amplifies it near singular
+// moments (measured on oclgrind on the inputs below: 16 of 130 values differ, by at most 8.7e-4;
+// the bound 0.01 leaves room for that amplification, and still fails a kernel that reads the
+// wrong texel or light).
+float batchedTolerance() {
+  return ctx().info().platform.find("Portable Computing Language") != std::string::npos ? 0.0f
+                                                                                          : 0.01f;
+}
+
+}  // namespace
+
 // mssm4_visibility_batch (CPU devices: 64 pixels per work-item, SIMD across those that need the
 // light) gives the bits of mssm4_visibility (one pixel per work-item): every pixel count around
 // the group of 64 (1, one short, exact, one over, many groups with a ragged end), odd and tiny
 // map sizes, a light count that is not a power of two.
 TEST(MSSM4, BatchedVisibilityKernelIsBitIdentical) {
   for (int pixels : {1, 63, 64, 65, 1000, 4097})
-    for (int S : {1, 7, 37, 64}) expectSameVisibility(pixels, 3, S, unsigned(pixels * 131 + S));
+    for (int S : {1, 7, 37, 64})
+      expectSameVisibility(pixels, 3, S, unsigned(pixels * 131 + S), batchedTolerance());
 }
 
-// The same on the simulator, small: bounds, races and divergence of both kernels. oclgrind's
-// library rounds dot() differently, so there the two agree only up to that rounding as the moment
-// reconstruction amplifies it near singular moments (measured on these inputs: 16 of 130 values
-// differ, by at most 8.7e-4; the bound 0.01 leaves room for that amplification, and still fails
-// a kernel that reads the wrong texel or light).
+// The same on the simulator, small: bounds, races and divergence of both kernels.
 TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
-  const float tolerance =
-      ctx().info().platform.find("Oclgrind") != std::string::npos ? 0.01f : 0.0f;
+  const float tolerance = batchedTolerance();
   expectSameVisibility(65, 2, 9, 7, tolerance);
   expectSameVisibility(1, 1, 1, 8, tolerance);
 }

@@ -152,7 +152,9 @@ struct CpuBatching {
 // visibility, batched shading) render the frames the one-pixel-per-work-item kernels render, bit
 // for bit, on every shading path: cap lights with the ambient map and with SH9, polygon lights,
 // bent normals, no background, sizes that are not multiples of the 64-pixel groups (and a 1 x 1
-// frame). On PoCL the two paths differ; on a GPU both are the per-pixel kernels.
+// frame). Bit for bit on PoCL, whose library rounds dot() and mix() as the CPU forms do; on
+// another driver (PENUMBRA_CPU_BATCHING=on forces the CPU forms there too) within 1% of the
+// frame's peak, as OclgrindFrame.CpuBatchedKernels below.
 TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
   Context& c = test::ctx();
   Environment env = builtinEnvironment(64);
@@ -199,14 +201,17 @@ TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
       frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
     }
     ASSERT_EQ(frames[0].size(), frames[1].size());
+    const bool pocl =
+        c.info().platform.find("Portable Computing Language") != std::string::npos;
+    float peak = 0.0f;
+    for (float v : frames[0]) peak = std::max(peak, std::fabs(v));
     std::size_t differ = 0;
     for (std::size_t i = 0; i < frames[0].size(); ++i)
-      differ += std::memcmp(&frames[0][i], &frames[1][i], sizeof(float)) != 0;
+      differ += pocl ? std::memcmp(&frames[0][i], &frames[1][i], sizeof(float)) != 0
+                     : !(std::fabs(frames[0][i] - frames[1][i]) <= 0.01f * peak);
     EXPECT_EQ(differ, 0u) << "of " << frames[0].size() << " values";
     // the frame is lit: the comparison is not of two empty images
-    float sum = 0.0f;
-    for (float v : frames[0]) sum += v;
-    EXPECT_GT(sum, 0.0f);
+    EXPECT_GT(peak, 0.0f);
   }
 }
 

@@ -31,7 +31,7 @@ CLI::App* addReferenceCommand(CLI::App& root, Registry& reg) {
 
 int runReference(const Args& a) {
   const std::string out = a.get("out", "reference.exr");
-  checkOutput(out, {}, "out");
+  checkOutput(out, {}, "out", false);  // the format after the scene, as render does
   ReferenceOptions ro;
   if (a.has("size")) parseSize("size", a.get("size"), 16384, ro.width, ro.height);
   parseSampling(a, ro);
@@ -44,6 +44,7 @@ int runReference(const Args& a) {
   const bool useLightSet = userLightSet(a, userLights);
   lightMode = lightMode || useLightSet;
   SceneSetup s = loadSetup(a, ro.width, ro.height);
+  checkOutput(out, {}, "out");
   ReferenceImage ref;
   {
     Progress progress("reference", a.quiet());

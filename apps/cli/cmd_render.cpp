@@ -69,7 +69,11 @@ CLI::App* addRenderCommand(CLI::App& root, Registry& reg) {
 
 int runRender(const Args& a) {
   const std::string out = a.get("out", "penumbra.png");
-  checkOutput(out, {}, "out");
+  // The image format is checked after the scene is loaded (below): asking whether a format other
+  // than PNG can be written loads the OpenImageIO module, whose libraries start threads, and a
+  // mesh is read in a forked child, which must not start while other threads may hold the
+  // allocator (sanitizer runtimes do not guard fork: the child then waits forever).
+  checkOutput(out, {}, "out", false);
   if (a.has("report")) checkOutput(a.get("report"), {".json"}, "report");
   const RenderOptions ro = parseRenderOptions(a);
   const float exposure = parseExposure(a);
@@ -90,6 +94,7 @@ int runRender(const Args& a) {
       if (a.has(o)) badInput(std::string("--") + o + " needs --frames");
 
   SceneSetup s = loadSetup(a, ro.width, ro.height, false);
+  checkOutput(out, {}, "out");
   const bool movingScene = a.get("scene", "builtin") == "builtin";
   std::vector<Environment> envs;
   for (auto& m : maps) envs.push_back(loadEnvironmentNoting(m));

@@ -365,11 +365,11 @@ std::string Formatter::make_help(const CLI::App* app, std::string, CLI::AppForma
 // Outputs
 
 void checkOutput(const std::string& path, const std::vector<std::string>& exts,
-                 const std::string& option) {
+                 const std::string& option, bool imageFormat) {
   std::string ext = fs::path(path).extension().string();
   for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (exts.empty()) {
-    if (!canWriteImage(path))
+    if (imageFormat && !canWriteImage(path))
       badInput("--" + option + " " + path + ": unsupported extension '" + ext +
                "' (use an image format OpenImageIO writes: .exr, .hdr, .png, .jpg, .tif, ...)");
   } else if (std::find(exts.begin(), exts.end(), ext) == exts.end()) {

@@ -140,8 +140,10 @@ std::string wrap(const std::string& text, std::size_t indent, std::size_t width,
 
 // Refuses an output path before any work is done: a known extension (the given ones, or any
 // format writeImage can write when `exts` is empty), an existing directory, not a directory itself.
+// imageFormat false leaves out the image-format question (for a format other than PNG it loads
+// the OpenImageIO module: render and reference ask it after the scene is read, see cmd_render).
 void checkOutput(const std::string& path, const std::vector<std::string>& exts,
-                 const std::string& option);
+                 const std::string& option, bool imageFormat = true);
 // Text files are written like images: to a temporary file, then renamed into place.
 void writeTextAtomic(const std::string& path, const std::string& text);
 // Comma-separated list, every entry non-empty.

@@ -34,8 +34,8 @@ struct ScanTuning {
   /// many bands, each swept top to bottom by one work-item (kernels/common/scan.cl). 0: the
   /// passes; -1: the device's choice (CPUs: banded for Long/Long4, with enough bands to give every
   /// compute unit two sweeps; GPUs and float types: the passes; PENUMBRA_CPU_BATCHING=off or on
-  /// forces the passes or the banded method on any device). The other knobs apply to the passes
-  /// only.
+  /// forces the passes or, for Long/Long4, the banded method on any device). The other knobs apply
+  /// to the passes only.
   int bands = -1;
 };
 

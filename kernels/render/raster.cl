@@ -1,4 +1,6 @@
-// Rasterization on the device by ray casting inside each triangle's screen bounding box.
+// Rasterization on the device by ray casting, row by row, over each triangle's screen outline (its
+// span in each row of its bounding box; -DRASTER_FULL_BOX tests the whole box, for the test that
+// the spans change nothing).
 //
 // Each pixel's depth is the exact ray/triangle distance along the same ray the Embree reference
 // traces (pb_view, scene.hpp's cameraRayDirection), so camera G-buffers match the ground truth
@@ -169,7 +171,9 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
     // its box at most). A triangle clipped at the near plane keeps the box: its sliver between
     // the eye and the plane is not in the outline.
     int xs = x0, xe = x1;
+#ifndef RASTER_FULL_BOX
     if (!clipped) outline_row_span(outline, n, y, &xs, &xe);
+#endif
     for (int x = xs; x <= xe; ++x) {
       float3 o, d;
       view_ray(&v, x + 0.5f, y + 0.5f, &o, &d);
