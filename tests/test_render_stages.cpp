@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -146,6 +147,21 @@ struct CpuBatching {
   std::string old_;
 };
 
+// The frame rendered with the CPU forms of the kernels off ([0]) and on ([1]).
+std::array<std::vector<float>, 2> framesWithAndWithoutCpuForms(Context& c, const Scene& scene,
+                                                              const Camera& cam,
+                                                              const LightSet& lights,
+                                                              const Environment& env,
+                                                              const RenderOptions& ro) {
+  std::array<std::vector<float>, 2> frames;
+  for (int batched : {0, 1}) {
+    CpuBatching env_(batched ? "on" : "off");
+    Renderer r(c);
+    frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
+  }
+  return frames;
+}
+
 }  // namespace
 
 // The CPU forms of the kernels (core/device_kind.hpp: banded summed-area tables, MSSM4's batched
@@ -194,12 +210,7 @@ TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
     ro.bentNormals = k.bent;
     ro.environmentBackground = k.background;
     const Camera cam = frameCamera(scene, float(k.w) / float(k.h));
-    std::vector<float> frames[2];
-    for (int batched : {0, 1}) {
-      CpuBatching env_(batched ? "on" : "off");
-      Renderer r(c);
-      frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
-    }
+    const auto frames = framesWithAndWithoutCpuForms(c, scene, cam, lights, env, ro);
     ASSERT_EQ(frames[0].size(), frames[1].size());
     const bool pocl =
         c.info().platform.find("Portable Computing Language") != std::string::npos;
@@ -234,12 +245,7 @@ TEST(OclgrindFrame, CpuBatchedKernels) {
     ro.height = 7;
     ro.shadowMapSize = 8;
     const Camera cam = frameCamera(scene, 13.0f / 7.0f);
-    std::vector<float> frames[2];
-    for (int batched : {0, 1}) {
-      CpuBatching env_(batched ? "on" : "off");
-      Renderer r(c);
-      frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
-    }
+    const auto frames = framesWithAndWithoutCpuForms(c, scene, cam, lights, env, ro);
     ASSERT_EQ(frames[0].size(), frames[1].size());
     float peak = 0.0f, diff = 0.0f;
     for (std::size_t i = 0; i < frames[0].size(); ++i) {

@@ -29,6 +29,32 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
   moments[l * stride + (size_t)y * size + x] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
 }
 
+// Scalar helpers: written without vector types, so that the batched CPU kernel below
+// (mssm4_visibility_batch) vectorizes, and used by the per-pixel kernels too. mix_s and dot3_s
+// round as PoCL's library mix() and dot() do (products rounded before the sums: no fused
+// multiply-add), so code written with either gives the same bits there.
+#define M4S static inline __attribute__((always_inline))
+
+typedef struct {
+  float x, y, z, w;
+} m4s;
+
+// mix(x, y, a) as the library computes it: (y - x) * a + x, the product rounded.
+M4S float mix_s(float x, float y, float a) {
+  float d = y - x;
+  float m = d * a;
+  return m + x;
+}
+
+// dot() of two float3 as the library computes it: (p0 + p1) + p2 of rounded products.
+M4S float dot3_s(float ax, float ay, float az, float bx, float by, float bz) {
+  float p0 = ax * bx;
+  float p1 = ay * by;
+  float p2 = az * bz;
+  float s = p0 + p1;
+  return p2 + s;
+}
+
 // Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the
 // three-atom distribution it implies. With biased moments b and receiver depth zf: solve the Hankel
 // system B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <=
@@ -37,16 +63,18 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
 // The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
 // returns that weight, `blocker_sum` the weighted depth sum for Kneiphof 2017 eq. 7 and
 // `receiver_weight` the weight of the atom at zf for eq. 19.
-static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
-                        float* blocker_sum, float* receiver_weight) {
+// The reconstruction on four scalars, its branches as selects (hamburger4 takes a float4; the
+// batched CPU kernel calls this directly, vector types would stop its vectorizer).
+M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
+                       float* blocker_sum, float* receiver_weight) {
   // Moment bias (MSM §4) towards the moments of the uniform distribution on [0,1]. Peters & Klein
   // blend towards (0.5, 0.5, 0.5, 0.5), the moments of atoms at 0 and 1; penumbra fits each map's
   // depth range to the scene, so blockers at ~0 and receivers at ~1 are the common case, and the
   // blend then stays a two-atom distribution with a singular Hankel matrix (d33 = 0: NaN, or a
   // wrong bound). A blend with a continuous distribution keeps B positive definite for any input
   // (d33 >= bias * 1/180).
-  float4 b = mix(b_raw, (float4)(0.5f, 1.0f / 3.0f, 0.25f, 0.2f), moment_bias);
-  float b1 = b.x, b2 = b.y, b3 = b.z, b4 = b.w;
+  float b1 = mix_s(b_raw.x, 0.5f, moment_bias), b2 = mix_s(b_raw.y, 1.0f / 3.0f, moment_bias);
+  float b3 = mix_s(b_raw.z, 0.25f, moment_bias), b4 = mix_s(b_raw.w, 0.2f, moment_bias);
   float d22 = b2 - b1 * b1;
   float l32 = (b3 - b1 * b2) / d22;
   float d33 = b4 - b2 * b2 - l32 * l32 * d22;
@@ -58,26 +86,30 @@ static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blocke
   float p = c2 / c3, q = c1 / c3;
   float disc = sqrt(fmax(0.25f * p * p - q, 0.0f));
   float z2 = -0.5f * p - disc, z3 = -0.5f * p + disc;
+  float w2 = (b2 - b1 * (zf + z3) + zf * z3) / ((z2 - zf) * (z2 - z3));
+  float w3 = (b2 - b1 * (zf + z2) + zf * z2) / ((z3 - zf) * (z3 - z2));
   float shadow = 0.0f, zsum = 0.0f;
-  if (z2 < zf) {
-    float w2 = (b2 - b1 * (zf + z3) + zf * z3) / ((z2 - zf) * (z2 - z3));
-    shadow += w2;
-    zsum += w2 * z2;
-  }
-  if (z3 < zf) {
-    float w3 = (b2 - b1 * (zf + z2) + zf * z2) / ((z3 - zf) * (z3 - z2));
-    shadow += w3;
-    zsum += w3 * z3;
-  }
+  // as hamburger4: shadow += w2, zsum += w2 * z2 when z2 < zf, then the same for z3
+  float s2 = shadow + w2, zs2 = zsum + w2 * z2;
+  shadow = z2 < zf ? s2 : shadow;
+  zsum = z2 < zf ? zs2 : zsum;
+  float s3 = shadow + w3, zs3 = zsum + w3 * z3;
+  shadow = z3 < zf ? s3 : shadow;
+  zsum = z3 < zf ? zs3 : zsum;
   float wf = (b2 - b1 * (z2 + z3) + z2 * z3) / ((zf - z2) * (zf - z3));
-  if (!(shadow == shadow) || !(zsum == zsum)) {  // NaN from a degenerate system: no shadow
-    shadow = 0.0f;
-    zsum = 0.0f;
-  }
+  bool bad = !(shadow == shadow) || !(zsum == zsum);
+  shadow = bad ? 0.0f : shadow;
+  zsum = bad ? 0.0f : zsum;
   *blockers = clamp(shadow, 0.0f, 1.0f);
   *blocker_sum = zsum;
   *receiver_weight = wf == wf ? clamp(wf, 0.0f, 1.0f) : 0.0f;
   return 1.0f - *blockers;
+}
+
+static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
+                        float* blocker_sum, float* receiver_weight) {
+  m4s b = {b_raw.x, b_raw.y, b_raw.z, b_raw.w};
+  return hamburger4_s(b, zf, moment_bias, blockers, blocker_sum, receiver_weight);
 }
 
 // ---- MSSM6 (Kneiphof 2017 §4.2.1) ----
@@ -421,23 +453,16 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
 // vectorizer to run that loop SIMD-wide. Here it cannot: the float4/long4 values above and the
 // calls it does not inline make it give up, and mssm4_visibility runs one work-item at a time
 // (PoCL 3.1 on AVX-512: not one zmm instruction in its code). mssm4_visibility_batch hands the
-// vectorizer a loop it can take instead: each work-item runs VIS_BATCH pixels of one light in an
+// vectorizer a loop it can take instead: each work-item runs VIS_GROUP pixels of one light in an
 // explicit loop over scalar values only, every branch a select and every load in bounds, so the
 // loop runs VIS_BATCH lanes wide and each lattice read is a gather (many loads in flight, where the
-// one-at-a-time kernel waits on each). A batch in which no pixel needs the light (background, or
-// the light below every pixel's horizon: coherent regions of the frame) is skipped before the
-// loop. Each helper repeats its float4 counterpart operation for operation, and the library's
-// dot() and mix() as PoCL's library computes them (products rounded before the sums: no fused
-// multiply-add), so both kernels give the same bits (tests/test_mssm.cpp compares them).
+// one-at-a-time kernel waits on each). Only the pixels that need the light (not background, the
+// light not below their horizon) enter that loop: the work-item lists them first. The box and
+// set-up helpers repeat their float4 counterparts operation for operation (the reconstruction is
+// shared: hamburger4_s), so both kernels give the same bits on PoCL (tests/test_mssm.cpp).
 #ifndef VIS_BATCH
 #define VIS_BATCH 16
 #endif
-#define M4S static inline __attribute__((always_inline))
-
-typedef struct {
-  float x, y, z, w;
-} m4s;
-
 // box_runs without arrays: a loop or an array inside the batch loop is vectorized (or kept in
 // memory) on its own, and that blocks the batch loop.
 typedef struct {
@@ -508,58 +533,6 @@ M4S m4s box_mean_s(global const long* sat, int size, float x0, float y0, float x
   r.z = box_sum_channel(sat, size, X, Y, 2) / div;
   r.w = box_sum_channel(sat, size, X, Y, 3) / div;
   return r;
-}
-
-// mix(x, y, a) as the library computes it: (y - x) * a + x, the product rounded.
-M4S float mix_s(float x, float y, float a) {
-  float d = y - x;
-  float m = d * a;
-  return m + x;
-}
-
-// dot() of two float3 as the library computes it: (p0 + p1) + p2 of rounded products.
-M4S float dot3_s(float ax, float ay, float az, float bx, float by, float bz) {
-  float p0 = ax * bx;
-  float p1 = ay * by;
-  float p2 = az * bz;
-  float s = p0 + p1;
-  return p2 + s;
-}
-
-// hamburger4 on four scalars, with its branches as selects.
-M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
-                       float* blocker_sum, float* receiver_weight) {
-  float b1 = mix_s(b_raw.x, 0.5f, moment_bias), b2 = mix_s(b_raw.y, 1.0f / 3.0f, moment_bias);
-  float b3 = mix_s(b_raw.z, 0.25f, moment_bias), b4 = mix_s(b_raw.w, 0.2f, moment_bias);
-  float d22 = b2 - b1 * b1;
-  float l32 = (b3 - b1 * b2) / d22;
-  float d33 = b4 - b2 * b2 - l32 * l32 * d22;
-  float y2 = zf - b1;
-  float y3 = zf * zf - b2 - l32 * y2;
-  float c3 = y3 / d33;
-  float c2 = y2 / d22 - l32 * c3;
-  float c1 = 1.0f - b1 * c2 - b2 * c3;
-  float p = c2 / c3, q = c1 / c3;
-  float disc = sqrt(fmax(0.25f * p * p - q, 0.0f));
-  float z2 = -0.5f * p - disc, z3 = -0.5f * p + disc;
-  float w2 = (b2 - b1 * (zf + z3) + zf * z3) / ((z2 - zf) * (z2 - z3));
-  float w3 = (b2 - b1 * (zf + z2) + zf * z2) / ((z3 - zf) * (z3 - z2));
-  float shadow = 0.0f, zsum = 0.0f;
-  // as hamburger4: shadow += w2, zsum += w2 * z2 when z2 < zf, then the same for z3
-  float s2 = shadow + w2, zs2 = zsum + w2 * z2;
-  shadow = z2 < zf ? s2 : shadow;
-  zsum = z2 < zf ? zs2 : zsum;
-  float s3 = shadow + w3, zs3 = zsum + w3 * z3;
-  shadow = z3 < zf ? s3 : shadow;
-  zsum = z3 < zf ? zs3 : zsum;
-  float wf = (b2 - b1 * (z2 + z3) + z2 * z3) / ((zf - z2) * (zf - z3));
-  bool bad = !(shadow == shadow) || !(zsum == zsum);
-  shadow = bad ? 0.0f : shadow;
-  zsum = bad ? 0.0f : zsum;
-  *blockers = clamp(shadow, 0.0f, 1.0f);
-  *blocker_sum = zsum;
-  *receiver_weight = wf == wf ? clamp(wf, 0.0f, 1.0f) : 0.0f;
-  return 1.0f - *blockers;
 }
 
 M4S m4s mssm_box_s(global const long* sat, int size, const mssm_pixel* q, float h) {
