@@ -2,7 +2,9 @@
 // 640x360 (the CLI's defaults). Each stage's device time (OpenCL profiling events) is reported as a
 // counter in ms per frame; `vs_unshadowed` is the frame's time over that of the same frame without
 // shadows, measured in the same run (what soft shadows cost relative to plain shading, or what
-// bent normals cost); `vs_eq7` the default frame's and auto's time over MSSM4 with eq. 7 alone.
+// bent normals cost); `vs_eq7` the default frame's and auto's time over MSSM4 with eq. 7 alone and
+// no contact shadows (the default before issue 13); `vs_no_contact` the default frame's over the
+// same frame without contact shadows (what they cost).
 //
 // Throughput of the stages that scale, for MSSM4 (README "Speed on a CPU"):
 //   sat_fraction_of_copy   the moments' summed-area tables (read and written once each: 2 x the
@@ -59,13 +61,16 @@ double copyBytesPerSec(Context& ctx, std::size_t bytes) {
   }
   return best;
 }
-// The default frame with Kneiphof's (2017) eq. 7 alone (MSSM4's default until issue 13), measured
-// first:
-// the default frame's and auto's `vs_eq7` is their time over it, in the same run.
+// The default frame with Kneiphof's (2017) eq. 7 alone and no contact shadows (MSSM4's default
+// until issue 13), measured first: the default frame's and auto's `vs_eq7` is their time over it,
+// in the same run.
 double eq7Ms = 0;
+// The default frame without contact shadows, measured before it (`vs_no_contact`).
+double noContactMs = 0;
 
 void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, int mapSize,
-               bool bentNormals = false, bool eq7 = false, bool perPixel = false) {
+               bool bentNormals = false, bool eq7 = false, bool perPixel = false,
+               bool contact = true) {
   Setup& s = setup();
   Renderer renderer(s.ctx);
   RenderOptions ro;
@@ -73,6 +78,7 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
   ro.shadowMapSize = mapSize;
   ro.bentNormals = bentNormals;
   if (eq7) ro.mssm.upperBoundBlocker = false;
+  ro.shadow.contactShadows = contact && !eq7;
   MedianCutOptions mc;
   mc.lights = lights;
   // warm-up: kernels are compiled on first use
@@ -96,10 +102,13 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
   if (!baseline && unshadowedMs > 0)
     state.counters["vs_unshadowed"] = (frameMs / n) / unshadowedMs;
   if (eq7) eq7Ms = frameMs / n;
-  else if (eq7Ms > 0 && lights == 32 && mapSize == 256 && !perPixel)
+  else if (eq7Ms > 0 && lights == 32 && mapSize == 256 && !perPixel && contact)
     state.counters["vs_eq7"] = (frameMs / n) / eq7Ms;
   if (perPixel) perPixelMs = frameMs / n;
-  if (technique != ShadowTechnique::MSSM4 || eq7) return;
+  if (!contact) noContactMs = frameMs / n;
+  if (technique != ShadowTechnique::MSSM4 || eq7 || !contact) return;
+  if (!perPixel && noContactMs > 0 && lights == 32 && mapSize == 256)
+    state.counters["vs_no_contact"] = (frameMs / n) / noContactMs;
   if (!perPixel && perPixelMs > 0 && lights == 32 && mapSize == 256)
     state.counters["vs_per_pixel"] = (frameMs / n) / perPixelMs;
   auto stageMs = [&](const std::string& prefix) {
@@ -161,6 +170,9 @@ void BM_FrameMSSM4PerPixel(benchmark::State& state) {
   CpuBatchingOff off;
   runFrames(state, ShadowTechnique::MSSM4, 32, 256, false, false, true);
 }
+void BM_FrameMSSM4NoContact(benchmark::State& state) {
+  runFrames(state, ShadowTechnique::MSSM4, 32, 256, false, false, false, false);
+}
 void BM_FrameMSSM4(benchmark::State& state) {
   runFrames(state, ShadowTechnique::MSSM4, int(state.range(0)), int(state.range(1)));
 }
@@ -172,6 +184,7 @@ BENCHMARK(BM_FrameUnshadowedBentNormals)->Unit(benchmark::kMillisecond)->Iterati
 BENCHMARK(BM_FrameMSSM4Eq7)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameAuto)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4PerPixel)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_FrameMSSM4NoContact)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4)
     ->Args({32, 256})
     ->Args({16, 256})

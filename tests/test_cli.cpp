@@ -473,6 +473,11 @@ TEST_F(CliParams, OptionWithoutValue) {
 }
 TEST_F(CliParams, UnknownExtraction) { expectBad({"--extract", "foo"}, "--extract"); }
 TEST_F(CliParams, NonFiniteExposure) { expectBad({"--exposure", "nan"}, "--exposure"); }
+// The library's RenderOptions.shadow.contactTexels check, named by its flag.
+TEST_F(CliParams, ContactTexelsZero) { expectBad({"--contact-texels", "0"}, "--contact-texels"); }
+TEST_F(CliParams, ContactTexelsWithoutContactShadows) {
+  expectBad({"--contact-texels", "4", "--no-contact-shadows"}, "--contact-texels");
+}
 TEST_F(CliParams, UnknownCommand) { expectFailure({"frobnicate"}, {"frobnicate"}); }
 TEST_F(CliParams, UnknownDevice) {
   expectFailure({"render", "--size", "16x9", "--out", path("out.png"), "--device",

@@ -292,6 +292,27 @@ TEST_F(CliRenderOptions, MomentBiasChangesMssm) {
   EXPECT_GT(d, 1e-3);  // measured 4.9%
 }
 
+// Contact shadows (on by default) only darken: --no-contact-shadows gives a frame at least as
+// bright everywhere, different on the built-in scene's contacts, and the report says which ran.
+TEST_F(CliRenderOptions, NoContactShadowsTurnsThemOff) {
+  const Rendered off = render("nocontact", {"--shadows", "mssm4", "--no-contact-shadows"});
+  const Rendered longer = render("contact4", {"--shadows", "mssm4", "--contact-texels", "4"});
+  ASSERT_FALSE(off.image.empty() || longer.image.empty());
+  EXPECT_EQ(off.report["shadow"]["contact_shadows"].get<bool>(), false);
+  EXPECT_EQ(mssm4().report["shadow"]["contact_shadows"].get<bool>(), true);
+  EXPECT_FLOAT_EQ(mssm4().report["shadow"]["contact_texels"].get<float>(),
+                  kDefaults.shadow.contactTexels);
+  EXPECT_FLOAT_EQ(longer.report["shadow"]["contact_texels"].get<float>(), 4.0f);
+  const double d = rel(off.image, mssm4().image);
+  RecordProperty("contact_change", std::to_string(d));
+  EXPECT_GT(d, 1e-4);
+  ASSERT_EQ(off.image.pixels.size(), mssm4().image.pixels.size());
+  int darker = 0;
+  for (std::size_t i = 0; i < off.image.pixels.size(); ++i)
+    darker += off.image.pixels[i] < mssm4().image.pixels[i];
+  EXPECT_EQ(darker, 0);
+}
+
 // Filter widths: both a smaller light and a smaller filter cap bring MSSM4 towards hard shadows
 // (the filter shrinks to a texel); the reports tell which field each one set.
 TEST_F(CliRenderOptions, LightSizeScaleAndMaxFilterSharpenTowardsHard) {

@@ -53,6 +53,9 @@ struct SmallFrame {
     opt.width = w;
     opt.height = h;
     opt.shadowMapSize = s;
+    // The GL interop receives textures, no triangles, so it has no contact shadows; the OpenCL
+    // path they are compared with goes without them too.
+    opt.shadow.contactShadows = false;
   }
 };
 

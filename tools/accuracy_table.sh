@@ -17,7 +17,9 @@ declare -A SCENE=(
 CONFIGS=(
   "hard|--shadows hard"
   "pcss|--shadows pcss"
-  "mssm4-eq7|--shadows mssm4 --no-upper-bound"
+  "hard-nocontact|--shadows hard --no-contact-shadows"
+  "mssm4-eq7|--shadows mssm4 --no-upper-bound --no-contact-shadows"
+  "mssm4-nocontact|--shadows mssm4 --no-contact-shadows"
   "mssm4|--shadows mssm4"
   "auto-exact0|--shadows auto --auto-exact 0"
   "auto|--shadows auto")
@@ -37,7 +39,7 @@ done
 import json, sys, os
 out = sys.argv[1]
 scenes = ["builtin", "courtyard", "interior", "studio"]
-configs = ["hard", "pcss", "mssm4-eq7", "mssm4", "auto-exact0", "auto"]
+configs = ["hard-nocontact", "hard", "pcss", "mssm4-eq7", "mssm4-nocontact", "mssm4", "auto-exact0", "auto"]
 def load(s, c):
     with open(os.path.join(out, f"{s}.{c}.json")) as f: return json.load(f)
 rows = ["Total error against the environment truth over all geometry pixels: relative RMSE / mean HDR-FLIP.",

@@ -50,6 +50,11 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
            num(R.shadow.lightSizeScale), S, {"RenderOptions.shadow.lightSizeScale"});
   reg.real(app, "--max-filter", "largest filter width in texels", any,
            num(R.shadow.maxFilterTexels), S, {"RenderOptions.shadow.maxFilterTexels"});
+  reg.flag(app, "--no-contact-shadows", "no contact shadows (exact rays towards each light "
+           "against the triangles seen around the pixel, for techniques that read shadow maps; "
+           "README \"Contact shadows\"); on by default", S, {"RenderOptions.shadow.contactShadows"});
+  reg.real(app, "--contact-texels", "contact shadows: ray length in texels of each light's map",
+           any, num(R.shadow.contactTexels), S, {"RenderOptions.shadow.contactTexels"});
   const std::string upper = R.mssm.upperBoundBlocker ? " (the default)" : "";
   reg.flag(app, "--upper-bound", "MSSM4/MSSM6: the upper-bound blocker depth (README, "
            "\"How it works\")" + (R.mssm.upperBoundBlocker ? upper : ""), S,
@@ -134,6 +139,17 @@ RenderOptions parseRenderOptions(const Args& a) {
   if (a.has("slope-bias")) ro.mssm.slopeBias = float(a.real("slope-bias"));
   if (a.has("light-size-scale")) ro.shadow.lightSizeScale = float(a.real("light-size-scale"));
   if (a.has("max-filter")) ro.shadow.maxFilterTexels = float(a.real("max-filter"));
+  if (a.has("no-contact-shadows")) {
+    if (a.has("contact-texels")) badInput("--contact-texels needs contact shadows (drop --no-contact-shadows)");
+    ro.shadow.contactShadows = false;
+  }
+  if (a.has("contact-texels")) ro.shadow.contactTexels = float(a.real("contact-texels"));
+  // The GL path hands OpenCL textures only, no triangles to cast contact rays against (README,
+  // "Contact shadows"): off, so that the report says what the frame had.
+  if (a.has("gl")) {
+    if (a.has("contact-texels")) badInput("--contact-texels does not work with --gl (no triangles on the OpenCL side)");
+    ro.shadow.contactShadows = false;
+  }
   return ro;
 }
 

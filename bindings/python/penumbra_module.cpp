@@ -1145,7 +1145,14 @@ PYBIND11_MODULE(_penumbra, m) {
                      withDefault("Largest filter width, texels.", R.shadow.maxFilterTexels).c_str())
       .def_readwrite("min_filter_texels", &ShadowOptions::minFilterTexels,
                      withDefault("Smallest filter width, texels, > 0.",
-                                 R.shadow.minFilterTexels).c_str());
+                                 R.shadow.minFilterTexels).c_str())
+      .def_readwrite("contact_shadows", &ShadowOptions::contactShadows,
+                     withDefault("Contact shadows for techniques that read shadow maps: exact "
+                                 "rays towards each light against the triangles seen within 2 "
+                                 "pixels.", R.shadow.contactShadows).c_str())
+      .def_readwrite("contact_texels", &ShadowOptions::contactTexels,
+                     withDefault("Contact rays' length in texels of each light's map, > 0.",
+                                 R.shadow.contactTexels).c_str());
 
   py::class_<MSSMOptions> mo(m, "MSSMOptions", "Moment soft shadow map options (MSSM4, MSSM6).");
   initFromFields<MSSMOptions>(mo);

@@ -46,6 +46,18 @@ struct ShadowOptions {
   float maxFilterTexels = 27.0f;///< largest filter width, texels: pcss, cssm, mssm4, mssm6. >=
                                 ///< minFilterTexels; default 27 (Kneiphof 2017 §6.2 used 27 at 256^2)
   float minFilterTexels = 1.0f; ///< smallest filter width, texels. > 0; default 1
+  /// Contact shadows (kernels/render/contact.cl): for every technique that reads shadow maps, a
+  /// pixel's visibility of a light becomes 0 when the ray from its surface towards the light's
+  /// centre hits, within contactTexels of the light's map texels, one of the triangles the camera
+  /// sees within 2 pixels of it. They catch the occluders a map cannot resolve (closer to the
+  /// receiver than a texel plus the depth bias: a hoof on the ground, the strands of a tuft).
+  /// Needs the renderer's triangles: the GL interop, which receives textures only, has none.
+  /// Measured against the two-seed Embree truth, 320x180, built-in / courtyard + Wuson /
+  /// interior + spider / studio + Wuson, MSSM4 relative RMSE: off 3.41/4.99/3.66/8.32%, on
+  /// 3.16/4.29/3.63/6.17% (bench/results/accuracy.md). Default on
+  bool contactShadows = true;
+  float contactTexels = 8.0f;   ///< contact rays' length in texels of each light's map. Finite,
+                                ///< > 0; default 8 (2 texels: 3.17/4.36/3.63/6.16%, 16: as 8)
 };
 
 /// Moment soft shadow mapping with 4 moments (Kneiphof 2017 §3.2.1) and 6 (§4.2.1): what MSSM4 and

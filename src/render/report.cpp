@@ -76,7 +76,9 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
   o["shadow"] = {{"depth_bias", shortestDecimal(opt.shadow.depthBias)},
                  {"light_size_scale", shortestDecimal(opt.shadow.lightSizeScale)},
                  {"max_filter_texels", shortestDecimal(opt.shadow.maxFilterTexels)},
-                 {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)}};
+                 {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)},
+                 {"contact_shadows", opt.shadow.contactShadows},
+                 {"contact_texels", shortestDecimal(opt.shadow.contactTexels)}};
   if (uses({ShadowTechnique::MSSM4, ShadowTechnique::MSSM6}))
     o["mssm"] = {{"moment_bias", shortestDecimal(opt.mssm.momentBias)},
                  {"slope_bias", shortestDecimal(opt.mssm.slopeBias)},

@@ -1,5 +1,6 @@
 // The visibility stage: the technique cache, the visibility buffer and the frame's report.
 #include "render/visibility.hpp"
+#include "render/contact.hpp"
 #include "shadows/shadow_options.hpp"
 
 #include <algorithm>
@@ -27,6 +28,14 @@ void Visibility::compute(ShadowFrame& f) {
   f.vis = vis_;
   if (runsPass()) {
     pass_->computeVisibility(f);
+    // The occluders a map cannot resolve (kernels/render/contact.cl); the techniques that test
+    // triangles themselves (the bitmask's) find them already.
+    if (f.opt.shadow.contactShadows && hasContactInputs(f)) {
+      std::vector<cl_uchar> mask(std::size_t(lights_), 0);
+      bool any = false;
+      for (int l = 0; l < lights_; ++l) any |= bool(mask[std::size_t(l)] = pass_->lightFromShadowMap(l));
+      if (any) contactShadows(f, pool_.upload("contact-shadow lights", mask));
+    }
     bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
     stats_ = pass_->frameStats();
   } else if (lights_ > 0) {

@@ -215,6 +215,10 @@ class AutoPass : public ShadowPass {
     }
   }
 
+  bool lightFromShadowMap(int l) const override {
+    return l >= 0 && l < int(choice_.size()) && choice_[l] != ShadowTechnique::Bitmask &&
+           choice_[l] != ShadowTechnique::BitmaskHard;
+  }
   std::size_t bytesPerTexel(const RenderOptions&) const override { return sizeof(cl_uint); }
   std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return bytes_; }
 

@@ -40,6 +40,8 @@ void validate(const ShadowOptions& o) {
     badOption("RenderOptions.shadow.maxFilterTexels",
               "be >= RenderOptions.shadow.minFilterTexels (" + show(o.minFilterTexels) + ")",
               o.maxFilterTexels);
+  if (!(o.contactTexels > 0) || !std::isfinite(o.contactTexels))
+    badOption("RenderOptions.shadow.contactTexels", "be finite and > 0", o.contactTexels);
 }
 
 }  // namespace penumbra::detail

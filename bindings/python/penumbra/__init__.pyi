@@ -367,8 +367,11 @@ class ShadowOptions:
     light_size_scale: float
     max_filter_texels: float
     min_filter_texels: float
+    contact_shadows: bool
+    contact_texels: float
     def __init__(self, *, depth_bias: float = ..., light_size_scale: float = ...,
-                 max_filter_texels: float = ..., min_filter_texels: float = ...) -> None: ...
+                 max_filter_texels: float = ..., min_filter_texels: float = ...,
+                 contact_shadows: bool = ..., contact_texels: float = ...) -> None: ...
 
 class MSSMOptions:
     moment_bias: float
