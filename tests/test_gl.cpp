@@ -405,5 +405,13 @@ TEST(GLCli, RenderGLWritesStageTimes) {
       EXPECT_NE(json.find(s), std::string::npos) << s;
     EXPECT_NE(out.find(std::string(backend) == "egl" ? "GL EGL" : "GL OSMesa"), std::string::npos)
         << out;
+    // The GL path has no triangles on the OpenCL side: no contact shadows, and the report says so.
+    EXPECT_NE(json.find("\"contact_shadows\": false"), std::string::npos) << json;
   }
+  EXPECT_EQ(runShell(cd + "EGL_PLATFORM=surfaceless " + cli + " render --gl egl --contact-texels 4"
+                     " --size 48x27 --lights 4 --out gl2.exr > out.txt 2> err.txt"),
+            2);
+  EXPECT_NE(slurp(dir / "err.txt").find("--contact-texels does not work with --gl"),
+            std::string::npos) << slurp(dir / "err.txt");
+  EXPECT_FALSE(fs::exists(dir / "gl2.exr"));
 }

@@ -46,8 +46,9 @@ struct ShadowOptions {
   float maxFilterTexels = 27.0f;///< largest filter width, texels: pcss, cssm, mssm4, mssm6. >=
                                 ///< minFilterTexels; default 27 (Kneiphof 2017 §6.2 used 27 at 256^2)
   float minFilterTexels = 1.0f; ///< smallest filter width, texels. > 0; default 1
-  /// Contact shadows (kernels/render/contact.cl): for every technique that reads shadow maps, a
-  /// pixel's visibility of a light becomes 0 when the ray from its surface towards the light's
+  /// Contact shadows (kernels/render/contact.cl): for every technique that reads depth maps with a
+  /// bias (all but bitmask and bitmask-hard, and not auto's exact lights), a pixel's visibility
+  /// of a light becomes 0 when the ray from its surface towards the light's
   /// centre hits, within contactTexels of the light's map texels, one of the triangles the camera
   /// sees within 2 pixels of it. They catch the occluders a map cannot resolve (closer to the
   /// receiver than a texel plus the depth bias: a hoof on the ground, the strands of a tuft).

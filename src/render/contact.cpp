@@ -5,7 +5,7 @@ namespace penumbra::detail {
 
 bool hasContactInputs(const ShadowFrame& f) {
   return f.gids() != nullptr && f.positions() != nullptr && f.triangles() != nullptr &&
-         f.triangleCount > 0 && f.width > 0 && f.height > 0;
+         f.triangleCount > 0 && f.width > 0 && f.height > 0 && f.mapSize > 0;
 }
 
 void contactShadows(const ShadowFrame& f, const cl::Buffer& lightMask) {
@@ -14,6 +14,7 @@ void contactShadows(const ShadowFrame& f, const cl::Buffer& lightMask) {
   cl::Kernel k = f.ctx.kernel("contact.cl", "contact_shadows");
   f.ctx.launchWith("contact-shadows", k, cl::NDRange(std::size_t(f.width), std::size_t(f.height)),
                    cl::NullRange, f.gpos, f.ggeo, f.gids, f.positions, f.triangles,
+                   cl_int(f.triangleCount),
                    f.lightBuffer, lightMask, cl_int(nl), cl_int(f.width), cl_int(f.height), f.vis,
                    cl_float(f.opt.shadow.contactTexels), cl_int(f.mapSize));
 }

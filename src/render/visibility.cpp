@@ -28,16 +28,24 @@ void Visibility::compute(ShadowFrame& f) {
   f.vis = vis_;
   if (runsPass()) {
     pass_->computeVisibility(f);
+    bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
+    stats_ = pass_->frameStats();
     // The occluders a map cannot resolve (kernels/render/contact.cl); the techniques that test
     // triangles themselves (the bitmask's) find them already.
     if (f.opt.shadow.contactShadows && hasContactInputs(f)) {
       std::vector<cl_uchar> mask(std::size_t(lights_), 0);
-      bool any = false;
-      for (int l = 0; l < lights_; ++l) any |= bool(mask[std::size_t(l)] = pass_->lightFromShadowMap(l));
-      if (any) contactShadows(f, pool_.upload("contact-shadow lights", mask));
+      int n = 0;
+      for (int l = 0; l < lights_; ++l) n += mask[std::size_t(l)] = pass_->lightFromShadowMap(l);
+      if (n > 0) {
+        // Uploaded only when it changes (a blocking write would wait for the pass every frame).
+        if (mask != contactMask_) {
+          contactMaskBuffer_ = pool_.upload("contact-shadow lights", mask);
+          contactMask_ = mask;
+        }
+        contactShadows(f, contactMaskBuffer_);
+      }
+      stats_.emplace_back("contact/lights", double(n));
     }
-    bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
-    stats_ = pass_->frameStats();
   } else if (lights_ > 0) {
     const cl_float one = 1.0f;
     ctx_.fill(vis_, &one, 4, std::size_t(pixels_) * lights_ * 4, "visibility buffer");

@@ -35,7 +35,8 @@ class Visibility {
 
   const cl::Buffer& buffer() const { return vis_; }
   // The last frame's device bytes of the technique (Frame::shadowMapBytes) and its statistics
-  // (Frame::stats); 0 and none when no pass ran.
+  // (Frame::stats), with "contact/lights", the lights given contact shadows, when they ran; 0
+  // and none when no pass ran.
   std::size_t frameBytes() const { return bytes_; }
   const std::vector<std::pair<std::string, double>>& stats() const { return stats_; }
   // The last frame's visibility read back, light-major (Renderer::lastVisibility).
@@ -48,6 +49,8 @@ class Visibility {
   ShadowTechnique passKind_ = ShadowTechnique::None;
   cl::Buffer vis_;
   int pixels_ = 0, lights_ = 0;
+  std::vector<cl_uchar> contactMask_;  // the lights given contact shadows, as last uploaded
+  cl::Buffer contactMaskBuffer_;
   std::size_t bytes_ = 0;
   std::vector<std::pair<std::string, double>> stats_;
 };

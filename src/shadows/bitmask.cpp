@@ -302,6 +302,7 @@ class BitmaskPass : public ShadowPass {
   }
   // The technique never reads the standard shadow maps: its own lists replace them.
   bool usesShadowMaps() const override { return false; }
+  bool lightFromShadowMap(int) const override { return false; }  // exact: tests triangles
   std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return heldBytes_; }
   std::vector<std::pair<std::string, double>> frameStats() const override {
     const BitmaskStats& st = stats_;

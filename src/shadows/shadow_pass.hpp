@@ -122,9 +122,10 @@ class ShadowPass {
   virtual std::size_t bytesPerTexel(const RenderOptions& opt) const = 0;
   // Whether the technique reads ShadowFrame::depth (the renderer skips rasterizing it if not).
   virtual bool usesShadowMaps() const { return true; }
-  // Whether the last frame's light l came from a shadow map, and so gets contact shadows
+  // Whether the last frame's light l came from depth maps read with a bias (the frame's maps or
+  // the technique's own, as brute force's and area-approx's), and so gets contact shadows
   // (src/render/contact.hpp); lights whose visibility tests triangles (the bitmask's) do not.
-  virtual bool lightFromShadowMap(int /*l*/) const { return usesShadowMaps(); }
+  virtual bool lightFromShadowMap(int /*l*/) const { return true; }
   // Device bytes the technique held for the last frame (Frame::shadowMapBytes); mapTexels: S*S
   // per light times the lights.
   virtual std::size_t frameBytes(const RenderOptions& opt, std::size_t mapTexels) const {

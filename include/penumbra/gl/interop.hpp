@@ -82,6 +82,8 @@ class Interop {
   /// mssm6 (the others rasterize more maps from the scene's triangles, which the interop does not
   /// have); opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
   /// (a polygon's visibility is its bounding cap's, its irradiance exact, as in Renderer).
+  /// opt.shadow.contactShadows is ignored: contact shadows cast rays against the scene's
+  /// triangles, which the interop does not have, so its frames have none.
   void shade(const std::vector<TextureId>& depthMaps, const GBuffer& gbuffer, TextureId output,
              const Camera& camera, const LightSet& lights, const Bounds& bounds,
              const Environment& env, const RenderOptions& opt);
