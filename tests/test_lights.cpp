@@ -50,7 +50,7 @@ TEST(Lights, CapIrradianceMatchesQuadrature) {
     }
 }
 
-TEST(Lights, FullyAboveHorizonIsSeed003Eq15) {
+TEST(Lights, FullyAboveHorizonIsKneiphofEq15) {
   double a = 10 * M_PI / 180, b = 30 * M_PI / 180;
   EXPECT_NEAR(pb_cap_irradiance(float(std::cos(a)), float(std::cos(b))),
               M_PI * std::sin(a) * std::sin(a) * std::cos(b), 1e-6);
