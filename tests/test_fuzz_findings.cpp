@@ -78,3 +78,40 @@ TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedFirst) {
   // A valid EXR still loads (its header walked the same way).
   EXPECT_EQ(readImage(std::string(PENUMBRA_TEST_DATA) + "/envmaps/bad/one_pixel.exr").width, 1);
 }
+
+// fuzz_envmap: an 847-byte PNG (a 16x8 image's header chunks) whose second tEXt chunk declares
+// 1,895,825,680 bytes; libpng allocated them before refusing: 2 GB resident and 3.6 s, over the
+// fuzzer's 2 GB limit. readImage now walks the chunk lengths against the file first.
+TEST(FuzzFindings, PngChunkLargerThanTheFileIsRefusedFirst) {
+  std::ifstream in(std::string(PENUMBRA_TEST_DATA) +
+                       "/fuzz/crashes/envmap/png_847b_text_chunk_declares_1.9GB",
+                   std::ios::binary);
+  const std::string input((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_GT(input.size(), 100u);
+  const std::string path =
+      testing::TempDir() + "/penumbra_huge_chunk_" + std::to_string(::getpid()) + ".png";
+  std::ofstream(path, std::ios::binary) << input.substr(1);
+  rusage before{}, after{};
+  getrusage(RUSAGE_SELF, &before);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    readImage(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("PNG chunk 'tEXt' declares 1895825680 bytes"), std::string::npos) << msg;
+  }
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB";
+  std::remove(path.c_str());
+  // A valid PNG still loads (its chunks walked the same way): one written here.
+  Image im(3, 2, 3);
+  for (float& v : im.pixels) v = 0.5f;
+  const std::string ok = testing::TempDir() + "/penumbra_ok_" + std::to_string(::getpid()) + ".png";
+  writeImage(ok, im);
+  EXPECT_EQ(readImage(ok).width, 3);
+  std::remove(ok.c_str());
+}

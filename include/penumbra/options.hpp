@@ -58,7 +58,8 @@ struct ShadowOptions {
   /// 3.16/4.29/3.63/6.17% (bench/results/accuracy.md). Default on
   bool contactShadows = true;
   float contactTexels = 8.0f;   ///< contact rays' length in texels of each light's map. Finite,
-                                ///< > 0; default 8 (2 texels: 3.17/4.36/3.63/6.16%, 16: as 8)
+                                ///< > 0; default 8 (2 texels: 3.17/4.36/3.63/6.16%; 16:
+                                ///< 3.16/4.26/3.63/6.17%)
 };
 
 /// Moment soft shadow mapping with 4 moments (Kneiphof 2017 §3.2.1) and 6 (§4.2.1): what MSSM4 and
