@@ -143,6 +143,87 @@ static void outline_row_span(const float2* P, int n, int y, int* xs, int* xe) {
   *xe = min(*xe, (int)ceil(maxx - 0.5f) + 1);
 }
 
+// ---- CPU form of an orthographic view's rows (-DRASTER_ROW_SIMD) ----
+//
+// CPU drivers run a work-item's loop one pixel at a time, and a light view's large triangles
+// (the ground fills half of each map) cost a whole ray test per texel. Under RASTER_ROW_SIMD a
+// row of an orthographic view runs RASTER_CHUNK pixels in one SIMD loop (src/core/device_kind.hpp,
+// PB_SIMD_LOOP), then does the atomics of the pixels hit. The loop's operations are
+// view_ray's and ray_triangle's in scalars, rounded as they are: the same sums in the same
+// expressions (so the same multiply-adds are fused), and cross() and dot() as PoCL's library
+// computes them (products rounded, then subtracted or added: no fused multiply-add). Same bits as
+// the per-pixel loop on PoCL (tests/test_raster.cpp, Raster.RowSpansChangeNoPixel).
+#ifdef RASTER_ROW_SIMD
+#ifndef RASTER_CHUNK
+#define RASTER_CHUNK 16
+#endif
+#define RS static inline __attribute__((always_inline))
+
+// dot(a, b) of two float3: (p0 + p1) + p2 of rounded products.
+RS float rdot3(float ax, float ay, float az, float bx, float by, float bz) {
+  float p0 = ax * bx;
+  float p1 = ay * by;
+  float p2 = az * bz;
+  float s = p0 + p1;
+  return p2 + s;
+}
+
+// cross(a, b): each component a difference of two rounded products.
+RS void rcross3(float ax, float ay, float az, float bx, float by, float bz, float* cx, float* cy,
+                float* cz) {
+  float x0 = ay * bz;
+  float x1 = az * by;
+  float y0 = az * bx;
+  float y1 = ax * bz;
+  float z0 = ax * by;
+  float z1 = ay * bx;
+  *cx = x0 - x1;
+  *cy = y0 - y1;
+  *cz = z0 - z1;
+}
+
+// Pixels xs..xe of row y of orthographic view v: depth[row + x] = min(t) over the triangle
+// (a, b, c), as the per-pixel loop of raster_triangles writes it.
+static void raster_row_ortho(const pb_view* v, float3 a, float3 b, float3 c, int y, int xs, int xe,
+                             volatile global uint* row) {
+  // ray_triangle's per-triangle part: the direction is the view's forward everywhere
+  float3 d = f3(v->forward);
+  float3 e1 = b - a, e2 = c - a;
+  float3 p = cross(d, e2);
+  float det = dot(e1, p);
+  if (fabs(det) < 1e-20f) return;
+  float inv = 1.0f / det;
+  // view_ray's per-row part
+  float py = y + 0.5f;
+  float sy = 1.0f - 2.0f * py / v->height;
+  const float sr = v->right[3], su = v->up[3];
+  for (int x0 = xs; x0 <= xe; x0 += RASTER_CHUNK) {
+    uint hit[RASTER_CHUNK];
+PB_SIMD_LOOP(RASTER_CHUNK)
+    for (int k = 0; k < RASTER_CHUNK; ++k) {
+      float px = (float)(x0 + k) + 0.5f;
+      float sx = 2.0f * px / v->width - 1.0f;
+      // o = org + sx * right[3] * right + sy * up[3] * up, per component
+      float ox = v->origin[0] + sx * sr * v->right[0] + sy * su * v->up[0];
+      float oy = v->origin[1] + sx * sr * v->right[1] + sy * su * v->up[1];
+      float oz = v->origin[2] + sx * sr * v->right[2] + sy * su * v->up[2];
+      float s0 = ox - a.x, s1 = oy - a.y, s2 = oz - a.z;
+      float u = rdot3(s0, s1, s2, p.x, p.y, p.z) * inv;
+      float q0, q1, q2;
+      rcross3(s0, s1, s2, e1.x, e1.y, e1.z, &q0, &q1, &q2);
+      float w = rdot3(d.x, d.y, d.z, q0, q1, q2) * inv;
+      float t = rdot3(e2.x, e2.y, e2.z, q0, q1, q2) * inv;
+      bool in = !(u < -RASTER_EPS || u > 1.0f + RASTER_EPS) &&
+                !(w < -RASTER_EPS || u + w > 1.0f + RASTER_EPS) && t > 0.0f;
+      hit[k] = in ? as_uint(t) : PB_DEPTH_EMPTY;
+    }
+    int n = min(RASTER_CHUNK, xe - x0 + 1);
+    for (int k = 0; k < n; ++k)
+      if (hit[k] != PB_DEPTH_EMPTY) atomic_min(&row[x0 + k], hit[k]);
+  }
+}
+#endif
+
 // pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among
 // those whose t equals the stored depth (views must be 1). cull: 0 keeps every triangle, 1 only
 // those facing the view (counter-clockwise seen from it), 2 only those facing away (the back
@@ -173,6 +254,12 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
     int xs = x0, xe = x1;
 #ifndef RASTER_FULL_BOX
     if (!clipped) outline_row_span(outline, n, y, &xs, &xe);
+#endif
+#ifdef RASTER_ROW_SIMD
+    if (v.ortho && pass == 0) {
+      raster_row_ortho(&v, a, b, c, y, xs, xe, depth + base + (size_t)y * v.width);
+      continue;
+    }
 #endif
     for (int x = xs; x <= xe; ++x) {
       float3 o, d;

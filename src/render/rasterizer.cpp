@@ -21,7 +21,10 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
   mapSize_ = mapSize;
   frontBack_ = frontBackFaces;
   // One kernel object for every launch (a technique may rasterize in a loop of batches).
-  if (!raster_()) raster_ = ctx_.kernel("raster.cl", "raster_triangles");
+  // CPUs: an orthographic view's rows in SIMD loops (raster.cl, RASTER_ROW_SIMD).
+  if (!raster_())
+    raster_ = ctx_.kernel("raster.cl", "raster_triangles",
+                          useCpuBatching(ctx_) ? "-DRASTER_ROW_SIMD" + simdLoopOption(ctx_) : "");
 }
 
 void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
