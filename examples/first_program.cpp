@@ -10,7 +10,7 @@ int main() {
     penumbra::Camera cam = penumbra::frameCamera(scene, 16.0f / 9.0f);
     penumbra::LightSet lights = penumbra::extractLights(ctx, env, {});  // 32 median-cut lights
     penumbra::Renderer renderer(ctx);                        // keep it: buffers are reused
-    penumbra::RenderOptions opt;                             // 640x360, MSSM4, 256^2 maps
+    penumbra::RenderOptions opt;                             // 640x360, MSSM4, 384^2 maps
     penumbra::Frame frame = renderer.render(scene, cam, lights, env, opt);
     penumbra::writeImage("frame.exr", frame.image);          // linear radiance
     penumbra::writeImage("frame.png", frame.image, 0.0f);    // tone-mapped, automatic exposure

@@ -20,7 +20,10 @@ CONFIGS=(
   "hard-nocontact|--shadows hard --no-contact-shadows"
   "mssm4-eq7|--shadows mssm4 --no-upper-bound --no-contact-shadows"
   "mssm4-nocontact|--shadows mssm4 --no-contact-shadows"
+  "hard-256|--shadows hard --shadow-map-size 256"
+  "mssm4-256|--shadows mssm4 --shadow-map-size 256"
   "mssm4|--shadows mssm4"
+  "mssm4-512|--shadows mssm4 --shadow-map-size 512"
   "auto-exact0|--shadows auto --auto-exact 0"
   "auto|--shadows auto")
 for s in builtin courtyard interior studio; do
@@ -39,7 +42,7 @@ done
 import json, sys, os
 out = sys.argv[1]
 scenes = ["builtin", "courtyard", "interior", "studio"]
-configs = ["hard-nocontact", "hard", "pcss", "mssm4-eq7", "mssm4-nocontact", "mssm4", "auto-exact0", "auto"]
+configs = ["hard-nocontact", "hard-256", "hard", "pcss", "mssm4-eq7", "mssm4-nocontact", "mssm4-256", "mssm4", "mssm4-512", "auto-exact0", "auto"]
 def load(s, c):
     with open(os.path.join(out, f"{s}.{c}.json")) as f: return json.load(f)
 rows = ["Total error against the environment truth over all geometry pixels: relative RMSE / mean HDR-FLIP.",

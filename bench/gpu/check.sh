@@ -72,7 +72,7 @@ bench() {  # bench NAME LIMIT BINARY FILTER: Google Benchmark with its JSON writ
 
 if ((QUICK)); then
   tests='Context.*:Frame.*:MSSM4.*:BitmaskDeterminism.*:CliDevices.*:-Oclgrind*'
-  frame='BM_FrameUnshadowed/|BM_FrameMSSM4/32/256/'
+  frame='BM_FrameUnshadowed/|BM_FrameMSSM4/32/384/'
   bitmask='BM_BitmaskSamples/128/'  # 1024 samples take over a minute on 2 PoCL cores
   gl='BM_FrameGL/0'
 else

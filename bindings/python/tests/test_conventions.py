@@ -88,7 +88,7 @@ def test_reprs_show_the_fields():
     assert r.startswith("MedianCutOptions(lights=8, face_size=64, supersample=4, ")
     assert "merge_compactness=0.5" in r and "shape=LightShape.CAP" in r and r.endswith(")")
     r = repr(penumbra.RenderOptions(width=64, technique="pcss"))
-    assert r.startswith("RenderOptions(width=64, height=360, shadow_map_size=256, "
+    assert r.startswith("RenderOptions(width=64, height=360, shadow_map_size=384, "
                         "technique=ShadowTechnique.PCSS, ")
     # Nested options print as theirs; float32 fields print their shortest form.
     assert "shadow=ShadowOptions(depth_bias=0.002, " in r and "sharpen_b=80.0" in r

@@ -142,6 +142,6 @@ def test_docstrings_show_the_struct_defaults():
     assert "Default 80." in penumbra.CSSMOptions.sharpen_b.__doc__
     assert "Default 3e-05." in penumbra.MSSMOptions.moment_bias.__doc__
     assert "Default 0.002." in penumbra.ShadowOptions.depth_bias.__doc__
-    assert "Default 256." in penumbra.RenderOptions.shadow_map_size.__doc__
+    assert "Default 384." in penumbra.RenderOptions.shadow_map_size.__doc__
     assert "Default 'mssm4'." in penumbra.RenderOptions.technique.__doc__
     assert "Default 256 MiB." in penumbra.BruteOptions.batch_bytes.__doc__

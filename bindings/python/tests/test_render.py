@@ -60,7 +60,7 @@ def test_image_is_a_view(scene, camera, lights, env, renderer):
 
 def test_options():
     o = penumbra.RenderOptions()
-    assert (o.width, o.height, o.shadow_map_size) == (640, 360, 256)
+    assert (o.width, o.height, o.shadow_map_size) == (640, 360, 384)
     assert o.technique == penumbra.ShadowTechnique.MSSM4 and o.prefilter == penumbra.Prefilter.SAT
     o.technique = "cssm"
     assert o.technique == penumbra.ShadowTechnique.CSSM
