@@ -115,3 +115,51 @@ TEST(FuzzFindings, PngChunkLargerThanTheFileIsRefusedFirst) {
   EXPECT_EQ(readImage(ok).width, 3);
   std::remove(ok.c_str());
 }
+
+// fuzz_envmap: a 619-byte EXR (one_pixel.exr's header with its data window widened) declaring
+// 3,276,801 x 1 float RGB pixels. OpenImageIO buffers at least 256 scanlines when it reads
+// (ImageInput::read_scanlines), whatever the height: new char[10,066,332,672], over the fuzzer's
+// 2 GB limit. readImage now refuses rows over 4 MiB before reading. The allocation is never
+// touched in a release build, so the message, not the memory, is what this test can see.
+TEST(FuzzFindings, ImageRowsTooWideForTheReaderAreRefused) {
+  std::ifstream in(std::string(PENUMBRA_TEST_DATA) +
+                       "/fuzz/crashes/envmap/exr_619b_3276801x1_needs_10GB",
+                   std::ios::binary);
+  const std::string input((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_EQ(input.size(), 619u);
+  const std::string path =
+      testing::TempDir() + "/penumbra_wide_" + std::to_string(::getpid()) + ".exr";
+  std::ofstream(path, std::ios::binary) << input.substr(1);  // byte 0 picked the extension
+  try {
+    readImage(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("image rows are too wide (3276801 pixels of 12 bytes"), std::string::npos)
+        << msg;
+  }
+  std::remove(path.c_str());
+  // The limit's edge: a float RGBA row of 262,144 pixels is exactly 4 MiB and loads; one pixel
+  // more is refused.
+  for (int w : {262144, 262145}) {
+    Image im(w, 1, 4);
+    for (float& v : im.pixels) v = 0.25f;
+    const std::string p = testing::TempDir() + "/penumbra_row_" + std::to_string(w) + "_" +
+                          std::to_string(::getpid()) + ".exr";
+    writeImage(p, im);
+    if (w == 262144) {
+      EXPECT_EQ(readImage(p).width, w);
+    } else {
+      try {
+        readImage(p);
+        ADD_FAILURE() << "accepted a row of " << w << " RGBA floats";
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("image rows are too wide"), std::string::npos)
+            << e.what();
+      }
+    }
+    std::remove(p.c_str());
+  }
+}

@@ -131,6 +131,16 @@ Image readImage(const std::string& path, bool linearize) {
   if (std::int64_t(spec.width) * spec.height > (std::int64_t(1) << 28))
     badInput(path + ": image is too large (" + std::to_string(spec.width) + "x" +
              std::to_string(spec.height) + ")");
+  // OpenImageIO reads a scanline file that needs any conversion through a buffer of at least
+  // 256 scanlines (its "read_chunk"), whatever the image's height: a very wide image costs 256
+  // of its rows at once. A 619-byte EXR declaring 3,276,801 x 1 float RGB pixels asked for 10 GB
+  // (found by fuzz_envmap). Rows are held to kMaxRowBytes (256 of them: 1 GiB).
+  constexpr std::int64_t kMaxRowBytes = std::int64_t(4) << 20;
+  const std::int64_t rowBytes = std::int64_t(spec.width) * std::int64_t(spec.pixel_bytes(true));
+  if (rowBytes > kMaxRowBytes)
+    badInput(path + ": image rows are too wide (" + std::to_string(spec.width) + " pixels of " +
+             std::to_string(spec.pixel_bytes(true)) + " bytes: " + std::to_string(rowBytes) +
+             " bytes per row, at most " + std::to_string(kMaxRowBytes) + ")");
   Image img(spec.width, spec.height, spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.pixels.data())) {
     std::string err = in->geterror();
