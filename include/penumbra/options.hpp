@@ -54,12 +54,12 @@ struct ShadowOptions {
   /// receiver than a texel plus the depth bias: a hoof on the ground, the strands of a tuft).
   /// Needs the renderer's triangles: the GL interop, which receives textures only, has none.
   /// Measured against the two-seed Embree truth, 320x180, built-in / courtyard + Wuson /
-  /// interior + spider / studio + Wuson, MSSM4 relative RMSE: off 3.41/4.99/3.66/8.32%, on
-  /// 3.16/4.29/3.63/6.17% (bench/results/accuracy.md). Default on
+  /// interior + spider / studio + Wuson, MSSM4 relative RMSE with 256² maps (the default then):
+  /// off 3.41/4.99/3.66/8.32%, on 3.16/4.29/3.63/6.17% (bench/results/accuracy.md). Default on
   bool contactShadows = true;
   float contactTexels = 8.0f;   ///< contact rays' length in texels of each light's map. Finite,
-                                ///< > 0; default 8 (2 texels: 3.17/4.36/3.63/6.16%; 16:
-                                ///< 3.16/4.26/3.63/6.17%)
+                                ///< > 0; default 8 (at 256² maps, 2 texels: 3.17/4.36/3.63/6.16%;
+                                ///< 16: 3.16/4.26/3.63/6.17%)
 };
 
 /// Moment soft shadow mapping with 4 moments (Kneiphof 2017 §3.2.1) and 6 (§4.2.1): what MSSM4 and
