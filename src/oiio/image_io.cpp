@@ -107,16 +107,20 @@ void checkPngDeclarations(const std::string& path, std::uintmax_t fileBytes) {
   }
 }
 
+// Both walks above, before OpenImageIO opens the file (its readers allocate while parsing).
+void checkDeclarations(const std::string& path) {
+  std::error_code ec;
+  const std::uintmax_t fileBytes = fs::file_size(path, ec);
+  if (ec) return;  // OpenImageIO's open reports the file's own problem
+  checkExrDeclarations(path, fileBytes);
+  checkPngDeclarations(path, fileBytes);
+}
+
 }  // namespace
 
 // The path was checked by libpenumbra (core/image.cpp) before it loaded this module.
 Image readImage(const std::string& path, bool linearize) {
-  std::error_code ec;
-  const std::uintmax_t fileBytes = fs::file_size(path, ec);
-  if (!ec) {
-    checkExrDeclarations(path, fileBytes);
-    checkPngDeclarations(path, fileBytes);
-  }
+  checkDeclarations(path);
   auto in = ImageInput::open(path);
   if (!in) {
     std::string err = OIIO::geterror();
@@ -163,6 +167,7 @@ Image readImage(const std::string& path, bool linearize) {
 }
 
 ImageAttributes readImageAttributes(const std::string& path) {
+  checkDeclarations(path);
   auto in = ImageInput::open(path);
   if (!in) badInput(path + ": cannot read image (" + OIIO::geterror() + ")");
   ImageAttributes out;
