@@ -84,7 +84,9 @@ TEST(FuzzFindings, LightSetRegionsMustBeIntegersInRange) {
 // attribute sizes against the file first. The fuzz input's first byte picks the extension; the
 // file itself is the rest.
 TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedFirst) {
-  const auto [path, size] = envmapReplay("exr_1kb_needs_1.9GB", ".exr");
+  const auto replay = envmapReplay("exr_1kb_needs_1.9GB", ".exr");
+  const std::string path = replay.first;  // a plain variable: C++17 lambdas cannot capture bindings
+  const std::size_t size = replay.second;
   ASSERT_GT(size, 100u);
   rusage before{}, after{};
   getrusage(RUSAGE_SELF, &before);
@@ -102,7 +104,9 @@ TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedFirst) {
 // 1,895,825,680 bytes; libpng allocated them before refusing: 2 GB resident and 3.6 s, over the
 // fuzzer's 2 GB limit. readImage now walks the chunk lengths against the file first.
 TEST(FuzzFindings, PngChunkLargerThanTheFileIsRefusedFirst) {
-  const auto [path, size] = envmapReplay("png_847b_text_chunk_declares_1.9GB", ".png");
+  const auto replay = envmapReplay("png_847b_text_chunk_declares_1.9GB", ".png");
+  const std::string path = replay.first;  // a plain variable: C++17 lambdas cannot capture bindings
+  const std::size_t size = replay.second;
   ASSERT_GT(size, 100u);
   rusage before{}, after{};
   getrusage(RUSAGE_SELF, &before);
@@ -130,7 +134,9 @@ TEST(FuzzFindings, PngChunkLargerThanTheFileIsRefusedFirst) {
 // 2 GB limit. readImage now refuses rows over 4 MiB before reading. The allocation is never
 // touched in a release build, so the message, not the memory, is what this test can see.
 TEST(FuzzFindings, ImageRowsTooWideForTheReaderAreRefused) {
-  const auto [path, size] = envmapReplay("exr_619b_3276801x1_needs_10GB", ".exr");
+  const auto replay = envmapReplay("exr_619b_3276801x1_needs_10GB", ".exr");
+  const std::string path = replay.first;  // a plain variable: C++17 lambdas cannot capture bindings
+  const std::size_t size = replay.second;
   ASSERT_EQ(size, 619u);
   expectRefused([&] { readImage(path); }, path,
                 {"image rows are too wide (3276801 pixels of 12 bytes"});
