@@ -263,6 +263,23 @@ TEST_F(CliBadInput, TruncatedEnvironment) {
 TEST_F(CliBadInput, NotAnImageEnvironment) {
   expectRenderFailure("--env", kData + "/envmaps/bad/not_an_image.exr");
 }
+// A PNG environment cut short (here inside its image data) gets the same one line; libpng's own
+// "libpng error" line used to come first.
+TEST_F(CliBadInput, TruncatedPngEnvironment) {
+  const fs::path src = fs::path(testing::TempDir()) /
+                       ("penumbra_cut_png_" + std::to_string(::getpid()));
+  fs::create_directories(src);
+  const std::string whole = (src / "whole.png").string(), cut = (src / "cut.png").string();
+  Image sky(64, 32, 3);
+  for (std::size_t i = 0; i < sky.pixels.size(); ++i) sky.pixels[i] = float(i % 97) / 97.0f;
+  writeImage(whole, sky);
+  const std::uintmax_t size = fs::file_size(whole);
+  fs::copy_file(whole, cut);
+  fs::resize_file(cut, size - 20);
+  expectRenderFailure("--env", cut);
+  expectFailure({"lights", "--env", cut, "--out", path("l.json")}, {cut, "truncated"});
+  fs::remove_all(src);
+}
 TEST_F(CliBadInput, MissingEnvironment) { expectRenderFailure("--env", path("missing.exr")); }
 TEST_F(CliBadInput, MeshWithInfinites) {
   expectRenderFailure("--scene", kData + "/meshes/bad/BoxWithInfinites.glb");

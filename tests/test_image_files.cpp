@@ -1,5 +1,6 @@
 // Image files: PNG written with libpng (core/png.hpp) against OpenImageIO's writer in the module
-// (core/image_codec.hpp), byte for byte; the module's loading; the PNG writer's failures.
+// (core/image_codec.hpp), byte for byte; the module's loading; the PNG writer's failures; damaged
+// and mislabelled files on reading.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -153,6 +154,92 @@ TEST_F(ImageFiles, PngWriteFailureIsReported) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("such.png: cannot open for writing"), std::string::npos)
         << e.what();
+  }
+}
+
+// A damaged PNG is refused before libpng sees it, with one message naming the file and nothing
+// of libpng's own on stderr (libpng prints "libpng error: ..." when OpenImageIO's reader hits a
+// truncation or a bad CRC). Cut at every kind of place (inside the signature, a chunk header, a
+// chunk's data, its CRC, before and inside IEND) and with one byte flipped in each chunk: a file
+// cut just before IEND, or with a flipped byte in IEND's CRC, loaded before the check.
+TEST_F(ImageFiles, DamagedPngIsRefusedWithOneMessage) {
+  const fs::path good = dir_ / "good.png";
+  writeImage(good.string(), pattern(37, 5, 3), 1.0f, {}, {{"penumbra:note", "damaged on purpose"}});
+  const std::string bytes = bytesOf(good);
+  // Chunk starts, from the layout: 8-byte signature, then length, type, data, CRC.
+  std::vector<std::size_t> starts;
+  for (std::size_t at = 8; at + 8 <= bytes.size();) {
+    starts.push_back(at);
+    const auto b = [&](std::size_t i) { return std::uint32_t(std::uint8_t(bytes[at + i])); };
+    at += 12 + (b(0) << 24 | b(1) << 16 | b(2) << 8 | b(3));
+  }
+  ASSERT_GE(starts.size(), 4u);  // IHDR, oFFs, tEXt, IDAT, IEND
+  ASSERT_EQ(bytes.substr(starts.back() + 4, 4), "IEND");
+  const std::size_t iend = starts.back();
+  const std::size_t idat = starts[starts.size() - 2];
+  ASSERT_EQ(bytes.substr(idat + 4, 4), "IDAT");
+
+  std::vector<std::pair<std::string, std::string>> damaged;  // name, bytes
+  for (std::size_t cut : {std::size_t(3), std::size_t(8), std::size_t(20), std::size_t(33),
+                          idat + 20, iend - 1, iend, iend + 6, bytes.size() - 1})
+    damaged.emplace_back("cut_at_" + std::to_string(cut) + ".png", bytes.substr(0, cut));
+  for (std::size_t start : starts) {
+    std::string flipped = bytes;
+    // A byte of the data where there is data, else of the CRC.
+    const std::size_t pos = start + (start == iend ? 8 : 9);
+    flipped[pos] = char(flipped[pos] ^ 0x5a);
+    damaged.emplace_back("flipped_at_" + std::to_string(pos) + ".png", flipped);
+  }
+  for (const auto& [name, content] : damaged) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << content;
+    for (int attributes = 0; attributes < 2; ++attributes) {
+      testing::internal::CaptureStderr();
+      std::string what;
+      try {
+        if (attributes)
+          readImageAttributes(path);
+        else
+          readImage(path);
+      } catch (const Error& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::BadInput) << name;
+        what = e.what();
+      }
+      const std::string err = testing::internal::GetCapturedStderr();
+      EXPECT_NE(what.find(path), std::string::npos) << name << " (attributes " << attributes
+                                                    << ") was accepted or unnamed: " << what;
+      // Under 8 bytes there is no signature: not a PNG at all, as OpenImageIO says.
+      const bool signature = content.size() >= 8;
+      EXPECT_TRUE(signature ? what.find("truncated") != std::string::npos ||
+                                  what.find("CRC") != std::string::npos
+                            : what.find("cannot read image") != std::string::npos)
+          << name << ": " << what;
+      EXPECT_EQ(err, "") << name << ": something besides the one message";
+    }
+  }
+  // The undamaged file still loads.
+  EXPECT_EQ(readImage(good.string()).width, 37);
+}
+
+// A file is read by what it holds, not by its name: a PNG named .exr and an EXR named .png load
+// with the pixels they hold.
+TEST_F(ImageFiles, MislabelledFilesLoadByContent) {
+  const Image im = pattern(9, 4, 3);
+  writeImage((dir_ / "a.png").string(), im);
+  writeImage((dir_ / "b.exr").string(), im);
+  fs::copy_file(dir_ / "a.png", dir_ / "a_is_png.exr");
+  fs::copy_file(dir_ / "b.exr", dir_ / "b_is_exr.png");
+  EXPECT_EQ(readImage((dir_ / "a_is_png.exr").string()).pixels,
+            readImage((dir_ / "a.png").string()).pixels);
+  const Image exr = readImage((dir_ / "b_is_exr.png").string());
+  const Image exrNamedRight = readImage((dir_ / "b.exr").string());
+  ASSERT_EQ(exr.pixels.size(), im.pixels.size());
+  ASSERT_EQ(exrNamedRight.pixels.size(), im.pixels.size());
+  // The EXR keeps the floats, which the PNG could not; pixel 0 is the NaN.
+  EXPECT_TRUE(std::isnan(exr.pixels[0]));
+  for (std::size_t i = 1; i < im.pixels.size(); ++i) {
+    ASSERT_EQ(exr.pixels[i], im.pixels[i]) << i;
+    ASSERT_EQ(exrNamedRight.pixels[i], im.pixels[i]) << i;
   }
 }
 

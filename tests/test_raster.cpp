@@ -366,13 +366,18 @@ TEST(Raster, RowSpansChangeNoPixel) {
         EXPECT_EQ(ids[2], ids[1]) << "RASTER_ROW_SIMD";
       } else {
         // elsewhere: depths within 1e-6 relative, and at most 0.1% of the pixels otherwise (an
-        // edge pixel hit or missed, its id then missing in the second pass)
+        // edge pixel hit or missed). The ids must agree where the depths are the same bits. Where
+        // they differ in the last bits the id may be missing: the id pass runs the per-pixel loop,
+        // whose t then does not equal the SIMD loop's stored depth. Only the camera's view gets
+        // ids in a frame, and it is a perspective view, which never takes the SIMD loop.
         std::size_t off = 0;
         for (std::size_t i = 0; i < n; ++i) {
           float a, b;
           std::memcpy(&a, &depth[2][i], 4);
           std::memcpy(&b, &depth[1][i], 4);
-          off += !(a == b || std::fabs(a - b) <= 1e-6f * std::fabs(b)) || ids[2][i] != ids[1][i];
+          const bool sameBits = depth[2][i] == depth[1][i];
+          const bool close = sameBits || std::fabs(a - b) <= 1e-6f * std::fabs(b);
+          off += !close || (sameBits && ids[2][i] != ids[1][i]);
         }
         EXPECT_LE(off, n / 1000) << "RASTER_ROW_SIMD";
       }

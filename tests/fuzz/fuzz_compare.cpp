@@ -17,10 +17,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                  std::uint32_t(data[3]) << 16 | std::uint32_t(data[4]) << 24;
   const std::size_t rest = size - 5;
   const std::size_t lengthA = declared % (rest + 1);
+  // PNG inputs get matching CRCs (fuzz_support.hpp), so that mutations reach libpng.
+  const std::string fileA = withPngCrcsFixed(data + 5, lengthA);
+  const std::string fileB = withPngCrcsFixed(data + 5 + lengthA, rest - lengthA);
+  const auto bytes = [](const std::string& f) {
+    return reinterpret_cast<const std::uint8_t*>(f.data());
+  };
   const std::string a = scratch().write(std::string("a") + pickExtension(data[0] & 15, kExt),
-                                        data + 5, lengthA);
+                                        bytes(fileA), fileA.size());
   const std::string b = scratch().write(std::string("b") + pickExtension(data[0] >> 4, kExt),
-                                        data + 5 + lengthA, rest - lengthA);
+                                        bytes(fileB), fileB.size());
   return refusalIsFine([&] {
     const penumbra::Image A = penumbra::readImage(a);
     const penumbra::Image B = penumbra::readImage(b);

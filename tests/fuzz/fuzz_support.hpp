@@ -12,6 +12,8 @@
 #include <fstream>
 #include <string>
 
+#include <zlib.h>
+
 #include "penumbra/error.hpp"
 
 namespace penumbra::fuzz {
@@ -60,6 +62,26 @@ inline const ScratchDir& scratch() {
 template <std::size_t N>
 const char* pickExtension(std::uint8_t selector, const char* const (&extensions)[N]) {
   return extensions[selector % N];
+}
+
+// The input with every whole chunk's CRC recomputed, when it is a PNG file (its 8-byte signature;
+// chunks of a big-endian length, a type, the data and a CRC-32 of type and data, PNG
+// specification §5.3). The loader refuses a chunk whose CRC fails before libpng reads the file,
+// so without this nearly every mutation of a PNG would stop at that check and libpng's parsers
+// behind it would go unfuzzed. Other inputs, and the bytes past a cut-off chunk, are unchanged.
+inline std::string withPngCrcsFixed(const std::uint8_t* data, std::size_t size) {
+  std::string out(reinterpret_cast<const char*>(data), size);
+  static const char kSignature[8] = {char(0x89), 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  if (size < 8 || out.compare(0, 8, kSignature, 8) != 0) return out;
+  for (std::size_t at = 8; at + 12 <= size;) {
+    const auto byte = [&](std::size_t i) { return std::uint32_t(data[at + i]); };
+    const std::size_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
+    if (length > size - at - 12) break;
+    const uLong crc = crc32(crc32(0L, Z_NULL, 0), data + at + 4, uInt(4 + length));
+    for (int k = 0; k < 4; ++k) out[at + 8 + length + std::size_t(k)] = char(crc >> (24 - 8 * k));
+    at += 12 + length;
+  }
+  return out;
 }
 
 // Runs one input through `body`; penumbra::Error is the loader refusing the file, which is what it
