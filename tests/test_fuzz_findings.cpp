@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
@@ -156,4 +157,42 @@ TEST(FuzzFindings, ImageRowsTooWideForTheReaderAreRefused) {
     }
     std::remove(p.c_str());
   }
+}
+
+// fuzz_envmap: a 51-byte PFM declaring 4141 x 41411 RGB floats (171 million pixels, under the
+// 2^28 limit) had its 2 GB allocated before the read found no data behind the header. readImage
+// now allocates the whole image only where the file could hold it (at most 4096:1 expansion);
+// otherwise the pixels grow strip by strip as they are read, so this file is refused after its
+// first 16 MiB strip.
+TEST(FuzzFindings, PixelsTheFileCannotHoldAreNotAllocated) {
+  const auto replay = envmapReplay("pfm_51b_declares_4141x41411_needs_2GB", ".pfm");
+  const std::string path = replay.first;  // a plain variable: C++17 lambdas cannot capture bindings
+  ASSERT_EQ(replay.second, 51u);
+  rusage before{}, after{};
+  getrusage(RUSAGE_SELF, &before);
+  expectRefused([&] { readImage(path); }, path, {"image data is corrupt or truncated", "of 41411"});
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB";
+  std::remove(path.c_str());
+  // A PFM whose data is all there still loads: 1.4 million pixels in a 16 MB file (no
+  // expansion: allocated at once), read in two strips. PFM (written by hand: OpenImageIO has no
+  // PFM writer) holds "PF", the size, a negative scale for little-endian, then the rows from the
+  // bottom up.
+  const int w = 1400, h = 1000;
+  std::vector<float> pixels(std::size_t(w) * h * 3);
+  for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = float(i % 1013) / 7.0f;
+  const std::string p = testing::TempDir() + "/penumbra_strips_" + std::to_string(::getpid()) +
+                        ".pfm";
+  {
+    std::ofstream out(p, std::ios::binary);
+    out << "PF\n" << w << " " << h << "\n-1.0\n";
+    for (int y = h - 1; y >= 0; --y)
+      out.write(reinterpret_cast<const char*>(pixels.data() + std::size_t(y) * w * 3),
+                std::streamsize(std::size_t(w) * 3 * sizeof(float)));
+  }
+  const Image back = readImage(p);
+  EXPECT_EQ(back.width, w);
+  EXPECT_EQ(back.height, h);
+  EXPECT_EQ(back.pixels, pixels);
+  std::remove(p.c_str());
 }

@@ -1,4 +1,4 @@
-// PNG writing through libpng (core/png.hpp). libpng reports errors by longjmp, so the part that
+// PNG writing, and the decoding check before a PNG is read, through libpng (core/png.hpp). libpng reports errors by longjmp, so the part that
 // calls it holds no C++ object whose destructor a jump would skip.
 #include "core/png.hpp"
 
@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <csetjmp>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <new>
 
@@ -100,7 +101,56 @@ struct PngInput {
   }
 };
 
+// Decodes every row of the PNG in `f` into one row buffer, keeping nothing. False with
+// failure->message set when libpng gives up; true as well, without decoding, when a row holds
+// more than maxRowBytes (the reader refuses such widths with its own message).
+bool decodeRows(std::FILE* f, std::size_t maxRowBytes, PngFailure* failure) {
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, failure, onError, onWarning);
+  if (!png) {
+    std::snprintf(failure->message, sizeof failure->message, "libpng could not start");
+    return false;
+  }
+  png_infop info = png_create_info_struct(png);
+  if (!info) {
+    png_destroy_read_struct(&png, nullptr, nullptr);
+    std::snprintf(failure->message, sizeof failure->message, "libpng could not start");
+    return false;
+  }
+  // Set after setjmp, so volatile: a jump must see the buffer to free it.
+  png_bytep volatile row = nullptr;
+  if (setjmp(png_jmpbuf(png))) {
+    std::free(row);
+    png_destroy_read_struct(&png, &info, nullptr);
+    return false;
+  }
+  png_init_io(png, f);
+  png_read_info(png, info);
+  const png_uint_32 height = png_get_image_height(png, info);
+  const int passes = png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  const std::size_t rowBytes = png_get_rowbytes(png, info);
+  if (rowBytes <= maxRowBytes) {
+    row = static_cast<png_bytep>(std::malloc(rowBytes > 0 ? rowBytes : 1));
+    if (!row) png_error(png, "out of memory");
+    for (int pass = 0; pass < passes; ++pass)
+      for (png_uint_32 y = 0; y < height; ++y) png_read_row(png, row, nullptr);
+    png_read_end(png, nullptr);
+  }
+  std::free(row);
+  png_destroy_read_struct(&png, &info, nullptr);
+  return true;
+}
+
 }  // namespace
+
+std::string pngDecodeProblem(const std::string& file, std::size_t maxRowBytes) {
+  std::FILE* f = std::fopen(file.c_str(), "rb");
+  if (!f) return std::string("cannot open (") + std::strerror(errno) + ")";
+  PngFailure failure{};
+  const bool ok = decodeRows(f, maxRowBytes, &failure);
+  std::fclose(f);
+  return ok ? std::string() : std::string(failure.message);
+}
 
 std::vector<unsigned char> encodePngBytes(int width, int height,
                                           const std::vector<unsigned char>& rgb,

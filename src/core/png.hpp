@@ -3,6 +3,7 @@
 // OpenImageIO's PNG writer put in it for the same image (IHDR, an oFFs of 0,0, the text
 // attributes as tEXt in name order, IDAT at zlib level 6), so switching writers changed no byte.
 #pragma once
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -20,5 +21,13 @@ void writePng(const std::string& file, const std::string& nameForMessages, int w
 std::vector<unsigned char> encodePngBytes(int width, int height,
                                           const std::vector<unsigned char>& rgb,
                                           const ImageText& text);
+
+// Decodes the PNG `file` with libpng, row by row into one reused row, and returns libpng's reason
+// when it cannot (corrupt deflate data, a bad filter byte, too little image data, ...), or an
+// empty string when every row decodes. Nothing is printed: the image module calls this before
+// OpenImageIO reads a PNG, because OpenImageIO leaves libpng's default error handler in place,
+// which prints "libpng error: ..." on stderr beside penumbra's own message. A file whose rows are
+// over maxRowBytes is not decoded (empty result): the reader refuses that width itself.
+std::string pngDecodeProblem(const std::string& file, std::size_t maxRowBytes);
 
 }  // namespace penumbra::detail

@@ -15,6 +15,7 @@
 #include <zlib.h>
 
 #include "core/image_codec.hpp"
+#include "core/png.hpp"
 #include "oiio/oiio.hpp"
 #include "penumbra/error.hpp"
 
@@ -28,6 +29,9 @@ using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
 namespace {
+
+// The most bytes a row of an image may hold as floats (readImage says why).
+constexpr std::int64_t kMaxRowBytes = std::int64_t(4) << 20;
 
 // What an OpenEXR header declares, checked against the file before OpenEXR reads it: OpenEXR
 // allocates each attribute's declared size while it parses the header, so a 1 KB file declaring
@@ -86,7 +90,10 @@ void checkExrDeclarations(const std::string& path, std::uintmax_t fileBytes) {
 // a chunk whose CRC does not match and a file that ends before IEND are refused here. libpng
 // would refuse them too, but it also prints its own "libpng error" line on stderr (OpenImageIO
 // leaves libpng's default error handler in place), so a truncated or bit-flipped PNG gave two
-// messages instead of one. Corrupt zlib data under a valid CRC still reaches libpng.
+// messages instead of one. Whole chunks with valid CRCs are then decoded once by libpng with
+// penumbra's own silent error handler (core/png.hpp, pngDecodeProblem), which names what a
+// corrupt deflate stream or filter byte under a valid CRC is (found by fuzz_compare once the
+// fuzz targets fixed up CRCs): a second decode of every PNG read, the price of one message.
 void checkPngDeclarations(const std::string& path, std::uintmax_t fileBytes) {
   std::ifstream in(path, std::ios::binary);
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
@@ -137,6 +144,10 @@ void checkPngDeclarations(const std::string& path, std::uintmax_t fileBytes) {
                " fails its CRC check (corrupt)";
     if (type == "IEND") {
       if (!badCrc.empty()) badInput(badCrc);
+      // The chunks are whole; their content is libpng's to judge, here without its stderr line.
+      const std::string problem = detail::pngDecodeProblem(path, kMaxRowBytes);
+      if (!problem.empty())
+        badInput(path + ": PNG image data is corrupt (" + problem + ")");
       return;
     }
     at += 12 + std::uintmax_t(length);
@@ -151,6 +162,52 @@ void checkDeclarations(const std::string& path) {
   if (ec) return;  // OpenImageIO's open reports the file's own problem
   checkExrDeclarations(path, fileBytes);
   checkPngDeclarations(path, fileBytes);
+}
+
+// The pixels of `in` into img.pixels, read in strips of rows and held only as they arrive where
+// the file is too small to hold them. A header can declare any size: a 51-byte PFM declaring
+// 4141 x 41411 RGB floats had its 2 GB allocated before the read found the file empty (found by
+// fuzz_envmap). Where the declared pixels (as floats) are at most kMaxExpansion times the file's
+// size, which covers every compression OpenImageIO reads from real files (deflate, at most about
+// 1032:1, is the strongest general one), the whole image is allocated at once as before; beyond
+// that it grows with each strip read, so a file whose data is missing is refused after its
+// first strip instead.
+void readPixels(const std::string& path, ImageInput& in, Image& img) {
+  const ImageSpec& spec = in.spec();
+  constexpr std::uintmax_t kMaxExpansion = 4096;
+  const std::size_t rowFloats = std::size_t(spec.width) * std::size_t(spec.nchannels);
+  const std::size_t total = rowFloats * std::size_t(spec.height);
+  std::error_code ec;
+  const std::uintmax_t fileBytes = fs::file_size(path, ec);
+  const bool plausible = !ec && std::uintmax_t(total) * sizeof(float) / kMaxExpansion <= fileBytes;
+  // Strips of whole tiles for a tiled file (read_tiles needs tile-aligned rows), else of rows;
+  // about 16 MiB of floats each.
+  const int tileRows = spec.tile_width > 0 ? std::max(spec.tile_height, 1) : 1;
+  const std::size_t stripBytes = std::size_t(16) << 20;
+  const int rowsPerStrip =
+      tileRows * int(std::max<std::size_t>(1, stripBytes / (rowFloats * sizeof(float) * tileRows)));
+  img.pixels.clear();
+  if (plausible) img.pixels.reserve(total);
+  for (int y = 0; y < spec.height; y += rowsPerStrip) {
+    const int y1 = std::min(spec.height, y + rowsPerStrip);
+    img.pixels.resize(std::size_t(y1) * rowFloats);
+    float* dst = img.pixels.data() + std::size_t(y) * rowFloats;
+    const bool ok =
+        spec.tile_width > 0
+            ? in.read_tiles(0, 0, spec.x, spec.x + spec.width, spec.y + y, spec.y + y1, spec.z,
+                            spec.z + std::max(spec.depth, 1), 0, spec.nchannels, TypeDesc::FLOAT,
+                            dst)
+            : in.read_scanlines(0, 0, spec.y + y, spec.y + y1, spec.z, 0, spec.nchannels,
+                                TypeDesc::FLOAT, dst);
+    if (!ok) {
+      std::string err = in.geterror();
+      std::replace(err.begin(), err.end(), '\n', ' ');
+      if (err.empty())
+        err = "rows " + std::to_string(y) + " to " + std::to_string(y1 - 1) + " of " +
+              std::to_string(spec.height) + " could not be read";
+      badInput(path + ": image data is corrupt or truncated (" + err + ")");
+    }
+  }
 }
 
 }  // namespace
@@ -176,18 +233,16 @@ Image readImage(const std::string& path, bool linearize) {
   // 256 scanlines (its "read_chunk"), whatever the image's height: a very wide image costs 256
   // of its rows at once. A 619-byte EXR declaring 3,276,801 x 1 float RGB pixels asked for 10 GB
   // (found by fuzz_envmap). Rows are held to kMaxRowBytes (256 of them: 1 GiB).
-  constexpr std::int64_t kMaxRowBytes = std::int64_t(4) << 20;
   const std::int64_t rowBytes = std::int64_t(spec.width) * std::int64_t(spec.pixel_bytes(true));
   if (rowBytes > kMaxRowBytes)
     badInput(path + ": image rows are too wide (" + std::to_string(spec.width) + " pixels of " +
              std::to_string(spec.pixel_bytes(true)) + " bytes: " + std::to_string(rowBytes) +
              " bytes per row, at most " + std::to_string(kMaxRowBytes) + ")");
-  Image img(spec.width, spec.height, spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.pixels.data())) {
-    std::string err = in->geterror();
-    std::replace(err.begin(), err.end(), '\n', ' ');
-    badInput(path + ": image data is corrupt or truncated (" + err + ")");
-  }
+  Image img;
+  img.width = spec.width;
+  img.height = spec.height;
+  img.channels = spec.nchannels;
+  readPixels(path, *in, img);
   const std::string space = spec.get_string_attribute("oiio:ColorSpace");
   const bool integer = !spec.format.is_floating_point();
   if (linearize && integer && (space.empty() || space == "sRGB")) {
