@@ -99,6 +99,13 @@ void checkPngDeclarations(const std::string& path, std::uintmax_t fileBytes) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
   unsigned char head[8] = {};
   in.read(reinterpret_cast<char*>(head), 8);
+  // A file that starts as a PNG but whose signature's last bytes differ (a text-mode transfer's
+  // line-ending conversion changes them) gets past OpenImageIO's check and makes libpng print
+  // its own line (found by fuzz_compare), so it is refused here.
+  if (in.gcount() >= 4 && std::equal(head, head + 4, kSignature) &&
+      (in.gcount() < 8 || !std::equal(head, head + 8, kSignature)))
+    badInput(path + ": PNG signature is cut short or damaged (its bytes 5 to 8 must be 0D 0A 1A "
+                    "0A; a text-mode transfer changes them)");
   if (in.gcount() < 8 || !std::equal(head, head + 8, kSignature)) return;  // not a PNG file
   auto be32 = [](const unsigned char* b) {
     return std::uint32_t(b[0]) << 24 | std::uint32_t(b[1]) << 16 | std::uint32_t(b[2]) << 8 |
