@@ -166,9 +166,9 @@ TEST_F(ImageFiles, PngWriteFailureIsReported) {
   }
 }
 
-// A damaged PNG is refused before libpng sees it, with one message naming the file and nothing
-// of libpng's own on stderr (libpng prints "libpng error: ..." when OpenImageIO's reader hits a
-// truncation or a bad CRC). Cut at every kind of place (inside the signature, a chunk header, a
+// A damaged PNG is refused before OpenImageIO reads it, with one message naming the file and
+// nothing of libpng's own on stderr (libpng prints "libpng error: ..." when OpenImageIO's reader
+// hits a truncation or a bad CRC; the loader's chunk walk and silent trial decode come first). Cut at every kind of place (inside the signature, a chunk header, a
 // chunk's data, its CRC, before and inside IEND) and with one byte flipped in each chunk: a file
 // cut just before IEND, or with a flipped byte in IEND's CRC, loaded before the check.
 TEST_F(ImageFiles, DamagedPngIsRefusedWithOneMessage) {

@@ -23,8 +23,8 @@ struct Image {
 };
 
 /// Reads any image OpenImageIO understands as float. Throws Error(BadInput) naming the file and the
-/// problem (missing, unreadable, truncated, zero-sized; a PNG's chunks are walked first, so a cut
-/// file or a failed CRC gets that message alone). The format is the file's content, not its
+/// problem (missing, unreadable, truncated, zero-sized; a PNG's chunks are walked and the file
+/// decoded once on trial first, so a cut file or a failed CRC gets that message alone). The format is the file's content, not its
 /// extension. With `linearize`, an integer image (PNG,
 /// JPEG, 8/16-bit TIFF: display-encoded, OpenImageIO says sRGB unless the file says otherwise) is
 /// decoded to linear values with the sRGB transfer function (IEC 61966-2-1); float images are

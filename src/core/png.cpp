@@ -1,5 +1,6 @@
-// PNG writing, and the decoding check before a PNG is read, through libpng (core/png.hpp). libpng reports errors by longjmp, so the part that
-// calls it holds no C++ object whose destructor a jump would skip.
+// PNG writing, and the decoding check before a PNG is read, through libpng (core/png.hpp). libpng
+// reports errors by longjmp, so the parts that call it hold no C++ object whose destructor a jump
+// would skip.
 #include "core/png.hpp"
 
 #include <png.h>
@@ -124,6 +125,9 @@ bool decodeRows(std::FILE* f, std::size_t maxRowBytes, PngFailure* failure) {
     return false;
   }
   png_init_io(png, f);
+  // A failed CRC is an error in any chunk (libpng's default only warns for ancillary chunks and
+  // drops them, which OpenImageIO's read would then print).
+  png_set_crc_action(png, PNG_CRC_ERROR_QUIT, PNG_CRC_ERROR_QUIT);
   png_read_info(png, info);
   const png_uint_32 height = png_get_image_height(png, info);
   const int passes = png_set_interlace_handling(png);

@@ -23,11 +23,12 @@ std::vector<unsigned char> encodePngBytes(int width, int height,
                                           const ImageText& text);
 
 // Decodes the PNG `file` with libpng, row by row into one reused row, and returns libpng's reason
-// when it cannot (corrupt deflate data, a bad filter byte, too little image data, ...), or an
-// empty string when every row decodes. Nothing is printed: the image module calls this before
-// OpenImageIO reads a PNG, because OpenImageIO leaves libpng's default error handler in place,
-// which prints "libpng error: ..." on stderr beside penumbra's own message. A file whose rows are
-// over maxRowBytes is not decoded (empty result): the reader refuses that width itself.
+// when it cannot (a failed CRC in any chunk, corrupt deflate data, a bad filter byte, too little
+// image data, ...), or an empty string when every row decodes. Nothing is printed: the image
+// module calls this before OpenImageIO reads a PNG, because OpenImageIO leaves libpng's default
+// error handler in place, which prints "libpng error: ..." on stderr beside penumbra's own
+// message. A file whose rows are over maxRowBytes is not decoded (empty result): the reader
+// refuses that width itself.
 std::string pngDecodeProblem(const std::string& file, std::size_t maxRowBytes);
 
 }  // namespace penumbra::detail

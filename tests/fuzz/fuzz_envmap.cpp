@@ -12,7 +12,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size < 1) return 0;
   static const char* const kExt[] = {".exr", ".hdr", ".pfm", ".png"};
   // The selector's top bit left clear (as in the seed corpus): a PNG's CRCs are made to match,
-  // so that mutations reach libpng; set: the file as it is, for the loader's own CRC check.
+  // so that mutations reach libpng's parsers; set: the file as it is, for the CRC check in the
+  // loader's trial decode.
   const std::string file = (data[0] & 0x80) ? std::string(reinterpret_cast<const char*>(data + 1),
                                                           size - 1)
                                             : withPngCrcsFixed(data + 1, size - 1);
