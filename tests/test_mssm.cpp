@@ -250,7 +250,7 @@ float batchedTolerance() {
 }  // namespace
 
 // mssm4_visibility_batch (CPU devices: 64 pixels per work-item, SIMD across those that need the
-// light) gives the bits of mssm4_visibility (one pixel per work-item): every pixel count around
+// light, the box filters in scalar loops with branch-free lattice reads) gives the bits of mssm4_visibility (one pixel per work-item): every pixel count around
 // the group of 64 (1, one short, exact, one over, many groups with a ragged end), odd and tiny
 // map sizes, a light count that is not a power of two.
 TEST(MSSM4, BatchedVisibilityKernelIsBitIdentical) {

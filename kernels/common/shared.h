@@ -17,6 +17,9 @@
 #else
 #define PB_SIMD_LOOP(width) PB_PRAGMA(clang loop vectorize(assume_safety) vectorize_width(width))
 #endif
+/* The opposite, for a loop whose body reads whole vectors (a long4 per lattice value) that a
+ * vectorized loop would turn into one gather per component. */
+#define PB_SCALAR_LOOP PB_PRAGMA(clang loop vectorize(disable))
 #else
 #include <math.h>
 #define PB_INLINE static inline

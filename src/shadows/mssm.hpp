@@ -17,8 +17,9 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = Shad
 
 // MSSM4's visibility kernel on SAT-prefiltered moments: kernels/shadows/moments.cl's
 // mssm4_visibility (one pixel per work-item, for GPUs) or mssm4_visibility_batch (kMssm4Group
-// pixels per work-item, SIMD across the pixels that need the light; CPU devices, where the first
-// runs one work-item at a time). The two give the same bits.
+// pixels per work-item, SIMD across the pixels that need the light with the box filters' SAT reads
+// in scalar loops; CPU devices, where the first runs one work-item at a time). The two give the
+// same bits.
 constexpr int kMssm4Group = 64;
 bool mssm4PrefersBatched(Context& ctx);
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
