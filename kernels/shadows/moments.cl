@@ -398,7 +398,7 @@ static float mssm_receiver(const mssm_pixel* q, const mssm_params* P, float h) {
 }
 
 // One group's mean over the box of half-width h texels around the pixel.
-static float4 mssm_box(global const long4* map, int size, const mssm_pixel* q, float h) {
+M4S float4 mssm_box(global const long4* map, int size, const mssm_pixel* q, float h) {
   return FILTER_BOX(map, size, fmax(q->u - h * q->texel / q->texel_x, 0.0f),
                     fmax(q->v - h * q->texel / q->texel_y, 0.0f),
                     fmin(q->u + h * q->texel / q->texel_x, (float)size),
@@ -463,84 +463,12 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
 //   5. the visibility reconstruction (SIMD).
 // The box loops are kept scalar on purpose. Vectorized, each of a box's 16 lattice values costs
 // four 64-bit gathers (one per moment); here it costs one 32-byte load (measured on 640x360
-// frames: the visibility stage 189 ms with the gathers, 139 ms without). The set-up, size and
-// box helpers repeat their counterparts above operation for operation (the reconstruction is
-// shared: hamburger4_s), so both kernels give the same bits on PoCL (tests/test_mssm.cpp).
+// frames: the visibility stage 189 ms with the gathers, 139 ms without). The boxes are
+// mssm_box's, the reconstruction hamburger4_s, and the set-up repeats mssm_pixel_setup operation
+// for operation, so both kernels give the same bits on PoCL (tests/test_mssm.cpp).
 #ifndef VIS_BATCH
 #define VIS_BATCH 16
 #endif
-// box_runs without arrays, so that the helper below keeps its values in registers.
-typedef struct {
-  int i0, i1, i2, i3;  // lattice coordinates bounding the three runs
-  float w0, w1, w2;    // their coverage weights
-} runs_s;
-
-M4S runs_s box_runs_s(float x0, float x1, int size) {
-  int i0 = min((int)x0, size - 1), i1 = min((int)x1, size - 1);  // x0, x1 >= 0: as box_runs
-  float f0 = x0 - i0, f1 = x1 - i1;
-  bool one = i0 == i1;
-  runs_s r;
-  r.i0 = i0;
-  r.i1 = i0 + 1;
-  r.i2 = one ? i0 + 1 : i1;
-  r.i3 = one ? i0 + 1 : i1 + 1;
-  r.w0 = one ? f1 - f0 : 1.0f - f0;
-  r.w1 = one ? 0.0f : 1.0f;
-  r.w2 = one ? 0.0f : f1;
-  return r;
-}
-
-// filter.clh's box_mean without a branch: the lattice value P(i, j) is zero where i or j is 0
-// (only the first column and row can be), applied as a mask, and every index is clamped into the
-// table, so that a padded or degenerate lane still reads in bounds. A weight of zero adds
-// w * s = +-0 to the sum where box_mean skips the rectangle: the same bits.
-M4S float4 box_mean_masked(global const long4* sat, int size, float x0, float y0, float x1,
-                           float y1) {
-  runs_s X = box_runs_s(x0, x1, size), Y = box_runs_s(y0, y1, size);
-  const int c0 = clamp(X.i0 - 1, 0, size - 1), c1 = clamp(X.i1 - 1, 0, size - 1),
-            c2 = clamp(X.i2 - 1, 0, size - 1), c3 = clamp(X.i3 - 1, 0, size - 1);
-  const long4 first_column = (long4)(-(long)(X.i0 > 0)), first_row = (long4)(-(long)(Y.i0 > 0));
-  const long4 all = (long4)(-1);
-#define PB_ROW(j, Yj, M)                                                                        \
-  global const long4* row##j = sat + (size_t)clamp((Yj) - 1, 0, size - 1) * size;              \
-  long4 p##j##0 = row##j[c0] & first_column & (M), p##j##1 = row##j[c1] & (M),                 \
-        p##j##2 = row##j[c2] & (M), p##j##3 = row##j[c3] & (M);
-  PB_ROW(0, Y.i0, first_row)
-  PB_ROW(1, Y.i1, all)
-  PB_ROW(2, Y.i2, all)
-  PB_ROW(3, Y.i3, all)
-#undef PB_ROW
-  float4 acc = (float4)(0.0f);
-  // sub-rectangle (a, b) = P[b+1][a+1] - P[b+1][a] - P[b][a+1] + P[b][a], b outer, a inner, as
-  // box_mean sums them
-#define PB_RECT(a, b, a1, b1, wa, wb)                     \
-  {                                                      \
-    float w = (wa) * (wb);                               \
-    long4 s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a; \
-    acc += w * convert_float4(s);                        \
-  }
-  PB_RECT(0, 0, 1, 1, X.w0, Y.w0)
-  PB_RECT(1, 0, 2, 1, X.w1, Y.w0)
-  PB_RECT(2, 0, 3, 1, X.w2, Y.w0)
-  PB_RECT(0, 1, 1, 2, X.w0, Y.w1)
-  PB_RECT(1, 1, 2, 2, X.w1, Y.w1)
-  PB_RECT(2, 1, 3, 2, X.w2, Y.w1)
-  PB_RECT(0, 2, 1, 3, X.w0, Y.w2)
-  PB_RECT(1, 2, 2, 3, X.w1, Y.w2)
-  PB_RECT(2, 2, 3, 3, X.w2, Y.w2)
-#undef PB_RECT
-  float area = (x1 - x0) * (y1 - y0);
-  return acc / (area * (float)PB_MOMENT_SCALE);
-}
-
-// mssm_box with box_mean_masked.
-M4S float4 mssm_box_masked(global const long4* sat, int size, const mssm_pixel* q, float h) {
-  return box_mean_masked(sat, size, fmax(q->u - h * q->texel / q->texel_x, 0.0f),
-                         fmax(q->v - h * q->texel / q->texel_y, 0.0f),
-                         fmin(q->u + h * q->texel / q->texel_x, (float)size),
-                         fmin(q->v + h * q->texel / q->texel_y, (float)size));
-}
-
 // Whether pixel px needs light L (mssm_pixel_setup's early outs, negated).
 M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
                      global const pb_light* L) {
@@ -617,7 +545,7 @@ PB_SCALAR_LOOP
       mssm_pixel q = light;
       q.u = u[k];
       q.v = v[k];
-      float4 m = mssm_box_masked(sat, size, &q, h[k]);
+      float4 m = mssm_box(sat, size, &q, h[k]);
       m0[k] = m.x;
       m1[k] = m.y;
       m2[k] = m.z;
@@ -653,7 +581,7 @@ PB_SCALAR_LOOP
       mssm_pixel q = light;
       q.u = u[k];
       q.v = v[k];
-      float4 m = mssm_box_masked(sat, size, &q, h[k]);
+      float4 m = mssm_box(sat, size, &q, h[k]);
       m0[k] = m.x;
       m1[k] = m.y;
       m2[k] = m.z;
