@@ -250,9 +250,9 @@ float batchedTolerance() {
 }  // namespace
 
 // mssm4_visibility_batch (CPU devices: 64 pixels per work-item, SIMD across those that need the
-// light, the box filters in scalar loops with branch-free lattice reads) gives the bits of mssm4_visibility (one pixel per work-item): every pixel count around
-// the group of 64 (1, one short, exact, one over, many groups with a ragged end), odd and tiny
-// map sizes, a light count that is not a power of two.
+// light, the box filters in scalar loops) gives the bits of mssm4_visibility (one pixel per
+// work-item): every pixel count around the group of 64 (1, one short, exact, one over, many
+// groups with a ragged end), odd and tiny map sizes, a light count that is not a power of two.
 TEST(MSSM4, BatchedVisibilityKernelIsBitIdentical) {
   for (int pixels : {1, 63, 64, 65, 1000, 4097})
     for (int S : {1, 7, 37, 64})

@@ -256,8 +256,8 @@ TEST(Prefilter, MipBuildRejectsEmptyInput) {
 
 // On a level-aligned box (x0, y0 multiples of 2^k, side 2^k) the pyramid's answer is one texel's
 // exact mean, rounded once: it must equal the correctly rounded exact mean bit for bit. The SAT
-// sums up to four sub-rectangles (box_runs: first/middle runs with weight 1), each rounded to
-// float, then divides by the area (OpenCL division: 2.5 ulp): within 8 ulp of the exact mean for
+// sums up to four sub-rectangles (box_runs: first/middle runs with weight 1; the other five of
+// its nine have weight 0 and add exactly +0), each rounded to float, then divides by the area (OpenCL division: 2.5 ulp): within 8 ulp of the exact mean for
 // the non-negative data used here (moments are non-negative), so within 8 ulp of the pyramid.
 TEST(Prefilter, MipEqualsSatOnLevelAlignedBoxes) {
   for (int S : {64, 48, 37}) {  // 48 = 3 x 16: aligned boxes beside a ragged level 5; 37: odd

@@ -462,8 +462,9 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
 //   4. the filter box's mean moments (scalar loop);
 //   5. the visibility reconstruction (SIMD).
 // The box loops are kept scalar on purpose. Vectorized, each of a box's 16 lattice values costs
-// four 64-bit gathers (one per moment); here it costs one 32-byte load (measured on 640x360
-// frames: the visibility stage 189 ms with the gathers, 139 ms without). The boxes are
+// four 64-bit gathers (one per moment); here it costs one 32-byte load (in one alternated
+// measurement on 640x360 frames, the visibility stage took 189 ms with the gathers and 139 ms
+// without; bench/results/cpu_speed.md). The boxes are
 // mssm_box's, the reconstruction hamburger4_s, and the set-up repeats mssm_pixel_setup operation
 // for operation, so both kernels give the same bits on PoCL (tests/test_mssm.cpp).
 #ifndef VIS_BATCH
@@ -571,10 +572,11 @@ PB_SIMD_LOOP(VIS_BATCH)
       h[k] = hf;
       zr[k] = mssm_receiver(&q, &P, hf);
     }
-    // 4. the filter box's moments. Where the filter has the search box's width (both clamped to
-    //    the widest filter: blockers far above the receiver), it is the same box and its moments
-    //    are already in m0..m3: measured on 640x360 frames, this skip takes the visibility stage
-    //    from about 139 to 121 ms, the same bits.
+    // 4. the filter box's moments. Where the filter has the search box's width (mostly both
+    //    clamped to the widest filter: blockers far above the receiver; or both at the narrowest),
+    //    it is the same box, and its moments are already in m0..m3: the same bits, and on 640x360
+    //    frames the visibility stage went from about 139 to 121 ms (one alternated measurement;
+    //    bench/results/cpu_speed.md has the idle-machine figures for the whole change).
 PB_SCALAR_LOOP
     for (int k = 0; k < VIS_BATCH; ++k) {
       if (h[k] == search_h[k]) continue;
