@@ -479,6 +479,27 @@ M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
                   L->dir[2]) <= -sin_a);
 }
 
+// Steps 2 and 4 below: the mean moments of each batch pixel's box (texel coordinates u, v,
+// half-width h, the light's texel sizes in `light`) into m0..m3, in a scalar loop, so that each
+// lattice value is one long4 load. A pixel whose h equals keep[k] keeps the moments m0..m3
+// already hold for it (keep null: every box is read).
+M4S void batch_box_moments(global const long4* sat, int size, const mssm_pixel* light,
+                           const float* u, const float* v, const float* h, const float* keep,
+                           float* m0, float* m1, float* m2, float* m3) {
+PB_SCALAR_LOOP
+  for (int k = 0; k < VIS_BATCH; ++k) {
+    if (keep && h[k] == keep[k]) continue;
+    mssm_pixel q = *light;
+    q.u = u[k];
+    q.v = v[k];
+    float4 m = mssm_box(sat, size, &q, h[k]);
+    m0[k] = m.x;
+    m1[k] = m.y;
+    m2[k] = m.z;
+    m3[k] = m.w;
+  }
+}
+
 // Global size (ceil(npixels / VIS_GROUP), lights): each work-item takes VIS_GROUP consecutive
 // pixels of one light, writes 1 where the light is not needed, lists the others, and runs the
 // list VIS_BATCH pixels at a time (only the last batch has idle lanes, which repeat the last
@@ -541,17 +562,7 @@ PB_SIMD_LOOP(VIS_BATCH)
       zr[k] = mssm_receiver(&q, &P, hs);
     }
     // 2. the search box's moments
-PB_SCALAR_LOOP
-    for (int k = 0; k < VIS_BATCH; ++k) {
-      mssm_pixel q = light;
-      q.u = u[k];
-      q.v = v[k];
-      float4 m = mssm_box(sat, size, &q, h[k]);
-      m0[k] = m.x;
-      m1[k] = m.y;
-      m2[k] = m.z;
-      m3[k] = m.w;
-    }
+    batch_box_moments(sat, size, &light, u, v, h, 0, m0, m1, m2, m3);
     // 3. blockers, and the filter's box
 PB_SIMD_LOOP(VIS_BATCH)
     for (int k = 0; k < VIS_BATCH; ++k) {
@@ -577,18 +588,7 @@ PB_SIMD_LOOP(VIS_BATCH)
     //    it is the same box, and its moments are already in m0..m3: the same bits, and on 640x360
     //    frames the visibility stage went from about 139 to 121 ms (one alternated measurement;
     //    bench/results/cpu_speed.md has the idle-machine figures for the whole change).
-PB_SCALAR_LOOP
-    for (int k = 0; k < VIS_BATCH; ++k) {
-      if (h[k] == search_h[k]) continue;
-      mssm_pixel q = light;
-      q.u = u[k];
-      q.v = v[k];
-      float4 m = mssm_box(sat, size, &q, h[k]);
-      m0[k] = m.x;
-      m1[k] = m.y;
-      m2[k] = m.z;
-      m3[k] = m.w;
-    }
+    batch_box_moments(sat, size, &light, u, v, h, search_h, m0, m1, m2, m3);
     // 5. filtered visibility
 PB_SIMD_LOOP(VIS_BATCH)
     for (int k = 0; k < VIS_BATCH; ++k) {

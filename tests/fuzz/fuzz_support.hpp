@@ -66,9 +66,10 @@ const char* pickExtension(std::uint8_t selector, const char* const (&extensions)
 
 // The input with every whole chunk's CRC recomputed, when it is a PNG file (its 8-byte signature;
 // chunks of a big-endian length, a type, the data and a CRC-32 of type and data, PNG
-// specification §5.3). libpng checks each chunk's CRC before it parses the chunk (the loader's
-// trial decode makes a failed CRC an error), so without this nearly every mutation of a PNG
-// would stop at that check and libpng's parsers behind it would go unfuzzed. Other inputs, and the bytes past a cut-off chunk, are unchanged.
+// specification §5.3). libpng checks every chunk's CRC, and the loader's trial decode makes a
+// failed one an error, so without this nearly every mutation of a PNG would be refused for its
+// CRC and libpng's parsers would see little of it. Other inputs, and the bytes past a cut-off
+// chunk, are unchanged.
 inline std::string withPngCrcsFixed(const std::uint8_t* data, std::size_t size) {
   std::string out(reinterpret_cast<const char*>(data), size);
   static const char kSignature[8] = {char(0x89), 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
