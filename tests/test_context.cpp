@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -120,6 +121,44 @@ TEST(Context, NamedLaunchesBecomeStageTimes) {
   }
   auto out = ctx.download<float>(b, data.size(), "data");
   EXPECT_FLOAT_EQ(out.back(), 64.0f * 8.0f);
+}
+
+// On a CPU device a buffer of 2 MiB or more lives in memory the context maps itself, aligned to
+// a huge page (src/core/context.cpp, hostPages: the first frame's page faults), and kernels and
+// transfers see it as any buffer; smaller buffers, and every buffer under
+// PENUMBRA_HOST_PAGES=off, are the driver's. The mapping goes when the buffer does: the ledger
+// counts it out, and a second round of the same size works (no mapping leaks into the next).
+TEST(Context, LargeCpuBuffersLiveInHugePageAlignedMemory) {
+  for (const char* mode : {"on", "off"}) {
+    ScopedEnv env("PENUMBRA_HOST_PAGES", std::string(mode));
+    Context ctx;
+    const bool cpu = (ctx.device().getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+    const bool own = cpu && std::string(mode) == "on";
+    const std::size_t big = (std::size_t(4) << 20) + 12, small = (std::size_t(2) << 20) - 4;
+    for (int round = 0; round < 2; ++round) {
+      const std::uint64_t before = ctx.deviceBytesInUse();
+      {
+        cl::Buffer b = ctx.buffer(big, "test big");
+        cl::Buffer s = ctx.buffer(small, "test small");
+        void* hb = b.getInfo<CL_MEM_HOST_PTR>();
+        EXPECT_EQ(hb != nullptr, own) << mode;
+        if (hb) {
+          EXPECT_EQ(reinterpret_cast<std::uintptr_t>(hb) % (std::uintptr_t(2) << 20), 0u);
+        }
+        EXPECT_EQ(s.getInfo<CL_MEM_HOST_PTR>(), nullptr) << mode;
+        EXPECT_EQ(ctx.deviceBytesInUse(), before + big + small);
+        // a kernel writes the whole buffer (the SAT of ones, 1024 x 1025 floats), a read sees it
+        const int w = 1024, h = int(big / 4 / w);
+        std::vector<float> ones(std::size_t(w) * h, 1.0f);
+        ctx.write(b, ones.data(), ones.size() * 4, "test big");
+        summedAreaTable(ctx, b, ScanType::Float, w, h, 1, "test/sat");
+        const std::vector<float> out = ctx.download<float>(b, ones.size(), "test big");
+        EXPECT_EQ(out[std::size_t(w) * 3 + 5], 4.0f * 6.0f);
+        EXPECT_EQ(out[std::size_t(w) * (h - 1) + 9], float(h) * 10.0f);
+      }
+      EXPECT_EQ(ctx.deviceBytesInUse(), before) << mode << " round " << round;
+    }
+  }
 }
 
 // Context::scratch: one buffer per role, handed out again once its lease is released while it is
