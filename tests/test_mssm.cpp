@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "core/device_kind.hpp"
 #include "penumbra/scan.hpp"
 #include "shadows/mssm.hpp"
 #include "support/planar_penumbra.hpp"
@@ -264,6 +265,94 @@ TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
   const float tolerance = batchedTolerance();
   expectSameVisibility(65, 2, 9, 7, tolerance);
   expectSameVisibility(1, 1, 1, 8, tolerance);
+}
+
+namespace {
+
+// MSSM4's moments of `nl` S x S depth maps (light l's range 1 + l, so that depth bits / range is
+// not always exact) by depth_to_moments (GPUs) or its CPU form depth_to_moments_rows, each
+// checked against a C++ reference: z = bits / range clamped to [0, 1] (1 for an empty texel),
+// its powers as float products, each times 2^32 rounded to nearest, ties to even. The depths
+// include empty texels, 0, depths past the range, and tiny ones whose scaled moment sits on a
+// half (2.5, 1.5, 0.5 times 2^-32 at range 1: ties, where rounding half away from zero or
+// truncating would differ).
+void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.25f);
+  const float ties[] = {2.5f, 1.5f, 0.5f, 3.5f};
+  std::vector<std::uint32_t> depth(std::size_t(S) * S * nl);
+  for (std::size_t i = 0; i < depth.size(); ++i) {
+    const float range = 1.0f + float(i / (std::size_t(S) * S));
+    float d = u(rng) * range;
+    switch (i % 11) {
+      case 0: d = std::ldexp(ties[(i / 11) % 4], -32) * range; break;
+      case 1: d = 0.0f; break;
+      case 2: d = 2.0f * range; break;
+      default: break;
+    }
+    std::memcpy(&depth[i], &d, 4);
+    if (i % 13 == 5) depth[i] = PB_DEPTH_EMPTY;
+  }
+  std::vector<pb_light> lights(nl);
+  for (int l = 0; l < nl; ++l) {
+    lights[l] = pb_light{};
+    lights[l].origin[3] = 1.0f + float(l);
+  }
+  cl::Buffer dB = ctx().upload(depth, "test depth"), lB = ctx().upload(lights, "test lights");
+  const std::size_t stride = std::size_t(S) * S + 3;  // the prefilter's room after each map
+  cl::Buffer out = ctx().buffer(stride * nl * 32, "test moments");
+  const cl_long poison = -7;
+  ctx().fill(out, &poison, 8, stride * nl * 32, "test moments");
+  if (rows) {
+    cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments_rows", detail::simdLoopOption(ctx()));
+    ctx().launchWith("test/moments", k, cl::NDRange(S, nl), cl::NullRange, dB, lB, cl_int(S),
+                     cl_ulong(stride), out);
+  } else {
+    cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments");
+    ctx().launchWith("test/moments", k, cl::NDRange(S, S, nl), cl::NullRange, dB, lB, cl_int(S),
+                     cl_ulong(stride), out);
+  }
+  const std::vector<cl_long> got = ctx().download<cl_long>(out, stride * nl * 4, "test moments");
+  int wrong = 0, ties_seen = 0;
+  for (int l = 0; l < nl; ++l)
+    for (int t = 0; t < S * S; ++t) {
+      const std::uint32_t bits = depth[std::size_t(l) * S * S + t];
+      float z = 1.0f;
+      if (bits != PB_DEPTH_EMPTY) {
+        float d;
+        std::memcpy(&d, &bits, 4);
+        z = std::min(std::max(d / lights[l].origin[3], 0.0f), 1.0f);
+      }
+      const float z2 = z * z, scale = float(PB_MOMENT_SCALE);
+      const float m[4] = {z * scale, z2 * scale, (z2 * z) * scale, (z2 * z2) * scale};
+      ties_seen += m[0] != std::floor(m[0]) && m[0] - std::floor(m[0]) == 0.5f;
+      for (int c = 0; c < 4; ++c) {
+        const cl_long want = std::llrint(m[c]), have = got[(std::size_t(l) * stride + t) * 4 + c];
+        if (have != want && wrong++ < 5)
+          ADD_FAILURE() << (rows ? "rows" : "per texel") << " map " << S << " light " << l
+                        << " texel " << t << " moment " << c << ": " << have << " want " << want;
+      }
+    }
+  EXPECT_EQ(wrong, 0);
+  // the texels past each map (the prefilter's room) are not written
+  for (int l = 0; l < nl; ++l)
+    for (std::size_t e = std::size_t(S) * S * 4; e < stride * 4; ++e)
+      EXPECT_EQ(got[l * stride * 4 + e], poison);
+  if (S * S * nl >= 11 * 4) EXPECT_GT(ties_seen, 0);
+}
+
+}  // namespace
+
+// depth_to_moments and its CPU form give the reference's moments, bit for bit, on maps of 1, 7,
+// 37 and 65 texels (one texel, odd, a row longer than a SIMD loop's 16 and than a work-group's 64)
+// and a light count that is not a power of two.
+TEST(MSSM4, MomentKernelsMatchTheReference) {
+  for (int S : {1, 7, 37, 65})
+    for (bool rows : {false, true}) expectMomentsMatchReference(S, 3, rows, unsigned(S * 7 + rows));
+}
+
+TEST(OclgrindMSSM4, MomentKernels) {
+  for (bool rows : {false, true}) expectMomentsMatchReference(9, 2, rows, 5);
 }
 
 // Every kernel of a frame on tiny inputs: env resampling (gather and splat), SATs, median cut,

@@ -29,6 +29,30 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
   moments[l * stride + (size_t)y * size + x] = convert_long4_rte((float4)(z, z2, z2 * z, z2 * z2) * (float)PB_MOMENT_SCALE);
 }
 
+// The CPU form of depth_to_moments (src/shadows/mssm4.cpp picks it where the CPU forms run,
+// src/core/device_kind.hpp): the float4 and long4 values above make PoCL run depth_to_moments one
+// texel at a time; here a work-item takes one row of one map in a SIMD loop over scalars. The same
+// products, and rint() then a truncating conversion (exact: rint's result is an integer, under
+// 2^33) round as convert_long4_rte does: the same moments, bit for bit (tests/test_mssm.cpp).
+// Global size (size, lights).
+kernel void depth_to_moments_rows(global const uint* depth, global const pb_light* lights,
+                                  int size, ulong stride, global long* moments) {
+  const int y = get_global_id(0), l = get_global_id(1);
+  if (y >= size) return;
+  const float range = lights[l].origin[3], scale = (float)PB_MOMENT_SCALE;
+  global const uint* in = depth + ((size_t)l * size + y) * size;
+  global long* out = moments + 4 * (l * stride + (size_t)y * size);
+PB_SIMD_LOOP(16)
+  for (int x = 0; x < size; ++x) {
+    const float z = map_depth(in[x], range);
+    const float z2 = z * z;
+    out[4 * x] = (long)rint(z * scale);
+    out[4 * x + 1] = (long)rint(z2 * scale);
+    out[4 * x + 2] = (long)rint((z2 * z) * scale);
+    out[4 * x + 3] = (long)rint((z2 * z2) * scale);
+  }
+}
+
 // Scalar helpers: written without vector types, so that the batched CPU kernel below
 // (mssm4_visibility_batch) vectorizes, and used by the per-pixel kernels too. mix_s and dot3_s
 // round as PoCL's library mix() and dot() do (products rounded before the sums: no fused

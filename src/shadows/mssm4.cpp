@@ -1,5 +1,6 @@
 // MSSM4: moment soft shadow mapping with four moments (Kneiphof 2017 §3.2.1),
 // kernels/shadows/moments.cl.
+#include "core/device_kind.hpp"
 #include "shadows/mssm.hpp"
 
 namespace penumbra::detail {
@@ -13,6 +14,12 @@ class MSSM4Pass : public MomentPass {
   void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,
                const std::string& stage) const override {
     const int S = f.mapSize;
+    if (useCpuBatching(f.ctx)) {
+      cl::Kernel k = f.ctx.kernel("moments.cl", "depth_to_moments_rows", simdLoopOption(f.ctx));
+      f.ctx.launchWith(stage, k, cl::NDRange(S, int(f.lights.size())), cl::NullRange, f.depth,
+                       f.lightBuffer, cl_int(S), cl_ulong(stride), maps);
+      return;
+    }
     cl::Kernel k = f.ctx.kernel("moments.cl", "depth_to_moments");
     f.ctx.launchWith(stage, k, cl::NDRange(S, S, int(f.lights.size())), cl::NullRange, f.depth,
                      f.lightBuffer, cl_int(S), cl_ulong(stride), maps);
