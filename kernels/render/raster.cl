@@ -183,9 +183,10 @@ RS void rcross3(float ax, float ay, float az, float bx, float by, float bz, floa
 }
 
 // Pixels xs..xe of row y of orthographic view v: depth[row + x] = min(t) over the triangle
-// (a, b, c), as the per-pixel loop of raster_triangles writes it.
-static void raster_row_ortho(const pb_view* v, float3 a, float3 b, float3 c, int y, int xs, int xe,
-                             volatile global uint* row) {
+// (a, b, c), as the per-pixel loop of raster_triangles writes it. owned: this work-item is the
+// view's only writer (raster_views), so a plain load and store keep the minimum.
+RS void raster_row_ortho(const pb_view* v, float3 a, float3 b, float3 c, int y, int xs, int xe,
+                         volatile global uint* row, bool owned) {
   // ray_triangle's per-triangle part: the direction is the view's forward everywhere
   float3 d = f3(v->forward);
   float3 e1 = b - a, e2 = c - a;
@@ -218,22 +219,27 @@ PB_SIMD_LOOP(RASTER_CHUNK)
       hit[k] = in ? as_uint(t) : PB_DEPTH_EMPTY;
     }
     int n = min(RASTER_CHUNK, xe - x0 + 1);
-    for (int k = 0; k < n; ++k)
-      if (hit[k] != PB_DEPTH_EMPTY) atomic_min(&row[x0 + k], hit[k]);
+    if (owned) {
+      for (int k = 0; k < n; ++k) row[x0 + k] = min(row[x0 + k], hit[k]);
+    } else {
+      for (int k = 0; k < n; ++k)
+        if (hit[k] != PB_DEPTH_EMPTY) atomic_min(&row[x0 + k], hit[k]);
+    }
   }
 }
 #endif
 
-// pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among
-// those whose t equals the stored depth (views must be 1). cull: 0 keeps every triangle, 1 only
-// those facing the view (counter-clockwise seen from it), 2 only those facing away (the back
-// faces of closed meshes; Kneiphof 2017 §4.2.3).
-kernel void raster_triangles(global const float4* pos, global const int4* tris, int ntris,
-                             global const pb_view* views, int stripes, int pass,
-                             volatile global uint* depth, volatile global uint* ids, int cull) {
-  int tri = get_global_id(0), stripe = get_global_id(1), vi = get_global_id(2);
-  if (tri >= ntris) return;
-  pb_view v = views[vi];
+// Triangle `tri` into view vi (v, its copy): stripe `stripe` of `stripes` of its rows. pass 0:
+// depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among those
+// whose t equals the stored depth. cull: 0 keeps every triangle, 1 only those facing the view
+// (counter-clockwise seen from it), 2 only those facing away (the back faces of closed meshes;
+// Kneiphof 2017 §4.2.3). owned (pass 0 only): the work-item is the view's only writer, and keeps
+// the minimum without atomics.
+static inline __attribute__((always_inline)) void raster_triangle(
+    global const float4* pos, global const int4* tris, int tri, const pb_view* vp, int vi,
+    int stripe, int stripes, int pass, volatile global uint* depth, volatile global uint* ids,
+    int cull, bool owned) {
+  const pb_view v = *vp;
   int4 t = tris[tri];
   float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
   if (cull != 0) {
@@ -257,7 +263,7 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
 #endif
 #ifdef RASTER_ROW_SIMD
     if (v.ortho && pass == 0) {
-      raster_row_ortho(&v, a, b, c, y, xs, xe, depth + base + (size_t)y * v.width);
+      raster_row_ortho(&v, a, b, c, y, xs, xe, depth + base + (size_t)y * v.width, owned);
       continue;
     }
 #endif
@@ -271,12 +277,43 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
       // (a plain read of depth[i] before the atomic_min, to skip it where the texel is already
       // nearer, would race with other work-items' atomics under OpenCL's memory model: oclgrind
       // reports it)
-      if (pass == 0)
-        atomic_min(&depth[i], as_uint(tt));
-      else if (as_uint(tt) == depth[i])
+      if (pass == 0) {
+        if (owned)
+          depth[i] = min(depth[i], as_uint(tt));
+        else
+          atomic_min(&depth[i], as_uint(tt));
+      } else if (as_uint(tt) == depth[i]) {
         atomic_min(&ids[i], (uint)tri);
+      }
     }
   }
+}
+
+// One work-item per (triangle, row stripe, view): the views' texels are shared between work-items,
+// so each keeps its minimum with atomics.
+kernel void raster_triangles(global const float4* pos, global const int4* tris, int ntris,
+                             global const pb_view* views, int stripes, int pass,
+                             volatile global uint* depth, volatile global uint* ids, int cull) {
+  int tri = get_global_id(0), stripe = get_global_id(1), vi = get_global_id(2);
+  if (tri >= ntris) return;
+  pb_view v = views[vi];
+  raster_triangle(pos, tris, tri, &v, vi, stripe, stripes, pass, depth, ids, cull, false);
+}
+
+// The CPU form of pass 0 for several views (src/render/rasterizer.cpp: shadow maps on CPU
+// devices): one work-item per view takes every triangle in turn. A view's map then has one writer,
+// which keeps the nearest depth with a plain load and store: raster_triangles' atomic_min is a
+// locked compare-and-swap loop on a CPU (about 30% of that kernel's time on the default frame's
+// 32 maps). The minimum of the same depths, so the same bits. Launched one work-item per
+// work-group, so that the views spread over the cores.
+kernel void raster_views(global const float4* pos, global const int4* tris, int ntris,
+                         global const pb_view* views, int nviews, volatile global uint* depth,
+                         int cull) {
+  const int vi = get_global_id(0);
+  if (vi >= nviews) return;
+  pb_view v = views[vi];
+  for (int tri = 0; tri < ntris; ++tri)
+    raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, depth, depth, cull, true);
 }
 
 // Camera G-buffer from the visibility pass: world position (w = 1 on geometry, 0 elsewhere),

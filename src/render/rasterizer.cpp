@@ -22,14 +22,24 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
   frontBack_ = frontBackFaces;
   // One kernel object for every launch (a technique may rasterize in a loop of batches).
   // CPUs: an orthographic view's rows in SIMD loops (raster.cl, RASTER_ROW_SIMD).
-  if (!raster_())
-    raster_ = ctx_.kernel("raster.cl", "raster_triangles",
-                          useCpuBatching(ctx_) ? "-DRASTER_ROW_SIMD" + simdLoopOption(ctx_) : "");
+  if (!raster_()) {
+    const bool cpu = useCpuBatching(ctx_);
+    const std::string options = cpu ? "-DRASTER_ROW_SIMD" + simdLoopOption(ctx_) : "";
+    raster_ = ctx_.kernel("raster.cl", "raster_triangles", options);
+    // CPUs: several views' depth, one work-item per view (raster.cl, raster_views)
+    if (cpu) views_ = ctx_.kernel("raster.cl", "raster_views", options);
+  }
 }
 
 void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
                         cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
   const int ntris = scene_->triangleCount();
+  if (views_() && pass == 0 && nviews > 1) {
+    ctx_.launchWith(stage, views_, cl::NDRange(nviews), cl::NDRange(1), scene_->positionBuffer(),
+                    scene_->triangleBuffer(), cl_int(ntris), views, cl_int(nviews), depth,
+                    cl_int(cull));
+    return;
+  }
   const int stripes = useCpuBatching(ctx_) ? kCpuStripes : kGpuStripes;
   ctx_.launchWith(stage, raster_, cl::NDRange(ntris, stripes, nviews), cl::NullRange,
                   scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), views,

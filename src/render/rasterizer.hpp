@@ -42,7 +42,7 @@ class Rasterizer : public DepthRasterizer {
 
  private:
   // One raster_triangles launch over `nviews` views: pass 0 writes depth, pass 1 the ids of the
-  // triangles that won it.
+  // triangles that won it (pass 0 over several views on a CPU: raster_views).
   void raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
               cl::Buffer& ids, const std::string& stage);
 
@@ -52,6 +52,7 @@ class Rasterizer : public DepthRasterizer {
   int mapSize_ = 0;
   bool frontBack_ = false;
   cl::Kernel raster_;
+  cl::Kernel views_;  // raster_views, where the CPU forms run (else null)
 };
 
 }  // namespace penumbra::detail
