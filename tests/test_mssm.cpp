@@ -269,12 +269,13 @@ TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
 
 namespace {
 
-// MSSM4's moments of `nl` S x S depth maps (light l's range 1 + l, so that depth bits / range is
-// not always exact) by depth_to_moments (GPUs) or its CPU form depth_to_moments_rows, each
+// MSSM4's moments of `nl` S x S depth maps (light l's range 2^l: the division by it is exact, as
+// OpenCL does not require single-precision division to round correctly on every device) by
+// depth_to_moments (GPUs) or its CPU form depth_to_moments_rows, each
 // checked against a C++ reference: z = bits / range clamped to [0, 1] (1 for an empty texel),
 // its powers as float products, each times 2^32 rounded to nearest, ties to even. The depths
 // include empty texels, 0, depths past the range, and tiny ones whose scaled moment sits on a
-// half (2.5, 1.5, 0.5 times 2^-32 at range 1: ties, where rounding half away from zero or
+// half (2.5, 1.5, 0.5 times 2^-32 of the range: ties, where rounding half away from zero or
 // truncating would differ).
 void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
   std::mt19937 rng(seed);
@@ -282,7 +283,7 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
   const float ties[] = {2.5f, 1.5f, 0.5f, 3.5f};
   std::vector<std::uint32_t> depth(std::size_t(S) * S * nl);
   for (std::size_t i = 0; i < depth.size(); ++i) {
-    const float range = 1.0f + float(i / (std::size_t(S) * S));
+    const float range = std::ldexp(1.0f, int(i / (std::size_t(S) * S)));
     float d = u(rng) * range;
     switch (i % 11) {
       case 0: d = std::ldexp(ties[(i / 11) % 4], -32) * range; break;
@@ -296,7 +297,7 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
   std::vector<pb_light> lights(nl);
   for (int l = 0; l < nl; ++l) {
     lights[l] = pb_light{};
-    lights[l].origin[3] = 1.0f + float(l);
+    lights[l].origin[3] = std::ldexp(1.0f, l);
   }
   cl::Buffer dB = ctx().upload(depth, "test depth"), lB = ctx().upload(lights, "test lights");
   const std::size_t stride = std::size_t(S) * S + 3;  // the prefilter's room after each map

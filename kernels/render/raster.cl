@@ -8,7 +8,8 @@
 // clipped bounding box. Work is split over (triangle, row stripe, view) so that large triangles
 // are shared by several work-items. Depth is resolved with atomic_min on the float's bit pattern
 // (positive floats order like unsigned ints), triangle ids in a second pass with atomic_min among
-// the triangles that reached the minimum: deterministic whatever the execution order.
+// the triangles that reached the minimum: deterministic whatever the execution order. (The CPU
+// form raster_views gives each view one work-item, which keeps the minimum without atomics.)
 #include "shared.h"
 
 #define RASTER_EPS 1e-6f

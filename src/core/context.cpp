@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <sstream>
 
 #include <sys/mman.h>
@@ -157,13 +158,14 @@ void CL_CALLBACK releaseEntry(cl_mem, void* user) {
 // MSSM4 moments took 220 ms of faults in the first frame against 9 ms in later ones. Asked for
 // with madvise(MADV_HUGEPAGE) (transparent huge pages in their default "madvise" mode), the same
 // memory faults 2 MiB at a time. The driver uses the memory as the buffer itself
-// (CL_MEM_USE_HOST_PTR): the kernels are the same, and so are the bits. PENUMBRA_HOST_PAGES=off
-// (exactly) leaves every buffer to the driver.
+// (CL_MEM_USE_HOST_PTR): the kernels are the same, and so are the bits. Buffers of 2 MiB or
+// more; PENUMBRA_HOST_PAGES=off (exactly) leaves every buffer to the driver.
 constexpr std::size_t kHugePage = std::size_t(2) << 20;
-constexpr std::size_t kHostPagesFrom = kHugePage;  // smaller buffers: the driver's
+constexpr std::size_t kPage = std::size_t(4) << 10;
 
+// A mapping of `length` bytes (`base`): the memory of one buffer.
 struct HostPages {
-  void* base = nullptr;  // the mapping
+  void* base = nullptr;
   std::size_t length = 0;
 };
 void CL_CALLBACK releaseHostPages(cl_mem, void* user) {
@@ -171,16 +173,18 @@ void CL_CALLBACK releaseHostPages(cl_mem, void* user) {
   munmap(h->base, h->length);
   delete h;
 }
-// A mapping of at least `bytes`, its start aligned to a huge page; null where mmap fails (the
-// driver then allocates as usual).
+// `bytes` (at least one huge page) of fresh memory whose start is aligned to a huge page, or null
+// where mmap fails (the driver then allocates as usual). Only the whole huge pages are advised:
+// a partial last one stays in 4 KiB pages, so the buffer takes no more memory than the driver's
+// would (one 2 MiB fault would otherwise commit up to 2 MiB past its end).
 void* hostPages(std::size_t bytes, HostPages& out) {
-  const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-  const std::size_t length = rounded + kHugePage;
+  const std::size_t length = (bytes + kPage - 1) / kPage * kPage + kHugePage;  // room to align
   void* m = mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (m == MAP_FAILED) return nullptr;
   const auto start = reinterpret_cast<std::uintptr_t>(m);
   const std::uintptr_t aligned = (start + kHugePage - 1) / kHugePage * kHugePage;
-  madvise(reinterpret_cast<void*>(aligned), rounded, MADV_HUGEPAGE);  // advice: may be refused
+  madvise(reinterpret_cast<void*>(aligned), bytes / kHugePage * kHugePage,
+          MADV_HUGEPAGE);  // advice: the kernel may refuse it, and 4 KiB pages work as before
   out.base = m;
   out.length = length;
   return reinterpret_cast<void*>(aligned);
@@ -220,8 +224,10 @@ Context::Context(const std::string& selectorIn) : ledger_(std::make_shared<detai
   info_ = pick->info;
   device_ = pick->device;
   try {
+    // a CPU device as src/core/device_kind.hpp's isCpuDevice has it
     const char* v = std::getenv("PENUMBRA_HOST_PAGES");
-    ledger_->hostPages = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0 &&
+    const cl_device_type type = device_.getInfo<CL_DEVICE_TYPE>();
+    ledger_->hostPages = (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU) &&
                          !(v && std::strcmp(v, "off") == 0);
   } catch (const cl::Error&) {
   }
@@ -438,29 +444,26 @@ cl::Buffer Context::buffer(std::size_t bytes, const std::string& what, cl_mem_fl
   while (live + bytes > peak && !ledger_->peak.compare_exchange_weak(peak, live + bytes)) {
   }
   try {
-    HostPages pages;
-    void* host = nullptr;
-    if (ledger_->hostPages && bytes >= kHostPagesFrom &&
-        !(flags & (CL_MEM_USE_HOST_PTR | CL_MEM_ALLOC_HOST_PTR | CL_MEM_COPY_HOST_PTR)))
-      host = hostPages(bytes, pages);
     cl::Buffer b;
-    try {
-      b = host ? cl::Buffer(context_, flags | CL_MEM_USE_HOST_PTR, bytes, host)
-               : cl::Buffer(context_, flags, bytes);
-    } catch (const cl::Error&) {
-      if (host) munmap(pages.base, pages.length);
-      throw;
-    }
-    if (host) {
-      auto* keep = new HostPages(pages);
-      if (clSetMemObjectDestructorCallback(b(), releaseHostPages, keep) != CL_SUCCESS) {
-        // the buffer must not outlive its memory: give it up and let the driver allocate
-        delete keep;
-        b = cl::Buffer();
-        munmap(pages.base, pages.length);
-        b = cl::Buffer(context_, flags, bytes);
+    if (ledger_->hostPages && bytes >= kHugePage &&
+        !(flags & (CL_MEM_USE_HOST_PTR | CL_MEM_ALLOC_HOST_PTR | CL_MEM_COPY_HOST_PTR))) {
+      auto pages = std::make_unique<HostPages>();
+      if (void* host = hostPages(bytes, *pages)) {
+        cl_int rc = CL_SUCCESS;
+        cl_mem m = clCreateBuffer(context_(), flags | CL_MEM_USE_HOST_PTR, bytes, host, &rc);
+        if (rc == CL_SUCCESS &&
+            clSetMemObjectDestructorCallback(m, releaseHostPages, pages.get()) == CL_SUCCESS) {
+          pages.release();  // the callback frees it, once the driver is done with the memory
+          b = cl::Buffer(m);  // takes the reference clCreateBuffer returned
+        } else {
+          // the driver would not take the memory, or could not say when it is done with it:
+          // it allocates the buffer itself below
+          if (rc == CL_SUCCESS) clReleaseMemObject(m);
+          munmap(pages->base, pages->length);
+        }
       }
     }
+    if (!b()) b = cl::Buffer(context_, flags, bytes);
     auto* entry = new LedgerEntry{ledger_, bytes};
     const cl_int rc = clSetMemObjectDestructorCallback(b(), releaseEntry, entry);
     if (rc != CL_SUCCESS) {

@@ -26,15 +26,23 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
     const bool cpu = useCpuBatching(ctx_);
     const std::string options = cpu ? "-DRASTER_ROW_SIMD" + simdLoopOption(ctx_) : "";
     raster_ = ctx_.kernel("raster.cl", "raster_triangles", options);
-    // CPUs: several views' depth, one work-item per view (raster.cl, raster_views)
-    if (cpu) views_ = ctx_.kernel("raster.cl", "raster_views", options);
+    // CPUs: several views' depth, one work-item per view (raster.cl, raster_views), where the
+    // views are at least as many as the cores that run them
+    if (cpu) {
+      views_ = ctx_.kernel("raster.cl", "raster_views", options);
+      try {
+        cores_ = int(ctx_.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
+      } catch (const cl::Error&) {
+        cores_ = 1;
+      }
+    }
   }
 }
 
 void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
                         cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
   const int ntris = scene_->triangleCount();
-  if (views_() && pass == 0 && nviews > 1) {
+  if (views_() && pass == 0 && nviews > 1 && nviews >= cores_) {
     ctx_.launchWith(stage, views_, cl::NDRange(nviews), cl::NDRange(1), scene_->positionBuffer(),
                     scene_->triangleBuffer(), cl_int(ntris), views, cl_int(nviews), depth,
                     cl_int(cull));

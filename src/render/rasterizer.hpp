@@ -53,6 +53,7 @@ class Rasterizer : public DepthRasterizer {
   bool frontBack_ = false;
   cl::Kernel raster_;
   cl::Kernel views_;  // raster_views, where the CPU forms run (else null)
+  int cores_ = 1;     // the device's compute units
 };
 
 }  // namespace penumbra::detail
