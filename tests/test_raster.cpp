@@ -299,6 +299,25 @@ TEST(Raster, GBufferPositionsMatchDoublePrecisionHits) {
   }
 }
 
+namespace {
+
+// Depth of `nv` views (vb, n texels in all) by raster_views, the CPU form with one work-item per
+// view, with face culling `cull`.
+std::vector<cl_uint> rasterViews(const detail::DeviceScene& ds, const cl::Buffer& vb, int nv,
+                                 std::size_t n, int cull) {
+  cl::Kernel k = ctx().kernel("raster.cl", "raster_views",
+                              "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx()));
+  cl::Buffer d = ctx().buffer(n * 4, "test depth");
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY;
+  ctx().fill(d, &emptyDepth, 4, n * 4, "test depth");
+  ctx().launchWith("test/raster", k, cl::NDRange(nv), cl::NDRange(1), ds.positionBuffer(),
+                   ds.triangleBuffer(), cl_int(ds.triangleCount()), vb, cl_int(nv), d,
+                   cl_int(cull));
+  return ctx().download<cl_uint>(d, n, "test depth");
+}
+
+}  // namespace
+
 // The rasterizer's row spans (raster.cl, outline_row_span) skip only pixels the ray test would
 // have missed: depth and triangle-id passes equal, bit for bit, those of the same kernel built to
 // test each triangle's whole bounding box (-DRASTER_FULL_BOX), for the built-in scene's 2,600
@@ -360,17 +379,7 @@ TEST(Raster, RowSpansChangeNoPixel) {
       }
       // raster_views (one work-item per view, plain loads and stores): the depths of
       // -DRASTER_ROW_SIMD's raster_triangles, bit for bit on any driver (the same ray tests)
-      std::vector<cl_uint> owned;
-      {
-        cl::Kernel k = ctx().kernel("raster.cl", "raster_views",
-                                    "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx()));
-        cl::Buffer d = ctx().buffer(n * 4, "test depth");
-        const cl_uint emptyDepth = PB_DEPTH_EMPTY;
-        ctx().fill(d, &emptyDepth, 4, n * 4, "test depth");
-        ctx().launchWith("test/raster", k, cl::NDRange(1), cl::NDRange(1), ds.positionBuffer(),
-                         ds.triangleBuffer(), cl_int(ntris), vb, cl_int(1), d, cl_int(0));
-        owned = ctx().download<cl_uint>(d, n, "test depth");
-      }
+      const std::vector<cl_uint> owned = rasterViews(ds, vb, 1, n, 0);
       SCOPED_TRACE(std::to_string(v.w) + "x" + std::to_string(v.h) + (v.ortho ? " ortho" : " camera"));
       EXPECT_EQ(owned, depth[2]) << "raster_views";
       EXPECT_EQ(depth[0], depth[1]);
@@ -418,24 +427,19 @@ void expectViewsKernelMatches(const Scene& scene, const std::vector<View>& views
   for (const View& v : views) pv.push_back(v.pb());
   cl::Buffer vb = ctx().upload(pv, "test views");
   const std::size_t n = std::size_t(views[0].w) * views[0].h * nv;
-  const std::string options = "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx());
-  const cl_uint emptyDepth = PB_DEPTH_EMPTY;
   std::vector<cl_uint> out[2];
-  for (int owned : {0, 1}) {
+  {
+    cl::Kernel k = ctx().kernel("raster.cl", "raster_triangles",
+                                "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx()));
     cl::Buffer d = ctx().buffer(n * 4, "test depth");
+    const cl_uint emptyDepth = PB_DEPTH_EMPTY;
     ctx().fill(d, &emptyDepth, 4, n * 4, "test depth");
-    if (owned) {
-      cl::Kernel k = ctx().kernel("raster.cl", "raster_views", options);
-      ctx().launchWith("test/raster", k, cl::NDRange(nv), cl::NDRange(1), ds.positionBuffer(),
-                       ds.triangleBuffer(), cl_int(ntris), vb, cl_int(nv), d, cl_int(cull));
-    } else {
-      cl::Kernel k = ctx().kernel("raster.cl", "raster_triangles", options);
-      ctx().launchWith("test/raster", k, cl::NDRange(ntris, 3, nv), cl::NullRange,
-                       ds.positionBuffer(), ds.triangleBuffer(), cl_int(ntris), vb, cl_int(3),
-                       cl_int(0), d, d, cl_int(cull));
-    }
-    out[owned] = ctx().download<cl_uint>(d, n, "test depth");
+    ctx().launchWith("test/raster", k, cl::NDRange(ntris, 3, nv), cl::NullRange,
+                     ds.positionBuffer(), ds.triangleBuffer(), cl_int(ntris), vb, cl_int(3),
+                     cl_int(0), d, d, cl_int(cull));
+    out[0] = ctx().download<cl_uint>(d, n, "test depth");
   }
+  out[1] = rasterViews(ds, vb, nv, n, cull);
   std::size_t covered = 0, differ = 0;
   for (std::size_t i = 0; i < n; ++i) {
     covered += out[0][i] != PB_DEPTH_EMPTY;

@@ -12,6 +12,7 @@
 
 #include <sys/mman.h>
 
+#include "core/device_kind.hpp"
 #include "core/program_cache.hpp"
 
 namespace penumbra {
@@ -224,12 +225,9 @@ Context::Context(const std::string& selectorIn) : ledger_(std::make_shared<detai
   info_ = pick->info;
   device_ = pick->device;
   try {
-    // a CPU device as src/core/device_kind.hpp's isCpuDevice has it
     const char* v = std::getenv("PENUMBRA_HOST_PAGES");
-    const cl_device_type type = device_.getInfo<CL_DEVICE_TYPE>();
-    ledger_->hostPages = (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU) &&
-                         !(v && std::strcmp(v, "off") == 0);
-  } catch (const cl::Error&) {
+    ledger_->hostPages = detail::isCpuDevice(*this) && !(v && std::strcmp(v, "off") == 0);
+  } catch (const Error&) {  // the device type could not be read: the driver allocates
   }
   try {
     context_ = cl::Context(device_);
