@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <vector>
 
 namespace penumbra::cli {
 
@@ -33,18 +35,21 @@ CLI::App* addRenderCommand(CLI::App& root, Registry& reg) {
   app->description(
       "Renders a scene lit by an environment map: area lights extracted from the map "
       "(--extract) or given (--light-set) plus the ambient residual, soft shadows (--shadows, "
-      "filtered or exact), diffuse shading.\n\n"
-      "Animation (--frames N): frame i (from 0) is rendered at time i * frame-time (the "
-      "built-in scene's sphere bounces and its slab turns; a loaded mesh stands still), with the "
-      "map turned by env-rotate + i * rotate-step degrees, and with map i mod K when --env lists "
-      "K maps separated by commas (a.exr,b.exr,...). rotate-step defaults to 1 degree per frame "
-      "with one map and to 0 with a list. Every frame is computed from scratch: lights extracted "
-      "again on the device, shadows and shading redone; the camera is framed once, on the scene "
-      "at time 0. Frame i is written to OUT's name with _iiii (4 digits, more past 9999 frames) "
-      "before the extension: --out anim/f.png gives anim/f_0000.png, anim/f_0001.png, ...; "
-      "--report then writes a JSON array with one object per frame (frame, time_s, environment, "
-      "env_rotation_deg, out, lights, stage timings). Each frame prints a line on stderr with "
-      "its time and the estimated time left (--quiet: none).");
+      "filtered or exact), diffuse shading.\n\nAnimation (--frames N): frame i (from 0) is "
+      "rendered at time i * frame-time (the built-in scene's sphere bounces and its slab turns; "
+      "a loaded mesh stands still), with the map turned by env-rotate + i * rotate-step "
+      "degrees, and with map i mod K when --env lists K maps separated by commas "
+      "(a.exr,b.exr,...). rotate-step defaults to 1 degree per frame with one map and to 0 with "
+      "a list. Lights are extracted from each map once, on the first frame that shows it, and "
+      "turned with the map after that (rotateLightSet), so that they move with it instead of "
+      "jumping between median cut's cells (--extract-each-frame: extracted again from every "
+      "turned map). Shadows and shading are redone every frame; the camera is framed once, on "
+      "the scene at time 0. Frame i is written to OUT's name with _iiii (4 digits, more past "
+      "9999 frames) before the extension: --out anim/f.png gives anim/f_0000.png, "
+      "anim/f_0001.png, ...; --report then writes a JSON array with one object per frame "
+      "(frame, time_s, environment, env_rotation_deg, lights_from: extracted, turned or "
+      "light-set, out, lights, stage timings). Each frame prints a line on stderr with its "
+      "time and the estimated time left (--quiet: none).");
   const RenderOptions R;
   addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"},
                   true);
@@ -56,6 +61,8 @@ CLI::App* addRenderCommand(CLI::App& root, Registry& reg) {
            num(1.0 / 24.0), kGroupAnimation);
   reg.real(*app, "--rotate-step", "map rotation added per frame, DEG", Bounds::any(),
            "1 with one map, 0 with a list", kGroupAnimation);
+  reg.flag(*app, "--extract-each-frame", "extract the lights from every frame's turned map "
+           "(default: once per map, then turned with it)", kGroupAnimation);
   addRenderOptions(*app, reg);
   reg.text(*app, "-o,--out", "FILE", "output image: .exr, .hdr, .pfm (linear), .png, .jpg, .tif, "
            "... (tone-mapped)", "penumbra.png", kGroupOutput);
@@ -90,8 +97,12 @@ int runRender(const Args& a) {
   float rotateStep = animate && maps.size() == 1 ? 1.0f : 0.0f;
   if (a.has("rotate-step")) rotateStep = float(a.real("rotate-step"));
   if (!animate)
-    for (const char* o : {"frame-time", "rotate-step"})
+    for (const char* o : {"frame-time", "rotate-step", "extract-each-frame"})
       if (a.has(o)) badInput(std::string("--") + o + " needs --frames");
+  if (useLightSet && a.has("extract-each-frame"))
+    badInput("--extract-each-frame extracts lights from the map; it cannot be combined with "
+             "--light-set");
+  const bool extractEachFrame = a.has("extract-each-frame");
 
   SceneSetup s = loadSetup(a, ro.width, ro.height, false);
   checkOutput(out, {}, "out");
@@ -106,6 +117,8 @@ int runRender(const Args& a) {
   nlohmann::ordered_json reports = nlohmann::ordered_json::array();
   double totalMs = 0;
   std::size_t lastLights = 0;
+  std::vector<std::optional<LightSet>> extracted(envs.size());
+  std::vector<double> extractedAtDeg(envs.size(), 0.0);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < frames; ++i) {
     const float t = float(i) * frameTime;
@@ -115,7 +128,19 @@ int runRender(const Args& a) {
     if (animate && movingScene) s.scene = builtinScene(t);
     ctx.resetTimings();
     const auto t0 = std::chrono::steady_clock::now();
-    const LightSet lights = useLightSet ? userLights : extractNoting(ctx, env, eo, a);
+    // Each map's lights: extracted on the first frame that shows it (at that frame's rotation,
+    // so a single frame is what it always was), then turned with the map.
+    const std::size_t mapIndex = std::size_t(i) % envs.size();
+    const bool extract = !useLightSet && (extractEachFrame || !extracted[mapIndex]);
+    if (extract) {
+      extracted[mapIndex] = extractNoting(ctx, env, eo, a);
+      extractedAtDeg[mapIndex] = env.rotationYDeg;
+    }
+    const LightSet lights =
+        useLightSet ? userLights
+        : extract   ? *extracted[mapIndex]
+                    : rotateLightSet(*extracted[mapIndex],
+                                     float(double(env.rotationYDeg) - extractedAtDeg[mapIndex]));
     const Frame f = frameRenderer.render(s.scene, s.camera, lights, env, ro);
     const double frameMs = secondsSince(t0) * 1e3;
     const std::string path = animate ? framePath(out, i, frames) : out;
@@ -141,6 +166,9 @@ int runRender(const Args& a) {
       nlohmann::ordered_json frame = {{"frame", i},
                                       {"time_s", shortestDouble(t)},
                                       {"env_rotation_deg", shortestDouble(env.rotationYDeg)},
+                                      {"lights_from", useLightSet ? "light-set"
+                                                      : extract   ? "extracted"
+                                                                  : "turned"},
                                       {"frame_ms", frameMs},
                                       {"out", fs::path(path).filename().string()}};
       for (const auto& [key, value] : report.items()) frame[key] = value;

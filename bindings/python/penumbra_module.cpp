@@ -931,6 +931,11 @@ PYBIND11_MODULE(_penumbra, m) {
         "Raises BadInput 'LightSet: light i: ...' for what Renderer.render would refuse: a "
         "direction that is not a finite unit vector, cos_alpha outside [-1, 1], non-finite or "
         "negative radiance or power, bad polygon vertices, textures or ambient.");
+  m.def("rotate_light_set", &rotateLightSet, "light_set"_a, "degrees"_a,
+        "The light set of the same map turned `degrees` further about +y "
+        "(Environment.rotation_y_deg's sense): lights, frames and vertices turned, the ambient's "
+        "SH9 rotated, its irradiance map shifted (linear between columns); regions cleared. "
+        "What an animation of a turning map should use instead of extracting every frame.");
   m.def("load_light_set", [](const fs::path& path) { return loadLightSet(path.string()); },
         "path"_a, py::call_guard<py::gil_scoped_release>(),
         "Reads a light-set JSON file, path str or os.PathLike (caps, polygons, rects, ellipses, "

@@ -216,6 +216,21 @@ struct LightSet {
 /// on every frame.
 void validateLightSet(const LightSet& set);
 
+/// The light set of the same map turned `degrees` further about +y (Environment::rotationYDeg's
+/// sense: counter-clockwise seen from above, +x towards -z). Every light's direction, frame and
+/// vertices turn with it (its size, radiance, power and texture are kept); the ambient's SH9
+/// coefficients are rotated exactly (to float rounding); its irradiance map is shifted by
+/// degrees / 360 of its width, read linearly between the two nearest columns (exact for a whole
+/// number of columns: 90 degrees of a 128-wide map). `regions` are cleared: they are cells of
+/// the unturned map's cube. Whole turns return the set unchanged, bit for bit.
+///
+/// What an animation of a turning map should use: extracting from each turned map instead lets
+/// median cut's cells, which stay fixed to the cube, cut the map differently every frame, and
+/// lights jump (with 32 lights and 1-degree steps, by up to 29 degrees on a studio map). `render
+/// --frames` extracts once per map and turns the set (--extract-each-frame: the old way).
+/// Throws Error(BadInput) for a non-finite angle or an ambient map whose size and values disagree.
+LightSet rotateLightSet(const LightSet& set, float degrees);
+
 /// A light-set file (render/reference --light-set FILE): {"lights": [...], "ambient_sh": [...]
 /// optional}. Each light is an object with "shape" (default "cap") and "radiance" or "power" (RGB,
 /// finite, >= 0; with both, both are kept as given):

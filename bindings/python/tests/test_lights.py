@@ -194,6 +194,24 @@ def test_ambient_irradiance_map(ctx, env):
         penumbra.add_ambient_residual(ctx, env, s, penumbra.AmbientOptions(map_width=0))
 
 
+def test_rotate_light_set(lights):
+    # A quarter turn about +y, counter-clockwise seen from above (+x towards -z), as
+    # Environment.rotation_y_deg turns the map; written here as a matrix, not the library's.
+    R = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    t = penumbra.rotate_light_set(lights, 90.0)
+    assert len(t) == len(lights)
+    assert np.allclose(t.directions, lights.directions @ R.T, atol=1e-6)
+    assert np.array_equal(t.powers, lights.powers) and np.array_equal(t.cos_alpha, lights.cos_alpha)
+    # 90 degrees of the 128-wide irradiance map is 32 whole columns: the rows shift exactly.
+    assert np.array_equal(t.ambient_map, np.roll(lights.ambient_map, -32, axis=1))
+    for n in [(1.0, 0.0, 0.0), (0.0, 0.6, 0.8), (-0.48, -0.6, 0.64)]:
+        assert np.allclose(t.irradiance(tuple(R @ np.array(n))), lights.irradiance(n), rtol=1e-5)
+    # whole turns: the set itself; a non-finite angle: BadInput
+    assert np.array_equal(penumbra.rotate_light_set(lights, -360.0).directions, lights.directions)
+    with pytest.raises(penumbra.BadInput, match="rotateLightSet"):
+        penumbra.rotate_light_set(lights, float("nan"))
+
+
 def test_ellipse_and_textured_lights(tmp_path):
     a, b = np.radians(30.0), np.radians(10.0)
     el = penumbra.make_ellipse_light((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (a, b), (1.0, 1.0, 1.0))
