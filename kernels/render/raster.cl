@@ -9,7 +9,8 @@
 // are shared by several work-items. Depth is resolved with atomic_min on the float's bit pattern
 // (positive floats order like unsigned ints), triangle ids in a second pass with atomic_min among
 // the triangles that reached the minimum: deterministic whatever the execution order. (The CPU
-// form raster_views gives each view one work-item, which keeps the minimum without atomics.)
+// forms give each view (raster_views) or each band of the camera's rows (raster_bands) one
+// work-item, which keeps the minimum without atomics.)
 #include "shared.h"
 
 #define RASTER_EPS 1e-6f
@@ -230,16 +231,18 @@ PB_SIMD_LOOP(RASTER_CHUNK)
 }
 #endif
 
-// Triangle `tri` into view vi (v, its copy): stripe `stripe` of `stripes` of its rows. pass 0:
-// depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min triangle index among those
-// whose t equals the stored depth. cull: 0 keeps every triangle, 1 only those facing the view
-// (counter-clockwise seen from it), 2 only those facing away (the back faces of closed meshes;
-// Kneiphof 2017 §4.2.3). owned (pass 0 only): the work-item is the view's only writer, and keeps
-// the minimum without atomics.
+// Triangle `tri` into view vi (v, its copy): stripe `stripe` of `stripes` of its rows, within
+// rows ylo..yhi. pass 0: depth[view][y][x] = min t (as uint bits). pass 1: ids[y][x] = min
+// triangle index among those whose t equals the stored depth. pass 2 (owned, triangles taken in
+// increasing index): both at once, the depth where t is nearer and the id with it, so that the
+// id ends as pass 1's, the least index among the triangles at the nearest t. cull: 0 keeps every
+// triangle, 1 only those facing the view (counter-clockwise seen from it), 2 only those facing
+// away (the back faces of closed meshes; Kneiphof 2017 §4.2.3). owned (passes 0 and 2): the
+// work-item is the only writer of the rows it is given, and keeps the minimum without atomics.
 static inline __attribute__((always_inline)) void raster_triangle(
     global const float4* pos, global const int4* tris, int tri, const pb_view* vp, int vi,
-    int stripe, int stripes, int pass, volatile global uint* depth, volatile global uint* ids,
-    int cull, bool owned) {
+    int stripe, int stripes, int ylo, int yhi, int pass, volatile global uint* depth,
+    volatile global uint* ids, int cull, bool owned) {
   const pb_view v = *vp;
   int4 t = tris[tri];
   float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
@@ -254,6 +257,8 @@ static inline __attribute__((always_inline)) void raster_triangle(
   int x0, y0, x1, y1;
   if (!outline_bounds(&v, outline, n, &x0, &y0, &x1, &y1)) return;
   size_t base = (size_t)vi * v.width * v.height;
+  y0 = max(y0, ylo);
+  y1 = min(y1, yhi);
   for (int y = y0 + stripe; y <= y1; y += stripes) {
     // Only the row's span of the outline is tested, not the whole box (a triangle covers half of
     // its box at most). A triangle clipped at the near plane keeps the box: its sliver between
@@ -283,6 +288,12 @@ static inline __attribute__((always_inline)) void raster_triangle(
           depth[i] = min(depth[i], as_uint(tt));
         else
           atomic_min(&depth[i], as_uint(tt));
+      } else if (pass == 2) {
+        // an equal t keeps the id already there: its triangle came first, its index is less
+        if (as_uint(tt) < depth[i]) {
+          depth[i] = as_uint(tt);
+          ids[i] = (uint)tri;
+        }
       } else if (as_uint(tt) == depth[i]) {
         atomic_min(&ids[i], (uint)tri);
       }
@@ -298,7 +309,8 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
   int tri = get_global_id(0), stripe = get_global_id(1), vi = get_global_id(2);
   if (tri >= ntris) return;
   pb_view v = views[vi];
-  raster_triangle(pos, tris, tri, &v, vi, stripe, stripes, pass, depth, ids, cull, false);
+  raster_triangle(pos, tris, tri, &v, vi, stripe, stripes, 0, INT_MAX, pass, depth, ids, cull,
+                  false);
 }
 
 // The CPU form of pass 0 for several views (src/render/rasterizer.cpp: shadow maps on CPU
@@ -314,7 +326,41 @@ kernel void raster_views(global const float4* pos, global const int4* tris, int 
   if (vi >= nviews) return;
   pb_view v = views[vi];
   for (int tri = 0; tri < ntris; ++tri)
-    raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, depth, depth, cull, true);
+    raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, INT_MAX, 0, depth, depth, cull, true);
+}
+
+// The CPU form of the camera's two passes (src/render/rasterizer.cpp: the G-buffer on CPU
+// devices), in two kernels. triangle_rows: each triangle's first and last row in view 0 ((1, 0)
+// where it covers none). raster_bands: one work-item per band of `band` rows takes, in
+// increasing index, every triangle whose rows meet its band, and keeps depth and id at once
+// (raster_triangle's pass 2): the rows have one writer, so no atomics, and the triangles are
+// tested once instead of once a pass. Pass 1 keeps the least index among the triangles at the stored depth; pass 2 keeps the
+// first of them in index order, the same one: the same bits. Launched one work-item per
+// work-group, so that the bands spread over the cores.
+kernel void triangle_rows(global const float4* pos, global const int4* tris, int ntris,
+                          global const pb_view* views, global int2* rows) {
+  const int tri = get_global_id(0);
+  if (tri >= ntris) return;
+  const pb_view v = views[0];
+  int4 t = tris[tri];
+  float2 outline[4];
+  bool clipped;
+  int n = triangle_outline(&v, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz, outline, &clipped);
+  int x0, y0, x1, y1;
+  rows[tri] = outline_bounds(&v, outline, n, &x0, &y0, &x1, &y1) ? (int2)(y0, y1) : (int2)(1, 0);
+}
+
+kernel void raster_bands(global const float4* pos, global const int4* tris, int ntris,
+                         global const pb_view* views, global const int2* rows, int band,
+                         volatile global uint* depth, volatile global uint* ids) {
+  const pb_view v = views[0];
+  const int ylo = get_global_id(0) * band, yhi = min(ylo + band, v.height) - 1;
+  if (ylo > yhi) return;
+  for (int tri = 0; tri < ntris; ++tri) {
+    const int2 r = rows[tri];
+    if (r.x > yhi || r.y < ylo) continue;
+    raster_triangle(pos, tris, tri, &v, 0, 0, 1, ylo, yhi, 2, depth, ids, 0, true);
+  }
 }
 
 // Camera G-buffer from the visibility pass: world position (w = 1 on geometry, 0 elsewhere),

@@ -2,6 +2,8 @@
 // and the front/back combination (kernels/render/raster.cl).
 #include "render/rasterizer.hpp"
 
+#include <algorithm>
+
 #include "core/device_kind.hpp"
 
 namespace penumbra::detail {
@@ -14,6 +16,10 @@ namespace {
 // PoCL, 2 cores, the default frame's 32 maps: 54 ms with 8 stripes, 42 with 2, 37 with 1).
 constexpr int kGpuStripes = 8;
 constexpr int kCpuStripes = 1;
+// Bands of the camera's rows per core (raster_bands on CPUs): a band takes every triangle that
+// meets it, so wide triangles are set up once a band, and the bands of the busy middle of a frame
+// take longer than those of its sky.
+constexpr int kCpuBandsPerCore = 8;
 }  // namespace
 
 void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackFaces) {
@@ -30,6 +36,8 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
     // views are at least as many as the cores that run them
     if (cpu) {
       views_ = ctx_.kernel("raster.cl", "raster_views", options);
+      rows_ = ctx_.kernel("raster.cl", "triangle_rows", options);
+      bands_ = ctx_.kernel("raster.cl", "raster_bands", options);
       try {
         cores_ = int(ctx_.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
       } catch (const cl::Error&) {
@@ -62,8 +70,23 @@ DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H) {
   const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
   ctx_.fill(g.depth, &emptyDepth, 4, npx * 4, "camera depth");
   ctx_.fill(g.ids, &emptyId, 4, npx * 4, "camera triangle ids");
-  raster(camera, 1, 0, Cull::None, g.depth, g.ids, "gbuffer/depth");
-  raster(camera, 1, 1, Cull::None, g.depth, g.ids, "gbuffer/ids");
+  if (bands_()) {
+    // CPUs: bands of rows, one writer each, depth and id in one pass (raster.cl, raster_bands);
+    // kCpuBandsPerCore bands a core, so that uneven bands even out
+    const int ntris = scene_->triangleCount();
+    cl::Buffer& rows = pool_.buffer("camera triangle rows", std::size_t(ntris) * 8);
+    ctx_.launchWith("gbuffer/rows", rows_, cl::NDRange(ntris), cl::NullRange,
+                    scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), camera,
+                    rows);
+    const int nbands = std::max(1, std::min(H, kCpuBandsPerCore * cores_));
+    const int band = (H + nbands - 1) / nbands;
+    ctx_.launchWith("gbuffer/raster", bands_, cl::NDRange((H + band - 1) / band), cl::NDRange(1),
+                    scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), camera,
+                    rows, cl_int(band), g.depth, g.ids);
+  } else {
+    raster(camera, 1, 0, Cull::None, g.depth, g.ids, "gbuffer/depth");
+    raster(camera, 1, 1, Cull::None, g.depth, g.ids, "gbuffer/ids");
+  }
   g.position = pool_.buffer("G-buffer positions", npx * 16);
   g.normal = pool_.buffer("G-buffer normals", npx * 16);
   g.geometricNormal = pool_.buffer("G-buffer geometric normals", npx * 16);

@@ -31,8 +31,8 @@ class Rasterizer : public DepthRasterizer {
   // What the frame's rasterizations draw: the scene, the depth maps' size S and whether depth
   // maps average front- and back-facing surfaces (RenderOptions::frontBackFaces).
   void setFrame(const DeviceScene& scene, int mapSize, bool frontBackFaces);
-  // The camera G-buffer for `camera` (one pb_view): stages gbuffer/depth, gbuffer/ids,
-  // gbuffer/resolve. Every face counts (no culling).
+  // The camera G-buffer for `camera` (one pb_view): stages gbuffer/depth, gbuffer/ids (on CPUs
+  // gbuffer/rows, gbuffer/raster: the same bits), gbuffer/resolve. Every face counts (no culling).
   DeviceGBuffer gbuffer(const cl::Buffer& camera, int width, int height);
   // Every depth map of the frame (the lights' and any a technique adds) goes through here, so
   // front/back applies to all of them alike: nearest surface, or the average of the front- and
@@ -53,6 +53,8 @@ class Rasterizer : public DepthRasterizer {
   bool frontBack_ = false;
   cl::Kernel raster_;
   cl::Kernel views_;  // raster_views, where the CPU forms run (else null)
+  cl::Kernel rows_;   // triangle_rows and raster_bands: the camera's, where the CPU forms run
+  cl::Kernel bands_;
   int cores_ = 1;     // the device's compute units
 };
 
