@@ -62,6 +62,28 @@ std::vector<Environment> testMaps() {
   return maps;
 }
 
+// The map's 16 median-cut lights on a 64 cube (what the rotation tests turn).
+LightSet sixteenLights(const Environment& env) {
+  MedianCutOptions mo;
+  mo.lights = 16;
+  mo.faceSize = 64;
+  return extractMedianCut(ctx(), env, mo);
+}
+
+// The 26 unit directions towards a cube's faces, edges and corners.
+std::vector<std::array<float, 3>> cubeNormals() {
+  std::vector<std::array<float, 3>> normals;
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z)
+        if (x || y || z) {
+          const float len = std::sqrt(float(x * x + y * y + z * z));
+          normals.push_back({x / len, y / len, z / len});
+        }
+  return normals;
+}
+
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -187,14 +209,11 @@ TEST(EnvRotation, WholeTurnIsTheIdentity) {
 TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
   for (const Environment& env : testMaps()) {
     SCOPED_TRACE(env.source);
-    MedianCutOptions mo;
-    mo.lights = 16;
-    mo.faceSize = 64;
-    const LightSet base = extractMedianCut(ctx(), env, mo);
+    const LightSet base = sixteenLights(env);
     Environment rot = env;
     rot.rotationYDeg = 90.0f;
-    const LightSet turned = extractMedianCut(ctx(), rot, mo);
-    const LightSet shifted = extractMedianCut(ctx(), shiftedQuarter(env), mo);
+    const LightSet turned = sixteenLights(rot);
+    const LightSet shifted = sixteenLights(shiftedQuarter(env));
     ASSERT_EQ(turned.lights.size(), shifted.lights.size());
     for (std::size_t i = 0; i < turned.lights.size(); ++i) {
       EXPECT_EQ(turned.lights[i].direction, shifted.lights[i].direction);
@@ -223,15 +242,7 @@ TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
     // Irradiance of the light sets on the 26 cube directions, turned: within 2% (issue 4's
     // irradiance tolerance) of the sum over all normals' irradiance scale.
     double worstE = 0, scale = 0;
-    std::vector<std::array<float, 3>> normals;
-    for (int x = -1; x <= 1; ++x)
-      for (int y = -1; y <= 1; ++y)
-        for (int z = -1; z <= 1; ++z)
-          if (x || y || z) {
-            float len = std::sqrt(float(x * x + y * y + z * z));
-            normals.push_back({x / len, y / len, z / len});
-          }
-    for (auto& n : normals) {
+    for (auto& n : cubeNormals()) {
       const auto eb = base.irradiance(n), et = turned.irradiance(rotY(n, 90));
       const double lb = PB_LUM_R * eb[0] + PB_LUM_G * eb[1] + PB_LUM_B * eb[2];
       const double lt = PB_LUM_R * et[0] + PB_LUM_G * et[1] + PB_LUM_B * et[2];
@@ -259,19 +270,6 @@ TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
 // frame of each map).
 
 namespace {
-
-// The 26 unit directions towards a cube's faces, edges and corners.
-std::vector<std::array<float, 3>> cubeNormals() {
-  std::vector<std::array<float, 3>> normals;
-  for (int x = -1; x <= 1; ++x)
-    for (int y = -1; y <= 1; ++y)
-      for (int z = -1; z <= 1; ++z)
-        if (x || y || z) {
-          const float len = std::sqrt(float(x * x + y * y + z * z));
-          normals.push_back({x / len, y / len, z / len});
-        }
-  return normals;
-}
 
 double lumD(const std::array<double, 3>& e) {
   return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2];
@@ -302,10 +300,7 @@ double turnedIrradianceError(const LightSet& base, const LightSet& turned, doubl
 TEST(LightRotation, LightsTurnInTheEnvironmentsSense) {
   for (const Environment& env : testMaps()) {
     SCOPED_TRACE(env.source);
-    MedianCutOptions mo;
-    mo.lights = 16;
-    mo.faceSize = 64;
-    const LightSet base = extractMedianCut(ctx(), env, mo);
+    const LightSet base = sixteenLights(env);
     for (double deg : {90.0, -90.0, 33.5}) {
       const LightSet t = rotateLightSet(base, float(deg));
       ASSERT_EQ(t.lights.size(), base.lights.size());
@@ -322,7 +317,7 @@ TEST(LightRotation, LightsTurnInTheEnvironmentsSense) {
     }
     Environment turnedMap = env;
     turnedMap.rotationYDeg = 90.0f;
-    const LightSet found = extractMedianCut(ctx(), turnedMap, mo);
+    const LightSet found = sixteenLights(turnedMap);
     // The worst over base's lights of the angle to the nearest light found in the turned map.
     auto worstMatch = [&](const LightSet& turned) {
       double worst = 0;
