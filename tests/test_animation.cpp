@@ -53,7 +53,10 @@ double angleDeg(const std::array<float, 3>& a, const std::array<float, 3>& b) {
   return std::acos(std::clamp(d / (la * lb), -1.0, 1.0)) / kDeg;
 }
 
-double lum(const std::array<float, 3>& p) { return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2]; }
+template <class T>
+double lum(const std::array<T, 3>& p) {
+  return PB_LUM_R * p[0] + PB_LUM_G * p[1] + PB_LUM_B * p[2];
+}
 
 std::vector<Environment> testMaps() {
   std::vector<Environment> maps;
@@ -82,7 +85,6 @@ std::vector<std::array<float, 3>> cubeNormals() {
         }
   return normals;
 }
-
 
 }  // namespace
 
@@ -271,10 +273,6 @@ TEST(EnvRotation, MedianCutLightsTurnWithTheMap) {
 
 namespace {
 
-double lumD(const std::array<double, 3>& e) {
-  return PB_LUM_R * e[0] + PB_LUM_G * e[1] + PB_LUM_B * e[2];
-}
-
 // The largest |E_turned(R(a) n) - E_base(n)| over the 26 normals, as a fraction of the largest
 // E_base(n): `ambientOnly` compares LightSet::ambientIrradiance, else LightSet::irradiance.
 double turnedIrradianceError(const LightSet& base, const LightSet& turned, double deg,
@@ -284,8 +282,8 @@ double turnedIrradianceError(const LightSet& base, const LightSet& turned, doubl
     const auto eb = ambientOnly ? base.ambientIrradiance(n) : base.irradiance(n);
     const auto m = rotY(n, deg);
     const auto et = ambientOnly ? turned.ambientIrradiance(m) : turned.irradiance(m);
-    scale = std::max(scale, std::fabs(lumD(eb)));
-    worst = std::max(worst, std::fabs(lumD(et) - lumD(eb)));
+    scale = std::max(scale, std::fabs(lum(eb)));
+    worst = std::max(worst, std::fabs(lum(et) - lum(eb)));
   }
   return worst / scale;
 }
@@ -824,6 +822,37 @@ TEST(CliAnimation, FramesAreNumberedAndReported) {
   }
 }
 
+namespace {
+
+// The frame `render --frames` draws in the tests below (studio.exr, 4 lights on a 16 cube, 48x27,
+// 32^2 maps, the built-in scene at time 0), in process: the lights extracted from the map turned
+// by extractedAtDeg, turned by `turnDeg`, the map turned by envDeg.
+Image turnedFrame(float extractedAtDeg, float turnDeg, float envDeg) {
+  ExtractOptions eo;
+  eo.medianCut.lights = 4;
+  eo.medianCut.faceSize = 16;
+  RenderOptions ro;
+  ro.width = 48;
+  ro.height = 27;
+  ro.shadowMapSize = 32;
+  Environment env = loadEnvironment(data("envmaps/studio.exr"));
+  env.rotationYDeg = extractedAtDeg;
+  const LightSet first = extractLights(ctx(), env, eo);
+  env.rotationYDeg = envDeg;
+  const Scene scene = builtinScene();
+  Renderer renderer(ctx());
+  return renderer.render(scene, frameCamera(scene, 48.0f / 27.0f),
+                         rotateLightSet(first, turnDeg), env, ro).image;
+}
+
+// Its options on the command line.
+std::vector<std::string> turnArgs() {
+  return {"--env",    data("envmaps/studio.exr"), "--size", "48x27", "--lights", "4",
+          "--face-size", "16", "--shadow-map-size", "32"};
+}
+
+}  // namespace
+
 // Frame 0 is extracted, later frames turn its lights with the map. --extract-each-frame extracts
 // every frame from the turned map instead, so that each of its frames is the single frame of that
 // turn. The turned frame is the in-process render of rotateLightSet's set, and differs from the
@@ -831,13 +860,10 @@ TEST(CliAnimation, FramesAreNumberedAndReported) {
 // degrees): median cut cuts the turned map differently.
 TEST(CliAnimation, LightsTurnWithTheMapUnlessExtractedEachFrame) {
   const fs::path d = freshDir("turn");
-  const std::string map = data("envmaps/studio.exr");
-  const std::vector<std::string> common = {"render", "--frames", "3", "--env", map, "--size",
-                                           "48x27", "--lights", "4", "--face-size", "16",
-                                           "--shadow-map-size", "32", "--rotate-step", "20",
-                                           "--frame-time", "0"};
   auto run = [&](std::vector<std::string> extra) {
-    std::vector<std::string> args = common;
+    std::vector<std::string> args = {"render", "--frames", "3", "--rotate-step", "20",
+                                     "--frame-time", "0"};
+    for (const std::string& x : turnArgs()) args.push_back(x);
     args.insert(args.end(), extra.begin(), extra.end());
     return cli(d, args);
   };
@@ -845,8 +871,9 @@ TEST(CliAnimation, LightsTurnWithTheMapUnlessExtractedEachFrame) {
   ASSERT_EQ(a.code, 0) << a.err;
   CliRun b = run({"--extract-each-frame", "--out", "b.exr", "--report", "b.json"});
   ASSERT_EQ(b.code, 0) << b.err;
-  CliRun c = cli(d, {"render", "--env", map, "--size", "48x27", "--lights", "4", "--face-size",
-                     "16", "--shadow-map-size", "32", "--env-rotate", "40", "--out", "c.exr"});
+  std::vector<std::string> single = {"render", "--env-rotate", "40", "--out", "c.exr"};
+  for (const std::string& x : turnArgs()) single.push_back(x);
+  CliRun c = cli(d, single);
   ASSERT_EQ(c.code, 0) << c.err;
   const nlohmann::json ra = nlohmann::json::parse(slurp(d / "a.json"));
   const nlohmann::json rb = nlohmann::json::parse(slurp(d / "b.json"));
@@ -858,22 +885,9 @@ TEST(CliAnimation, LightsTurnWithTheMapUnlessExtractedEachFrame) {
   EXPECT_EQ(img("a_0000.exr").pixels, img("b_0000.exr").pixels);
   EXPECT_EQ(img("b_0002.exr").pixels, img("c.exr").pixels);
 
-  // Frame 2 in process: frame 0's lights turned by 40 degrees, the map turned by 40.
-  ExtractOptions eo;
-  eo.medianCut.lights = 4;
-  eo.medianCut.faceSize = 16;
-  RenderOptions ro;
-  ro.width = 48;
-  ro.height = 27;
-  ro.shadowMapSize = 32;
-  Environment env = loadEnvironment(map);
-  const LightSet frame0 = extractLights(ctx(), env, eo);
-  env.rotationYDeg = 40.0f;
-  Scene scene = builtinScene();  // --frame-time 0: the scene stands still
-  Renderer renderer(ctx());
-  const Image direct = renderer.render(scene, frameCamera(builtinScene(), 48.0f / 27.0f),
-                                       rotateLightSet(frame0, 40.0f), env, ro).image;
-  const ImageMetrics same = compareImages(img("a_0002.exr"), direct);
+  // Frame 2 in process: frame 0's lights turned by 40 degrees, the map turned by 40 (--frame-time
+  // 0: the scene stands still).
+  const ImageMetrics same = compareImages(img("a_0002.exr"), turnedFrame(0.0f, 40.0f, 40.0f));
   const ImageMetrics reextracted = compareImages(img("a_0002.exr"), img("b_0002.exr"));
   std::printf("[ rotation ] CLI frame 2 (turned lights) vs in-process render: %.2e; vs the frame "
               "re-extracted from the turned map: %.4f (relative RMSE)\n", same.relativeRmse,
@@ -897,6 +911,42 @@ TEST(CliAnimation, LightsTurnWithTheMapUnlessExtractedEachFrame) {
   fs::remove_all(e);
 }
 
+// The turn since the extraction across the wrap at 360 degrees and with a negative step: from 355
+// in steps of 7, frame 2 is at 9 degrees, 14 past the extraction; from 10 in steps of -7, at -4,
+// 14 before it. Each CLI frame is the in-process frame of the set turned by that much (measured
+// 0: the same floats), and not the frame of the set turned the other way.
+TEST(CliAnimation, TurnsFollowTheWrapAndNegativeSteps) {
+  const fs::path d = freshDir("wrap");
+  struct Case {
+    const char *start, *step;
+    float startDeg, frame2Deg, turnDeg;
+  };
+  for (const Case& k :
+       {Case{"355", "7", 355.0f, 9.0f, 14.0f}, Case{"10", "-7", 10.0f, -4.0f, -14.0f}}) {
+    SCOPED_TRACE(std::string(k.start) + " by " + k.step);
+    std::vector<std::string> args = {"render", "--frames", "3", "--frame-time", "0",
+                                     "--env-rotate", k.start, "--rotate-step", k.step,
+                                     "--out", "w.exr", "--report", "w.json"};
+    for (const std::string& x : turnArgs()) args.push_back(x);
+    CliRun r = cli(d, args);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json json = nlohmann::json::parse(slurp(d / "w.json"));
+    EXPECT_DOUBLE_EQ(json[2]["env_rotation_deg"].get<double>(), double(k.frame2Deg));
+    EXPECT_EQ(json[2]["lights_from"], "turned");
+    const Image got = readImage((d / "w_0002.exr").string());
+    const ImageMetrics right =
+        compareImages(got, turnedFrame(k.startDeg, k.turnDeg, k.frame2Deg));
+    const ImageMetrics wrong =
+        compareImages(got, turnedFrame(k.startDeg, -k.turnDeg, k.frame2Deg));
+    std::printf("[ rotation ] from %s by %s: frame 2 vs the set turned %+.0f: %.2e, turned %+.0f: "
+                "%.4f (relative RMSE)\n", k.start, k.step, k.turnDeg, right.relativeRmse,
+                -k.turnDeg, wrong.relativeRmse);
+    EXPECT_LT(right.relativeRmse, 1e-6);
+    EXPECT_GT(wrong.relativeRmse, 1e-3);
+  }
+  fs::remove_all(d);
+}
+
 TEST(CliAnimation, MapListCycles) {
   const fs::path d = freshDir("maps");
   const std::string list = data("envmaps/studio.exr") + "," + data("envmaps/courtyard.exr");
@@ -914,6 +964,12 @@ TEST(CliAnimation, MapListCycles) {
     EXPECT_NE(env.find(maps[k]), std::string::npos) << k << ": " << env;
     // With a list the default step is 0: the maps animate, not the rotation.
     EXPECT_EQ(json[k]["env_rotation_deg"].get<double>(), 0.0) << k;
+    // Each map's own lights, extracted once: frame 2 shows studio again, unturned.
+    EXPECT_EQ(json[k]["lights_from"], k < 2 ? "extracted" : "reused") << k;
+    bool extractTimes = false;
+    for (const auto& [stage, ms] : json[k]["timings_ms"].items())
+      extractTimes = extractTimes || stage.rfind("extract/", 0) == 0;
+    EXPECT_EQ(extractTimes, k < 2) << k;
   }
 }
 

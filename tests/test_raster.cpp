@@ -477,7 +477,6 @@ TEST(Raster, ViewsKernelMatchesTheAtomics) {
 // The same on the simulator, small: races (there must be none: each view has one writer).
 TEST(OclgrindRaster, ViewsKernel) { expectViewsKernelMatches(triScene(), lightViews(9), 0, 10); }
 
-
 namespace {
 
 // The camera's depth and triangle ids for `scene` seen through v, with the CPU forms of the
@@ -494,7 +493,16 @@ CameraBuffers cameraBuffers(const Scene& scene, const View& v, bool cpuForms) {
   {
     RasterStage st(scene, 1);
     cl::Buffer cam = ctx().upload(std::vector<pb_view>{v.pb()}, "test camera view");
+    ctx().resetTimings();
     const detail::DeviceGBuffer g = st.raster.gbuffer(cam, v.w, v.h);
+    // the path asked for ran: the bands, or the two passes of atomics
+    bool bands = false, passes = false;
+    for (const auto& [stage, ms] : ctx().stageTimesMs()) {
+      bands = bands || stage == "gbuffer/raster";
+      passes = passes || stage == "gbuffer/ids";
+    }
+    EXPECT_EQ(bands, cpuForms);
+    EXPECT_EQ(passes, !cpuForms);
     const std::size_t n = std::size_t(v.w) * v.h;
     out.depth = ctx().download<cl_uint>(g.depth, n, "test camera depth");
     out.ids = ctx().download<cl_uint>(g.ids, n, "test camera ids");

@@ -43,12 +43,13 @@ CLI::App* addRenderCommand(CLI::App& root, Registry& reg) {
       "a list. Lights are extracted from each map once, on the first frame that shows it, and "
       "turned with the map after that (rotateLightSet), so that they move with it instead of "
       "jumping between median cut's cells (--extract-each-frame: extracted again from every "
-      "turned map). Shadows and shading are redone every frame; the camera is framed once, on "
-      "the scene at time 0. Frame i is written to OUT's name with _iiii (4 digits, more past "
-      "9999 frames) before the extension: --out anim/f.png gives anim/f_0000.png, "
-      "anim/f_0001.png, ...; --report then writes a JSON array with one object per frame "
-      "(frame, time_s, environment, env_rotation_deg, lights_from: extracted, turned or "
-      "light-set, out, lights, stage timings). Each frame prints a line on stderr with its "
+      "turned map); lights a --light-set gives stay where they are. Shadows and shading are "
+      "redone every frame; the camera is framed once, on the scene at time 0. Frame i is "
+      "written to OUT's name with _iiii (4 digits, more past 9999 frames) before the extension: "
+      "--out anim/f.png gives anim/f_0000.png, anim/f_0001.png, ...; --report then writes a "
+      "JSON array with one object per frame (frame, time_s, environment, env_rotation_deg, "
+      "lights_from: extracted, turned, reused (the map has not turned since it was extracted) "
+      "or light-set, out, lights, stage timings). Each frame prints a line on stderr with its "
       "time and the estimated time left (--quiet: none).");
   const RenderOptions R;
   addSceneOptions(*app, reg, R.width, R.height, {"RenderOptions.width", "RenderOptions.height"},
@@ -136,11 +137,13 @@ int runRender(const Args& a) {
       extracted[mapIndex] = extractNoting(ctx, env, eo, a);
       extractedAtDeg[mapIndex] = env.rotationYDeg;
     }
-    const LightSet lights =
-        useLightSet ? userLights
-        : extract   ? *extracted[mapIndex]
-                    : rotateLightSet(*extracted[mapIndex],
-                                     float(double(env.rotationYDeg) - extractedAtDeg[mapIndex]));
+    // (a whole number of turns since the extraction: the set as it is, reported "reused")
+    const double turned = double(env.rotationYDeg) - extractedAtDeg[mapIndex];
+    const bool reused = !useLightSet && !extract && std::fmod(turned, 360.0) == 0.0;
+    const LightSet lights = useLightSet         ? userLights
+                            : extract || reused ? *extracted[mapIndex]
+                                                : rotateLightSet(*extracted[mapIndex],
+                                                                 float(turned));
     const Frame f = frameRenderer.render(s.scene, s.camera, lights, env, ro);
     const double frameMs = secondsSince(t0) * 1e3;
     const std::string path = animate ? framePath(out, i, frames) : out;
@@ -168,6 +171,7 @@ int runRender(const Args& a) {
                                       {"env_rotation_deg", shortestDouble(env.rotationYDeg)},
                                       {"lights_from", useLightSet ? "light-set"
                                                       : extract   ? "extracted"
+                                                      : reused    ? "reused"
                                                                   : "turned"},
                                       {"frame_ms", frameMs},
                                       {"out", fs::path(path).filename().string()}};

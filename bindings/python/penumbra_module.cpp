@@ -934,7 +934,8 @@ PYBIND11_MODULE(_penumbra, m) {
   m.def("rotate_light_set", &rotateLightSet, "light_set"_a, "degrees"_a,
         "The light set of the same map turned `degrees` further about +y "
         "(Environment.rotation_y_deg's sense): lights, frames and vertices turned, the ambient's "
-        "SH9 rotated, its irradiance map shifted (linear between columns); regions cleared. "
+        "SH9 rotated, its irradiance map shifted (linear between columns); regions cleared (whole "
+        "turns: the set unchanged). "
         "What an animation of a turning map should use instead of extracting every frame.");
   m.def("load_light_set", [](const fs::path& path) { return loadLightSet(path.string()); },
         "path"_a, py::call_guard<py::gil_scoped_release>(),

@@ -226,7 +226,8 @@ void validateLightSet(const LightSet& set);
 ///
 /// What an animation of a turning map should use: extracting from each turned map instead lets
 /// median cut's cells, which stay fixed to the cube, cut the map differently every frame, and
-/// lights jump (with 32 lights and 1-degree steps, by up to 29 degrees on a studio map). `render
+/// lights jump (with 32 lights, the sets extracted after turns of 1 to 3 degrees have lights up to
+/// 29 degrees from the first set's, turned, on a studio map). `render
 /// --frames` extracts once per map and turns the set (--extract-each-frame: the old way).
 /// Throws Error(BadInput) for a non-finite angle or an ambient map whose size and values disagree.
 LightSet rotateLightSet(const LightSet& set, float degrees);

@@ -330,13 +330,14 @@ kernel void raster_views(global const float4* pos, global const int4* tris, int 
 }
 
 // The CPU form of the camera's two passes (src/render/rasterizer.cpp: the G-buffer on CPU
-// devices), in two kernels. triangle_rows: each triangle's first and last row in view 0 ((1, 0)
-// where it covers none). raster_bands: one work-item per band of `band` rows takes, in
-// increasing index, every triangle whose rows meet its band, and keeps depth and id at once
-// (raster_triangle's pass 2): the rows have one writer, so no atomics, and the triangles are
-// tested once instead of once a pass. Pass 1 keeps the least index among the triangles at the stored depth; pass 2 keeps the
-// first of them in index order, the same one: the same bits. Launched one work-item per
-// work-group, so that the bands spread over the cores.
+// devices), in two kernels. triangle_rows: each triangle's first and last row in view 0
+// ((INT_MAX, -1) where it covers none, which no band meets). raster_bands: one work-item per
+// band of `band` rows takes, in increasing index, every triangle whose rows meet its band, and
+// keeps depth and id at once (raster_triangle's pass 2): the rows have one writer, so no
+// atomics, and the triangles are tested once instead of once a pass. Pass 1 keeps the least
+// index among the triangles at the stored depth; pass 2 keeps the first of them in index order,
+// the same one: the same bits. Launched one work-item per work-group, so that the bands spread
+// over the cores.
 kernel void triangle_rows(global const float4* pos, global const int4* tris, int ntris,
                           global const pb_view* views, global int2* rows) {
   const int tri = get_global_id(0);
@@ -347,7 +348,8 @@ kernel void triangle_rows(global const float4* pos, global const int4* tris, int
   bool clipped;
   int n = triangle_outline(&v, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz, outline, &clipped);
   int x0, y0, x1, y1;
-  rows[tri] = outline_bounds(&v, outline, n, &x0, &y0, &x1, &y1) ? (int2)(y0, y1) : (int2)(1, 0);
+  rows[tri] = outline_bounds(&v, outline, n, &x0, &y0, &x1, &y1) ? (int2)(y0, y1)
+                                                                  : (int2)(INT_MAX, -1);
 }
 
 kernel void raster_bands(global const float4* pos, global const int4* tris, int ntris,

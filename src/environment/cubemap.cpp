@@ -26,9 +26,9 @@ DeviceCube resampleToCube(Context& ctx, const Environment& env, int m, int super
   cube.faceSize = m;
   cube.scale = maxv > 0 ? std::ldexp(1.0, 48) / (4.0 * 3.14159265358979323846 * maxv) : 1.0;
 
-  // The map and the cube are the context's scratch buffers (Context::scratch): an animation
-  // extracts every frame, and allocating and first-touching them each time cost more than the
-  // kernels.
+  // The map and the cube are the context's scratch buffers (Context::scratch): a caller may
+  // extract every frame (render --frames --extract-each-frame, a list of maps, a program's own
+  // loop), and allocating and first-touching them each time cost more than the kernels.
   const std::size_t bytes = 3ull * 6 * m * m * sizeof(cl_long);
   Context::ScratchLease eqLease =
       ctx.scratch("environment map", eq.pixels.size() * sizeof(float));

@@ -15,6 +15,7 @@
 #include "common/shared.h"
 #include "core/number_text.hpp"
 #include "core/vec3.hpp"
+#include "lights/sampling.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra {
@@ -61,19 +62,19 @@ void solve(std::vector<double>& A, std::vector<double>& b, int n) {
 
 // The nine SH coefficients of f'(n) = f(R(-a) n). A rotation keeps each band (l = 0, 1, 2), so f'
 // is again of order <= 2 and the least-squares fit of f'(d_k) = f(R(-a) d_k) over directions d_k
-// that determine the nine basis functions is exact, up to rounding. The 64 directions are a
-// spherical Fibonacci set: their 9 x 9 normal matrix is close to diagonal (a quadrature of the
-// basis's orthogonality), so the solve loses nothing in double.
+// that determine the nine basis functions is exact, up to rounding. The 64 directions are
+// spread uniformly over the sphere (the light samples' spherical Fibonacci set, lights/sampling):
+// their 9 x 9 normal matrix is close to diagonal (a quadrature of the basis's orthogonality), so
+// the solve loses nothing in double.
 void rotateSH9(std::array<std::array<float, 3>, 9>& sh, const TurnY& turn) {
   constexpr int kN = 9, kDirs = 64;
   const TurnY back{turn.c, -turn.s};
   std::vector<double> AtA(kN * kN, 0.0);
   std::array<std::vector<double>, 3> Atb;
   for (auto& v : Atb) v.assign(kN, 0.0);
-  for (int k = 0; k < kDirs; ++k) {
-    const double z = 1.0 - (2.0 * k + 1.0) / kDirs, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const double phi = 2.39996322972865332 * k;  // the golden angle
-    const D3 d{r * std::cos(phi), z, r * std::sin(phi)};
+  // the whole sphere as a cap of half-angle pi (lights/sampling.hpp)
+  for (const auto& df : detail::sphericalFibonacciCap({0, 1, 0}, -1.0f, kDirs, 0.0f)) {
+    const D3 d = detail::vec3Cast<double>(df);
     const D3 src = back.apply(d);
     float Y[kN], Ys[kN];
     pb_sh9(float(d[0]), float(d[1]), float(d[2]), Y);
@@ -99,7 +100,7 @@ void rotateSH9(std::array<std::array<float, 3>, 9>& sh, const TurnY& turn) {
 // (pb_ambient_map_taps). A whole-column shift copies the columns exactly.
 void rotateAmbientMap(AmbientMap& m, double turns) {
   const int W = m.width;
-  const double shift = turns * W;  // in [0, W)
+  const double shift = turns * W;  // in [0, W]: W only by rounding, which the % W below wraps
   const double whole = std::floor(shift);
   const float frac = float(shift - whole);
   const int w0 = int(whole);
@@ -131,8 +132,9 @@ LightSet rotateLightSet(const LightSet& set, float degrees) {
   const TurnY turn{std::cos(a), std::sin(a)};
   for (AreaLight& l : out.lights) {
     l.direction = turn.turn(l.direction, true);
-    // The frame (rects, ellipses, textured caps) turns with the light; no frame stays none.
-    if (l.tanHalf[0] != 0.0f || l.tanHalf[1] != 0.0f) l.axisU = turn.turn(l.axisU, true);
+    // The frame (rects, ellipses, textured caps) turns with the light, its length kept; no
+    // frame (a zero axisU) stays none.
+    if (l.axisU != std::array<float, 3>{0, 0, 0}) l.axisU = turn.turn(l.axisU, false);
     for (auto& v : l.vertices) v = turn.turn(v, true);
     // The cube regions were the unturned map's; they no longer mark where the light is.
     l.regions.clear();
