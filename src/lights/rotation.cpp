@@ -3,8 +3,8 @@
 // An animation that turns its map (render --frames, --rotate-step) used to extract the lights of
 // every frame from the turned map. Median cut splits the cube's texels, which do not turn with
 // the map, so a light could jump between frames by far more than the map turned (measured with
-// 32 lights and 1-degree steps: up to 5 degrees on the built-in sky, 29 on studio.exr, in the
-// map's own frame). Turning the first frame's set instead moves every light with the map, and
+// 32 lights, the sets extracted after turns of 1 to 3 degrees, turned back: lights up to 5
+// degrees from the first set's on the built-in sky, 29 on studio.exr). Turning the first frame's set instead moves every light with the map, and
 // costs a few microseconds where extraction costs the frame's environment stages.
 #include "penumbra/lights.hpp"
 
