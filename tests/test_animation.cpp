@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common.hpp"
+#include "support/extraction_checks.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -73,16 +74,12 @@ LightSet sixteenLights(const Environment& env) {
   return extractMedianCut(ctx(), env, mo);
 }
 
-// The 26 unit directions towards a cube's faces, edges and corners.
+// The 26 unit directions towards a cube's faces, edges and corners (support's testNormals), in
+// float.
 std::vector<std::array<float, 3>> cubeNormals() {
   std::vector<std::array<float, 3>> normals;
-  for (int x = -1; x <= 1; ++x)
-    for (int y = -1; y <= 1; ++y)
-      for (int z = -1; z <= 1; ++z)
-        if (x || y || z) {
-          const float len = std::sqrt(float(x * x + y * y + z * z));
-          normals.push_back({x / len, y / len, z / len});
-        }
+  for (const auto& n : xref::testNormals())
+    normals.push_back({float(n[0]), float(n[1]), float(n[2])});
   return normals;
 }
 

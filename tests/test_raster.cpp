@@ -11,7 +11,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <tuple>
@@ -21,6 +20,7 @@
 #include "core/device_kind.hpp"
 #include "render/device_scene.hpp"
 #include "render/rasterizer.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -486,9 +486,7 @@ struct CameraBuffers {
   std::vector<cl_uint> depth, ids;
 };
 CameraBuffers cameraBuffers(const Scene& scene, const View& v, bool cpuForms) {
-  const char* old = std::getenv("PENUMBRA_CPU_BATCHING");
-  const std::string saved = old ? old : "";
-  setenv("PENUMBRA_CPU_BATCHING", cpuForms ? "on" : "off", 1);
+  const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(cpuForms ? "on" : "off"));
   CameraBuffers out;
   {
     RasterStage st(scene, 1);
@@ -507,10 +505,6 @@ CameraBuffers cameraBuffers(const Scene& scene, const View& v, bool cpuForms) {
     out.depth = ctx().download<cl_uint>(g.depth, n, "test camera depth");
     out.ids = ctx().download<cl_uint>(g.ids, n, "test camera ids");
   }
-  if (old)
-    setenv("PENUMBRA_CPU_BATCHING", saved.c_str(), 1);
-  else
-    unsetenv("PENUMBRA_CPU_BATCHING");
   return out;
 }
 

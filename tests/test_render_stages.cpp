@@ -12,6 +12,7 @@
 
 #include "common.hpp"
 #include "render/device_scene.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 
@@ -129,24 +130,6 @@ TEST(RenderStages, ContextEventListIsBounded) {
 
 namespace {
 
-// Sets PENUMBRA_CPU_BATCHING for the scope, restores it after.
-struct CpuBatching {
-  explicit CpuBatching(const char* value) {
-    const char* old = std::getenv("PENUMBRA_CPU_BATCHING");
-    had_ = old != nullptr;
-    if (had_) old_ = old;
-    setenv("PENUMBRA_CPU_BATCHING", value, 1);
-  }
-  ~CpuBatching() {
-    if (had_)
-      setenv("PENUMBRA_CPU_BATCHING", old_.c_str(), 1);
-    else
-      unsetenv("PENUMBRA_CPU_BATCHING");
-  }
-  bool had_ = false;
-  std::string old_;
-};
-
 // The frame rendered with the CPU forms of the kernels off ([0]) and on ([1]).
 std::array<std::vector<float>, 2> framesWithAndWithoutCpuForms(Context& c, const Scene& scene,
                                                               const Camera& cam,
@@ -155,7 +138,7 @@ std::array<std::vector<float>, 2> framesWithAndWithoutCpuForms(Context& c, const
                                                               const RenderOptions& ro) {
   std::array<std::vector<float>, 2> frames;
   for (int batched : {0, 1}) {
-    CpuBatching env_(batched ? "on" : "off");
+    const test::ScopedEnv env_("PENUMBRA_CPU_BATCHING", std::string(batched ? "on" : "off"));
     Renderer r(c);
     frames[batched] = r.render(scene, cam, lights, env, ro).image.pixels;
   }

@@ -137,13 +137,12 @@ int runRender(const Args& a) {
       extracted[mapIndex] = extractNoting(ctx, env, eo, a);
       extractedAtDeg[mapIndex] = env.rotationYDeg;
     }
-    // (a whole number of turns since the extraction: the set as it is, reported "reused")
+    // (rotateLightSet gives a whole number of turns back as it is: reported "reused")
     const double turned = double(env.rotationYDeg) - extractedAtDeg[mapIndex];
     const bool reused = !useLightSet && !extract && std::fmod(turned, 360.0) == 0.0;
-    const LightSet lights = useLightSet         ? userLights
-                            : extract || reused ? *extracted[mapIndex]
-                                                : rotateLightSet(*extracted[mapIndex],
-                                                                 float(turned));
+    const LightSet lights = useLightSet ? userLights
+                            : extract   ? *extracted[mapIndex]
+                                        : rotateLightSet(*extracted[mapIndex], float(turned));
     const Frame f = frameRenderer.render(s.scene, s.camera, lights, env, ro);
     const double frameMs = secondsSince(t0) * 1e3;
     const std::string path = animate ? framePath(out, i, frames) : out;

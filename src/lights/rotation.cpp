@@ -4,8 +4,9 @@
 // every frame from the turned map. Median cut splits the cube's texels, which do not turn with
 // the map, so a light could jump between frames by far more than the map turned (measured with
 // 32 lights, the sets extracted after turns of 1 to 3 degrees, turned back: lights up to 5
-// degrees from the first set's on the built-in sky, 29 on studio.exr). Turning the first frame's set instead moves every light with the map, and
-// costs a few microseconds where extraction costs the frame's environment stages.
+// degrees from the first set's on the built-in sky, 29 on studio.exr). Turning the first
+// frame's set instead moves every light with the map, and costs a few microseconds where
+// extraction costs the frame's environment stages.
 #include "penumbra/lights.hpp"
 
 #include <algorithm>
