@@ -970,6 +970,47 @@ TEST(CliAnimation, MapListCycles) {
   }
 }
 
+// --lights auto with a list of maps: each map gets the count `lights --lights auto` chooses for it
+// alone, on the first frame that shows it, and keeps it when shown again. The two maps need
+// different counts (26 and 5 at these options, measured), so a render that kept the first map's
+// count for both (as it did before 2026-12-04) fails frame 1.
+TEST(CliAnimation, LightsAutoChoosesACountForEachMapOfAList) {
+  const fs::path d = freshDir("autolist");
+  const std::vector<std::string> maps = {"builtin", data("envmaps/courtyard.exr")};
+  const std::vector<std::string> autoArgs = {"--lights", "auto", "--target-error", "0.08",
+                                             "--face-size", "32"};
+  std::vector<std::size_t> counts;
+  for (std::size_t k = 0; k < maps.size(); ++k) {
+    const std::string file = "l" + std::to_string(k) + ".json";
+    std::vector<std::string> args = {"lights", "--env", maps[k], "--out", file};
+    args.insert(args.end(), autoArgs.begin(), autoArgs.end());
+    CliRun r = cli(d, args);
+    ASSERT_EQ(r.code, 0) << r.err;
+    counts.push_back(loadLightSet((d / file).string()).lights.size());
+  }
+  ASSERT_NE(counts[0], counts[1]) << "the maps must need different counts for this test to tell";
+  std::vector<std::string> args = {"render", "--frames", "3", "--env", maps[0] + "," + maps[1],
+                                   "--size", "16x9", "--shadows", "none", "--out", "a.exr",
+                                   "--report", "r.json"};
+  args.insert(args.end(), autoArgs.begin(), autoArgs.end());
+  CliRun r = cli(d, args);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json json = nlohmann::json::parse(slurp(d / "r.json"));
+  ASSERT_EQ(json.size(), 3u) << json.dump(2);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(json[k]["lights"].get<std::size_t>(), counts[k % 2]) << k;
+    EXPECT_EQ(json[k]["lights_from"], k < 2 ? "extracted" : "reused") << k;
+  }
+  // one search per map, each said on stderr with the map it was for
+  std::size_t said = 0;
+  for (std::size_t at = r.err.find("--lights auto: "); at != std::string::npos;
+       at = r.err.find("--lights auto: ", at + 1))
+    ++said;
+  EXPECT_EQ(said, 2u) << r.err;
+  EXPECT_NE(r.err.find(std::to_string(counts[1]) + " lights for " + maps[1]), std::string::npos)
+      << r.err;
+}
+
 // Without --frames the output keeps its name (no frame number), and the frame is the turned
 // scene's: it equals a direct render of the map turned by -45 degrees (same extraction, same
 // options) within 1e-4 relative RMSE (measured 0: the EXR holds the floats as rendered, and both

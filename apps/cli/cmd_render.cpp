@@ -120,6 +120,9 @@ int runRender(const Args& a) {
   std::size_t lastLights = 0;
   std::vector<std::optional<LightSet>> extracted(envs.size());
   std::vector<double> extractedAtDeg(envs.size(), 0.0);
+  // Each map's own options: --lights auto chooses a count on a map's first extraction and keeps
+  // it for that map's later ones (extractNoting), so every map of a list gets its own count.
+  std::vector<ExtractOptions> mapOptions(envs.size(), eo);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < frames; ++i) {
     const float t = float(i) * frameTime;
@@ -134,7 +137,7 @@ int runRender(const Args& a) {
     const std::size_t mapIndex = std::size_t(i) % envs.size();
     const bool extract = !useLightSet && (extractEachFrame || !extracted[mapIndex]);
     if (extract) {
-      extracted[mapIndex] = extractNoting(ctx, env, eo, a);
+      extracted[mapIndex] = extractNoting(ctx, env, mapOptions[mapIndex], a);
       extractedAtDeg[mapIndex] = env.rotationYDeg;
     }
     // (rotateLightSet gives a whole number of turns back as it is: reported "reused")
