@@ -193,8 +193,8 @@ LightSet extractNoting(Context& ctx, const Environment& env, ExtractOptions& eo,
     for (const LightCountTry& t : search.tried)
       tried += (tried.empty() ? "" : ", ") + std::to_string(t.asked) + ": " + pct(t.predicted);
     std::cerr << "penumbra: --lights auto: " << set.lights.size() << " lights for " << env.source
-              << ", predicted error " << pct(search.predicted) << (search.reached ? " <= " : " > ") << "target "
-              << pct(eo.targetError)
+              << ", predicted error " << pct(search.predicted)
+              << (search.reached ? " <= " : " > ") << "target " << pct(eo.targetError)
               << (search.reached ? "" : " (the most lights allowed; raise --max-lights)")
               << " (tried " << tried << ")\n";
   }
