@@ -313,6 +313,19 @@ TEST_F(CliRenderOptions, NoContactShadowsTurnsThemOff) {
   EXPECT_EQ(darker, 0);
 }
 
+// Lights on the horizon (on by default): --no-horizon-visibility leaves the maps' visibility of
+// the lights whose centre is below a pixel's horizon, the frame changes on the built-in scene's
+// ground (4 lights, some of them straddling its horizon), and the report says which ran.
+TEST_F(CliRenderOptions, NoHorizonVisibilityTurnsItOff) {
+  const Rendered off = render("nohorizon", {"--shadows", "mssm4", "--no-horizon-visibility"});
+  ASSERT_FALSE(off.image.empty());
+  EXPECT_EQ(off.report["shadow"]["horizon_visibility"].get<bool>(), false);
+  EXPECT_EQ(mssm4().report["shadow"]["horizon_visibility"].get<bool>(), true);
+  const double d = rel(off.image, mssm4().image);
+  RecordProperty("horizon_change", std::to_string(d));
+  EXPECT_GT(d, 1e-4);
+}
+
 // Filter widths: both a smaller light and a smaller filter cap bring MSSM4 towards hard shadows
 // (the filter shrinks to a texel); the reports tell which field each one set.
 TEST_F(CliRenderOptions, LightSizeScaleAndMaxFilterSharpenTowardsHard) {

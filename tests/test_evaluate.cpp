@@ -247,8 +247,12 @@ TEST_F(BudgetFixture, PartsAddUpAndMatchRecomputation) {
   const double meanG = mt.rmse / mt.relativeRmse;
   EXPECT_NEAR(b.truthMean, meanG, 1e-9 * meanG);
   EXPECT_NEAR(Q, compareImages(frame, t.lights.image).rmse / meanG, 1e-9 * Q);
-  // The frame is darker than the light-set truth by 5% on average: the bias says so.
+  // The frame is darker than the light-set truth by 5% on average: the bias says so, also over
+  // the pixels where the light-set truth is lit (every other row is darkened, lit or not).
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.biasTechnique[std::size_t(k)], -0.05, 0.01);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.biasTechniqueLit[std::size_t(k)], -0.05, 0.01);
+  EXPECT_GT(b.litPixels, 0u);
+  EXPECT_LE(b.litPixels + b.penumbraPixels, b.geometryPixels);
   // Noise: the environment truth's for total, the light-set truth's for technique.
   EXPECT_NEAR(b.total.noise, t.environment.relativeNoise, 1e-9);
   EXPECT_NEAR(b.technique.noise * b.truthMean,

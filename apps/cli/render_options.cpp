@@ -55,6 +55,10 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
            "README \"Contact shadows\"); on by default", S, {"RenderOptions.shadow.contactShadows"});
   reg.real(app, "--contact-texels", "contact shadows: ray length in texels of each light's map",
            any, num(R.shadow.contactTexels), S, {"RenderOptions.shadow.contactTexels"});
+  reg.flag(app, "--no-horizon-visibility", "lights whose centre is below a pixel's horizon keep "
+           "their own map's visibility there (README \"Lights on the horizon\"); by default they "
+           "take that of the lights above the horizon near their lit part", S,
+           {"RenderOptions.shadow.horizonVisibility"});
   const std::string upper = R.mssm.upperBoundBlocker ? " (the default)" : "";
   reg.flag(app, "--upper-bound", "MSSM4/MSSM6: the upper-bound blocker depth (README, "
            "\"How it works\")" + (R.mssm.upperBoundBlocker ? upper : ""), S,
@@ -144,6 +148,7 @@ RenderOptions parseRenderOptions(const Args& a) {
     ro.shadow.contactShadows = false;
   }
   if (a.has("contact-texels")) ro.shadow.contactTexels = float(a.real("contact-texels"));
+  if (a.has("no-horizon-visibility")) ro.shadow.horizonVisibility = false;
   // The GL path hands OpenCL textures only, no triangles to cast contact rays against (README,
   // "Contact shadows"): off, so that the report says what the frame had.
   if (a.has("gl")) {

@@ -1158,7 +1158,11 @@ PYBIND11_MODULE(_penumbra, m) {
                                  "pixels.", R.shadow.contactShadows).c_str())
       .def_readwrite("contact_texels", &ShadowOptions::contactTexels,
                      withDefault("Contact rays' length in texels of each light's map, > 0.",
-                                 R.shadow.contactTexels).c_str());
+                                 R.shadow.contactTexels).c_str())
+      .def_readwrite("horizon_visibility", &ShadowOptions::horizonVisibility,
+                     withDefault("Lights whose centre is below a pixel's horizon, for techniques "
+                                 "that read shadow maps, take the mean visibility of the lights "
+                                 "above it near their lit part.", R.shadow.horizonVisibility).c_str());
 
   py::class_<MSSMOptions> mo(m, "MSSMOptions", "Moment soft shadow map options (MSSM4, MSSM6).");
   initFromFields<MSSMOptions>(mo);

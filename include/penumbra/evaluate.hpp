@@ -93,6 +93,11 @@ struct ErrorBudget {
   /// Mean signed error per RGB as a fraction of the truth's mean in that channel (negative: darker
   /// than the truth): total against G, technique against L.
   std::array<double, 3> biasTotal{}, biasTechnique{};
+  /// biasTechnique over the pixels where the light-set truth is lit (at least penumbraHigh of the
+  /// lights' irradiance arrives), and how many: a technique that shadows what nothing occludes
+  /// shows here (README, "Lights on the horizon").
+  std::array<double, 3> biasTechniqueLit{};
+  std::size_t litPixels = 0;
   std::size_t geometryPixels = 0, penumbraPixels = 0;
   double penumbraLow = 0, penumbraHigh = 0;  ///< EvaluateOptions' bounds, as used
   double truthMean = 0, truthMeanPenumbra = BudgetLine::kNaN;  ///< mean of G (RGB) over the pixels

@@ -60,6 +60,15 @@ struct ShadowOptions {
   float contactTexels = 8.0f;   ///< contact rays' length in texels of each light's map. Finite,
                                 ///< > 0; default 8 (at 256² maps, 2 texels: 3.17/4.36/3.63/6.16%;
                                 ///< 16: 3.16/4.26/3.63/6.17%)
+  /// Lights on the horizon (kernels/render/horizon.cl): for every technique whose visibility comes
+  /// from depth maps (as contactShadows), a light whose cap straddles a pixel's horizon with its
+  /// axis below it takes the mean visibility, at that pixel, of the lights whose axis is above the
+  /// horizon and within twice its half-angle of the lit part's middle (1 with none). Its own map
+  /// looks from below the receiver's surface and sees nothing but that surface. Measured against
+  /// the 8192-spp Embree truths, 320x180, built-in / courtyard + Wuson / interior + spider /
+  /// studio + Wuson, MSSM4 relative RMSE: off 2.94/3.72/2.98/5.63%, on 2.92/3.67/2.98/5.46%
+  /// (bench/results/accuracy.md). Default on
+  bool horizonVisibility = true;
 };
 
 /// Moment soft shadow mapping with 4 moments (Kneiphof 2017 §3.2.1) and 6 (§4.2.1): what MSSM4 and

@@ -263,9 +263,11 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
   region(geometryMask, false);
   region(b.penumbraMask, true);
 
-  // Signed bias per channel over the geometry pixels.
+  // Signed bias per channel over the geometry pixels, and the technique's over the lit ones.
+  for (std::size_t i = 0; i < n; ++i)
+    b.litPixels += geometryMask.pixels[i] > 0.5f && (vis.empty() || vis.pixels[i] >= opt.penumbraHigh);
   for (int k = 0; k < 3; ++k) {
-    double dT = 0, dQ = 0, sG = 0, sL = 0;
+    double dT = 0, dQ = 0, sG = 0, sL = 0, dLit = 0, sLit = 0;
     for (std::size_t i = 0; i < n; ++i) {
       if (!(geometryMask.pixels[i] > 0.5f)) continue;
       const std::size_t at = i * 4 + k;
@@ -273,9 +275,14 @@ ErrorBudget errorBudget(const Image& frame, const EvaluateTruths& truths,
       dQ += double(frame.pixels[at]) - double(L.pixels[at]);
       sG += G.pixels[at];
       sL += L.pixels[at];
+      if (vis.empty() || vis.pixels[i] >= opt.penumbraHigh) {
+        dLit += double(frame.pixels[at]) - double(L.pixels[at]);
+        sLit += L.pixels[at];
+      }
     }
     b.biasTotal[std::size_t(k)] = sG > 0 ? dT / sG : kNaN;
     b.biasTechnique[std::size_t(k)] = sL > 0 ? dQ / sL : kNaN;
+    b.biasTechniqueLit[std::size_t(k)] = sLit > 0 ? dLit / sLit : kNaN;
   }
 
   // Mean HDR-FLIP of each line, over the geometry pixels (flip's own mean) and the penumbra.
@@ -361,6 +368,8 @@ std::string toJson(const ErrorBudget& b) {
                       {"lights_shadowed_ambient", number(b.noiseShadowedAmbient)}};
   j["bias_total"] = rgb(b.biasTotal);
   j["bias_technique"] = rgb(b.biasTechnique);
+  j["bias_technique_lit"] = rgb(b.biasTechniqueLit);
+  j["lit_pixels"] = b.litPixels;
   return detail::dumpJson(j, 2) + "\n";
 }
 
@@ -423,6 +432,9 @@ std::string toText(const ErrorBudget& b) {
   };
   o += "bias (mean signed error / truth mean, RGB): total " + bias(b.biasTotal) + ", technique " +
        bias(b.biasTechnique) + "\n";
+  o += "technique bias where the lights' truth is lit (" + std::to_string(b.litPixels) +
+       " pixels, >= " + format(b.penumbraHigh * 100, std::chars_format::general, 3) +
+       "% of the irradiance arrives): " + bias(b.biasTechniqueLit) + "\n";
   return o;
 }
 

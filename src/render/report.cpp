@@ -73,17 +73,21 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
       if (used.count(t)) return true;
     return false;
   };
-  // Whether contact shadows ran on this frame (the visibility stage's "contact/lights" counts the
-  // lights they covered): not for the bitmask techniques, nor without triangles (GL interop).
-  double contactLights = 0;
-  for (const auto& [name, v] : f.stats)
+  // Whether contact shadows and lights on the horizon ran on this frame (the visibility stage's
+  // "contact/lights" and "horizon/lights" count the lights they covered): neither for the bitmask
+  // techniques, and no contact shadows without triangles (GL interop).
+  double contactLights = 0, horizonLights = 0;
+  for (const auto& [name, v] : f.stats) {
     if (name == "contact/lights") contactLights = v;
+    if (name == "horizon/lights") horizonLights = v;
+  }
   o["shadow"] = {{"depth_bias", shortestDecimal(opt.shadow.depthBias)},
                  {"light_size_scale", shortestDecimal(opt.shadow.lightSizeScale)},
                  {"max_filter_texels", shortestDecimal(opt.shadow.maxFilterTexels)},
                  {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)},
                  {"contact_shadows", opt.shadow.contactShadows && contactLights > 0},
-                 {"contact_texels", shortestDecimal(opt.shadow.contactTexels)}};
+                 {"contact_texels", shortestDecimal(opt.shadow.contactTexels)},
+                 {"horizon_visibility", opt.shadow.horizonVisibility && horizonLights > 0}};
   if (uses({ShadowTechnique::MSSM4, ShadowTechnique::MSSM6}))
     o["mssm"] = {{"moment_bias", shortestDecimal(opt.mssm.momentBias)},
                  {"slope_bias", shortestDecimal(opt.mssm.slopeBias)},

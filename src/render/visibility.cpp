@@ -1,6 +1,7 @@
 // The visibility stage: the technique cache, the visibility buffer and the frame's report.
 #include "render/visibility.hpp"
 #include "render/contact.hpp"
+#include "render/horizon.hpp"
 #include "shadows/shadow_options.hpp"
 
 #include <algorithm>
@@ -30,21 +31,27 @@ void Visibility::compute(ShadowFrame& f) {
     pass_->computeVisibility(f);
     bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
     stats_ = pass_->frameStats();
-    // The occluders a map cannot resolve (kernels/render/contact.cl); the techniques that test
-    // triangles themselves (the bitmask's) find them already.
-    if (f.opt.shadow.contactShadows && hasContactInputs(f)) {
+    // The lights whose visibility came from a map: contact.cl's occluders a map cannot resolve,
+    // then horizon.cl's lights on the horizon. The techniques that test triangles themselves (the
+    // bitmask's) need neither.
+    const bool horizon = f.opt.shadow.horizonVisibility;
+    const bool contact = f.opt.shadow.contactShadows && hasContactInputs(f);
+    if (horizon || contact) {
       std::vector<cl_uchar> mask(std::size_t(lights_), 0);
       int n = 0;
       for (int l = 0; l < lights_; ++l) n += mask[std::size_t(l)] = pass_->lightFromShadowMap(l);
       if (n > 0) {
         // Uploaded only when it changes (a blocking write would wait for the pass every frame).
-        if (mask != contactMask_) {
-          contactMaskBuffer_ = pool_.upload("contact-shadow lights", mask);
-          contactMask_ = mask;
+        if (mask != mapMask_) {
+          mapMaskBuffer_ = pool_.upload("map-visibility lights", mask);
+          mapMask_ = mask;
         }
-        contactShadows(f, contactMaskBuffer_);
+        if (contact) contactShadows(f, mapMaskBuffer_);
+        // after contact shadows, so that the sources it reads are final
+        if (horizon) horizon_.run(f, mapMaskBuffer_);
       }
-      stats_.emplace_back("contact/lights", double(n));
+      if (horizon) stats_.emplace_back("horizon/lights", double(n));
+      if (contact) stats_.emplace_back("contact/lights", double(n));
     }
   } else if (lights_ > 0) {
     const cl_float one = 1.0f;

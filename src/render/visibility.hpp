@@ -11,13 +11,14 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/options.hpp"
+#include "render/horizon.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
 
 class Visibility {
  public:
-  Visibility(Context& ctx, BufferPool& pool) : ctx_(ctx), pool_(pool) {}
+  Visibility(Context& ctx, BufferPool& pool) : ctx_(ctx), pool_(pool), horizon_(pool) {}
 
   // Starts a frame of `pixels` x `lights` with technique t: sizes the visibility buffer and
   // makes the technique's pass unless the last frame's was the same technique. Passes hold what
@@ -35,8 +36,8 @@ class Visibility {
 
   const cl::Buffer& buffer() const { return vis_; }
   // The last frame's device bytes of the technique (Frame::shadowMapBytes) and its statistics
-  // (Frame::stats), with "contact/lights", the lights given contact shadows, when they ran; 0
-  // and none when no pass ran.
+  // (Frame::stats), with "horizon/lights" and "contact/lights", the lights whose visibility a
+  // map gave, when those steps ran; 0 and none when no pass ran.
   std::size_t frameBytes() const { return bytes_; }
   const std::vector<std::pair<std::string, double>>& stats() const { return stats_; }
   // The last frame's visibility read back, light-major (Renderer::lastVisibility).
@@ -49,8 +50,9 @@ class Visibility {
   ShadowTechnique passKind_ = ShadowTechnique::None;
   cl::Buffer vis_;
   int pixels_ = 0, lights_ = 0;
-  std::vector<cl_uchar> contactMask_;  // the lights given contact shadows, as last uploaded
-  cl::Buffer contactMaskBuffer_;
+  std::vector<cl_uchar> mapMask_;  // the lights whose visibility a map gave, as last uploaded
+  cl::Buffer mapMaskBuffer_;
+  Horizon horizon_;  // lights on the horizon (render/horizon.hpp)
   std::size_t bytes_ = 0;
   std::vector<std::pair<std::string, double>> stats_;
 };
