@@ -34,6 +34,14 @@
 #define HZ_MAX_SOURCES 32
 #endif
 
+// Whether light K is a source for a pixel with normal n and lit-part middle m (m[3] = cos 2a):
+// its centre above the pixel's horizon and within 2a of m.
+static bool horizon_is_source(float nx, float ny, float nz, const float* m,
+                              global const pb_light* K) {
+  const float kx = K->dir[0], ky = K->dir[1], kz = K->dir[2];
+  return nx * kx + ny * ky + nz * kz > 0.0f && m[0] * kx + m[1] * ky + m[2] * kz > m[3];
+}
+
 // The sources of light l at a pixel with normal n (c = n.w): their indices, in increasing order,
 // into src (at most HZ_MAX_SOURCES); returns how many, -1 where there are more (the caller then
 // sums them with horizon_mean_all), -2 where n is parallel to w (no lens; cannot happen for
@@ -65,9 +73,7 @@ static int horizon_sources(float nx, float ny, float nz, float c, float wx, floa
   int count = 0;
   for (int i = cand_off[l]; i < cand_off[l + 1]; ++i) {
     const int k = cand_idx[i];
-    const float kx = lights[k].dir[0], ky = lights[k].dir[1], kz = lights[k].dir[2];
-    if (!(nx * kx + ny * ky + nz * kz > 0.0f) || !(m[0] * kx + m[1] * ky + m[2] * kz > m[3]))
-      continue;
+    if (!horizon_is_source(nx, ny, nz, m, lights + k)) continue;
     if (count == HZ_MAX_SOURCES) return -1;
     src[count++] = k;
   }
@@ -83,9 +89,7 @@ static float horizon_mean_all(float nx, float ny, float nz, const float* m, int 
   int count = 0;
   for (int i = cand_off[l]; i < cand_off[l + 1]; ++i) {
     const int k = cand_idx[i];
-    const float kx = lights[k].dir[0], ky = lights[k].dir[1], kz = lights[k].dir[2];
-    if (!(nx * kx + ny * ky + nz * kz > 0.0f) || !(m[0] * kx + m[1] * ky + m[2] * kz > m[3]))
-      continue;
+    if (!horizon_is_source(nx, ny, nz, m, lights + k)) continue;
     sum += vis[(size_t)k * npixels + p];
     ++count;
   }
