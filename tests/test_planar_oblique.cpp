@@ -282,6 +282,13 @@ void checkConfig(const Config& c, const std::vector<Bound>& bounds) {
 //   receiver and the blocker are no longer parallel to the shadow map's plane, where filtering is
 //   exact; no published bound applies. CSSM leaks most (mean signed error +0.133: its receiver
 //   depth, tilted by 50 degrees in light space, falls on the series' rise).
+//   MSSM4 measures 0.072 since its filter follows the cosine-weighted light
+//   (MSSMOptions::cosineCentroid; 0.070 with it alone, 0.075 with the leak reduction alone): the
+//   quadrature weighs the cap by the cosine too, and the move (0.53 degrees towards the normal
+//   here) is the right one, but MSSM4's penumbra is already too bright in this configuration
+//   (mean signed error +0.035 before the move, +0.024 now) and the shorter shadow adds to it. The
+//   bound stays: a move the wrong way measures 0.056, and the scenes' own Embree truths measure
+//   that way 2x worse on the lights that graze the ground (README, "The cosine-weighted light").
 // Controls: hard shadows measure 0.255, above every bound; the mirrored light 0.43 for every
 // technique (its shadow falls under the blocker instead, at x < -0.84).
 TEST(PlanarOblique, LightFiftyDegreesOffTheNormal) {
@@ -294,7 +301,8 @@ TEST(PlanarOblique, LightFiftyDegreesOffTheNormal) {
 // Bounds (penumbra RMS of V - V_quad), measured (PoCL, 128x96, 256^2 map):
 // - bitmask 0.015, measured 0.0042 (as above);
 // - PCSS 0.05 (measured 0.029: its receiver-plane bias follows the tilt), CSSM 0.07 (0.052),
-//   MSSM4 0.12 (0.096): REGRESSION bounds, measured plus about a quarter. MSSM4 is the worst here
+//   MSSM4 0.12 (0.096; 0.0995 with the cosine centroid and the leak reduction, the defaults
+//   since): REGRESSION bounds, measured plus about a quarter. MSSM4 is the worst here
 //   by design: at 25 degrees its upper-bound blocker depth (Kneiphof 2017 eq. 19, weight
 //   min(1, upperBoundTilt tan 25) = 0.93) narrows the penumbra (mean signed error +0.057); with
 //   eq. 7 alone it measures 0.040, but eq. 7 darkens open tilted ground (test_shadow_accuracy.cpp),

@@ -562,6 +562,12 @@ TEST(PrefilterMSSM4, MipFrameIsFiniteDeterministicAndCloseToSat) {
   ro.width = 96;
   ro.height = 54;
   ro.shadowMapSize = 128;
+  // The filter stays on the light's axis (no cosine centroid), as when the bounds below were
+  // measured. With the centroid this frame loses most of its shadow (mean 0.118 -> 0.027: false
+  // self-shadowing under 8 wide caps, README "The cosine-weighted light"), and on what is left
+  // the pyramid differs more (mean |dV| 0.020 = 0.75 of the shadow, the mip's shadow 1.19x the
+  // SAT's): the prefilters are compared here, the centroid with the mip is an open question.
+  ro.mssm.cosineCentroid = false;
   Renderer r(ctx());
   Camera cam = frameCamera(scene, 96.0f / 54.0f);
   Frame sat = r.render(scene, cam, set, env, ro);

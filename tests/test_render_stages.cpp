@@ -212,7 +212,11 @@ TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
 // The CPU forms under the simulator (PENUMBRA_CPU_BATCHING=on: oclgrind calls itself a GPU): a
 // tiny MSSM4 frame with the ambient map and one with polygon lights, for bounds, races and
 // divergence. oclgrind's library rounds dot() otherwise than PoCL's, so the frames agree with the
-// per-pixel kernels' to that rounding only (as OclgrindMSSM4.BatchedVisibilityKernel).
+// per-pixel kernels' to that rounding only (as OclgrindMSSM4.BatchedVisibilityKernel): within 1%
+// of the peak with the filter on the light's axis. With the cosine centroid (the default) the
+// box's position follows the blockers' depth, which the moments of these 8-texel maps give only
+// to within their conditioning: one light of 34 degrees differs by up to 0.034 of a 1.44 peak
+// (2.4%) between the forms, so the default frames are held to 4%.
 TEST(OclgrindFrame, CpuBatchedKernels) {
   Context& c = test::ctx();
   Environment env = builtinEnvironment(16);
@@ -228,15 +232,18 @@ TEST(OclgrindFrame, CpuBatchedKernels) {
     ro.height = 7;
     ro.shadowMapSize = 8;
     const Camera cam = frameCamera(scene, 13.0f / 7.0f);
-    const auto frames = framesWithAndWithoutCpuForms(c, scene, cam, lights, env, ro);
-    ASSERT_EQ(frames[0].size(), frames[1].size());
-    float peak = 0.0f, diff = 0.0f;
-    for (std::size_t i = 0; i < frames[0].size(); ++i) {
-      ASSERT_TRUE(std::isfinite(frames[1][i]));
-      peak = std::max(peak, std::fabs(frames[0][i]));
-      diff = std::max(diff, std::fabs(frames[0][i] - frames[1][i]));
+    for (bool centroid : {false, true}) {
+      ro.mssm.cosineCentroid = centroid;
+      const auto frames = framesWithAndWithoutCpuForms(c, scene, cam, lights, env, ro);
+      ASSERT_EQ(frames[0].size(), frames[1].size());
+      float peak = 0.0f, diff = 0.0f;
+      for (std::size_t i = 0; i < frames[0].size(); ++i) {
+        ASSERT_TRUE(std::isfinite(frames[1][i]));
+        peak = std::max(peak, std::fabs(frames[0][i]));
+        diff = std::max(diff, std::fabs(frames[0][i] - frames[1][i]));
+      }
+      EXPECT_GT(peak, 0.0f);
+      EXPECT_LE(diff, (centroid ? 0.04f : 0.01f) * peak) << toString(shape) << " " << centroid;
     }
-    EXPECT_GT(peak, 0.0f);
-    EXPECT_LE(diff, 0.01f * peak) << toString(shape);
   }
 }

@@ -22,6 +22,9 @@ CONFIGS=(
   "mssm4-nocontact|--shadows mssm4 --no-contact-shadows"
   "hard-nohorizon|--shadows hard --no-horizon-visibility"
   "mssm4-nohorizon|--shadows mssm4 --no-horizon-visibility"
+  "mssm4-axis|--shadows mssm4 --no-cosine-centroid --leak-reduction 0"
+  "mssm4-nocentroid|--shadows mssm4 --no-cosine-centroid"
+  "mssm4-noleak|--shadows mssm4 --leak-reduction 0"
   "hard-256|--shadows hard --shadow-map-size 256"
   "mssm4-256|--shadows mssm4 --shadow-map-size 256"
   "mssm4|--shadows mssm4"
@@ -44,7 +47,7 @@ done
 import json, sys, os
 out = sys.argv[1]
 scenes = ["builtin", "courtyard", "interior", "studio"]
-configs = ["hard-nocontact", "hard-nohorizon", "hard-256", "hard", "pcss", "mssm4-eq7", "mssm4-nocontact", "mssm4-nohorizon", "mssm4-256", "mssm4", "mssm4-512", "auto-exact0", "auto"]
+configs = ["hard-nocontact", "hard-nohorizon", "hard-256", "hard", "pcss", "mssm4-eq7", "mssm4-nocontact", "mssm4-nohorizon", "mssm4-axis", "mssm4-nocentroid", "mssm4-noleak", "mssm4-256", "mssm4", "mssm4-512", "auto-exact0", "auto"]
 def load(s, c):
     with open(os.path.join(out, f"{s}.{c}.json")) as f: return json.load(f)
 rows = ["Total error against the environment truth over all geometry pixels: relative RMSE / mean HDR-FLIP.",

@@ -69,6 +69,12 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.real(app, "--upper-bound-tilt", "MSSM4/MSSM6: the upper bound in proportion to the "
            "receiver's tilt, full from atan(1/K) on; 0: everywhere", any,
            num(R.mssm.upperBoundTilt), S, {"RenderOptions.mssm.upperBoundTilt"});
+  reg.flag(app, "--no-cosine-centroid", "MSSM4: centre the filter on the light's axis, not on "
+           "its cosine-weighted centroid (README, \"The cosine-weighted light\")", S,
+           {"RenderOptions.mssm.cosineCentroid"});
+  reg.real(app, "--leak-reduction", "MSSM4: visibility v becomes (v - X) / (1 - X), clamped; "
+           "0: off (README, \"The cosine-weighted light\")", Bounds{0.0, 1.0, false, true},
+           num(R.mssm.leakReduction), S, {"RenderOptions.mssm.leakReduction"});
 
   reg.integer(app, "--cssm-order", "CSSM Fourier order M", 1, 32, num(R.cssm.order), A,
               {"RenderOptions.cssm.order"});
@@ -116,6 +122,8 @@ RenderOptions parseRenderOptions(const Args& a) {
   if (a.has("no-upper-bound")) ro.mssm.upperBoundBlocker = false;
   if (a.has("upper-bound")) ro.mssm.upperBoundBlocker = true;
   if (a.has("upper-bound-tilt")) ro.mssm.upperBoundTilt = float(a.real("upper-bound-tilt"));
+  if (a.has("no-cosine-centroid")) ro.mssm.cosineCentroid = false;
+  if (a.has("leak-reduction")) ro.mssm.leakReduction = float(a.real("leak-reduction"));
   if (a.has("cssm-order")) ro.cssm.order = int(a.integer("cssm-order"));
   if (a.has("sharpen-a")) ro.cssm.sharpenA = float(a.real("sharpen-a"));
   if (a.has("sharpen-b")) ro.cssm.sharpenB = float(a.real("sharpen-b"));

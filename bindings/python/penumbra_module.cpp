@@ -1183,7 +1183,15 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("upper_bound_tilt", &MSSMOptions::upperBoundTilt,
                      withDefault("Eq. 19's delta2 scaled by min(1, this * tan(receiver tilt)); 0: "
                                  "eq. 19 on every receiver.",
-                                 R.mssm.upperBoundTilt).c_str());
+                                 R.mssm.upperBoundTilt).c_str())
+      .def_readwrite("cosine_centroid", &MSSMOptions::cosineCentroid,
+                     withDefault("MSSM4: the filter centred on the cosine-weighted light's "
+                                 "centroid (README, 'The cosine-weighted light').",
+                                 R.mssm.cosineCentroid).c_str())
+      .def_readwrite("leak_reduction", &MSSMOptions::leakReduction,
+                     withDefault("MSSM4: visibility v -> clamp((v - r) / (1 - r)); in [0, 1), 0: "
+                                 "off.",
+                                 R.mssm.leakReduction).c_str());
 
   py::class_<CSSMOptions> co(m, "CSSMOptions", "Convolution soft shadow map options (Annen et al. 2008).");
   initFromFields<CSSMOptions>(co);

@@ -106,6 +106,22 @@ struct MSSMOptions {
   float delta2 = 0.5f;          ///< upper clamp. 0.5, not 0.1: frame errors above fall with it up to
                                 ///< ~0.5 and are flat beyond (0.1: 4.5/7.6/5.5% MSSM4, 4.6/8.2/5.6%
                                 ///< MSSM6). Default 0.5
+  /// MSSM4: the filter box is centred where the cosine-weighted light casts the shadow. A pixel
+  /// receives light from the cap's directions weighted by their cosine with its normal (the
+  /// shading's clipped-cap irradiance does), so the part of the cap towards the normal counts
+  /// more and the part near the pixel's horizon less; the map's box, centred on the cap's axis,
+  /// weighs the whole cap alike. The box moves by the blockers' distance times the weighted
+  /// cap's centroid offset (kernels/shadows/moments.cl, mssm_centroid_offset), to first order.
+  /// Default on (README, "The cosine-weighted light")
+  bool cosineCentroid = true;
+  /// MSSM4: light-leak reduction. The moments give an upper bound on the filtered visibility
+  /// (Kneiphof 2017 §3.2: lit surfaces are never shadowed, shadowed ones can leak); the visibility
+  /// v becomes clamp((v - r) / (1 - r), 0, 1), as Lauritzen (2007, GPU Gems 3 ch. 8) does for
+  /// variance shadow maps, never below the moments' lower bound, with r = leakReduction scaled by
+  /// how far the filter box's depths are from two values (one blocker over one receiver keeps its
+  /// exact profile). In [0, 1); 0: off. Default 0.1; measured with cosineCentroid in README, "The
+  /// cosine-weighted light" (each alone is mixed)
+  float leakReduction = 0.1f;
 };
 
 /// Convolution soft shadow maps (Annen et al. 2008 §3). 4M + 1 values per texel (CSM 2M, CSM-Z 2M,

@@ -95,7 +95,9 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
                  {"upper_bound_blocker", opt.mssm.upperBoundBlocker},
                  {"upper_bound_tilt", shortestDecimal(opt.mssm.upperBoundTilt)},
                  {"delta1", shortestDecimal(opt.mssm.delta1)},
-                 {"delta2", shortestDecimal(opt.mssm.delta2)}};
+                 {"delta2", shortestDecimal(opt.mssm.delta2)},
+                 {"cosine_centroid", opt.mssm.cosineCentroid},
+                 {"leak_reduction", shortestDecimal(opt.mssm.leakReduction)}};
   o["prefilter"] = toString(opt.prefilter);
   o["front_back_faces"] = opt.frontBackFaces;
   o["bent_normals"] = opt.bentNormals;

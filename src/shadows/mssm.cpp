@@ -14,6 +14,8 @@ void validate(const MSSMOptions& o) {
     badOption("RenderOptions.mssm.momentBias", "be in [0, 1)", o.momentBias);
   if (!(o.upperBoundTilt >= 0 && std::isfinite(o.upperBoundTilt)))
     badOption("RenderOptions.mssm.upperBoundTilt", "be finite and >= 0", o.upperBoundTilt);
+  if (!(o.leakReduction >= 0 && o.leakReduction < 1))
+    badOption("RenderOptions.mssm.leakReduction", "be in [0, 1)", o.leakReduction);
 }
 
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
@@ -27,6 +29,8 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
   P.delta1 = mo.delta1;
   P.delta2 = mo.delta2;
   P.upper_bound_tilt = mo.upperBoundTilt;
+  P.leak_reduction = mo.leakReduction;
+  P.cosine_centroid = mo.cosineCentroid ? 1 : 0;
   return P;
 }
 

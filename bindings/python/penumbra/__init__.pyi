@@ -384,10 +384,13 @@ class MSSMOptions:
     delta1: float
     delta2: float
     upper_bound_tilt: float
+    cosine_centroid: bool
+    leak_reduction: float
     def __init__(self, *, moment_bias: float = ..., slope_bias: float = ...,
                  blocker_epsilon: float = ..., upper_bound_blocker: bool = ...,
                  delta1: float = ..., delta2: float = ...,
-                 upper_bound_tilt: float = ...) -> None: ...
+                 upper_bound_tilt: float = ..., cosine_centroid: bool = ...,
+                 leak_reduction: float = ...) -> None: ...
 
 class CSSMOptions:
     order: int

@@ -80,6 +80,7 @@ def test_options():
     assert o.auto_choice.exact_lights == 0 and penumbra.AutoOptions().pcss_texels == 0
     for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
+    assert m.cosine_centroid and 0 < m.leak_reduction < 1  # on by default
     for f in ("light_size_scale", "max_filter_texels", "min_filter_texels"):
         assert getattr(o.shadow, f) >= 0
     assert o.shadow.contact_shadows and o.shadow.contact_texels == 8  # on by default
@@ -125,6 +126,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt.shadow.contact_shadows, opt.shadow.contact_texels = False, 3.5
     opt.shadow.horizon_visibility = False
     opt.mssm.moment_bias, opt.mssm.slope_bias, opt.mssm.upper_bound_tilt = 1.5e-4, 0.75, 1.25
+    opt.mssm.cosine_centroid, opt.mssm.leak_reduction = False, 0.25
     opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
     opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
     opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
@@ -144,6 +146,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     r = report_for("mssm4")
     assert (r["mssm"]["moment_bias"], r["mssm"]["slope_bias"], r["mssm"]["upper_bound_tilt"]) == \
         (1.5e-4, 0.75, 1.25)
+    assert (r["mssm"]["cosine_centroid"], r["mssm"]["leak_reduction"]) == (False, 0.25)
     assert blocks & set(r) == {"mssm"}
     r = report_for("pcss")
     assert (r["pcss"]["blocker_taps"], r["pcss"]["filter_taps"]) == (9, 25)
