@@ -79,16 +79,6 @@ M4S float dot3_s(float ax, float ay, float az, float bx, float by, float bz) {
   return p2 + s;
 }
 
-// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the
-// three-atom distribution it implies. With biased moments b and receiver depth zf: solve the Hankel
-// system B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <=
-// z3 of c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
-//   w_i = (b2 - b1 (z_j + z_k) + z_j z_k) / ((z_i - z_j)(z_i - z_k)).
-// The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
-// returns that weight, `blocker_sum` the weighted depth sum for Kneiphof 2017 eq. 7 and
-// `receiver_weight` the weight of the atom at zf for eq. 19.
-// The reconstruction on four scalars, its branches as selects (hamburger4 takes a float4; the
-// batched CPU kernel calls this directly, vector types would stop its vectorizer).
 // The biased moments b1..b4 and the Hankel matrix's LDL^T factors d22, l32, d33 (d11 = 1).
 // Moment bias (MSM §4) towards the moments of the uniform distribution on [0,1]. Peters & Klein
 // blend towards (0.5, 0.5, 0.5, 0.5), the moments of atoms at 0 and 1; penumbra fits each map's
@@ -113,6 +103,16 @@ M4S hankel4 hankel4_s(m4s b_raw, float moment_bias) {
   return h;
 }
 
+// Hamburger four-moment reconstruction (MSM, Peters & Klein 2015, Algorithm 2), written as the
+// three-atom distribution it implies. With biased moments b and receiver depth zf: solve the Hankel
+// system B c = (1, zf, zf^2), B = [[1,b1,b2],[b1,b2,b3],[b2,b3,b4]] (LDL^T), take the roots z2 <=
+// z3 of c3 z^2 + c2 z + c1, and the weights w of atoms {zf, z2, z3} that reproduce (1, b1, b2):
+//   w_i = (b2 - b1 (z_j + z_k) + z_j z_k) / ((z_i - z_j)(z_i - z_k)).
+// The shadowed fraction's lower bound is the weight of the atoms in front of zf; `blockers`
+// returns that weight, `blocker_sum` the weighted depth sum for Kneiphof 2017 eq. 7 and
+// `receiver_weight` the weight of the atom at zf for eq. 19.
+// The reconstruction on four scalars, its branches as selects (hamburger4 takes a float4; the
+// batched CPU kernel calls this directly, vector types would stop its vectorizer).
 M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
                        float* blocker_sum, float* receiver_weight) {
   const hankel4 h = hankel4_s(b_raw, moment_bias);
@@ -484,7 +484,7 @@ M4S float acos_s(float x) {
 // direction t = (n - c w) / s, c = n.w, s = |n - c w|), n.d is proportional to c + s x, and 0 below
 // the pixel's horizon x0 = -c / (s R) (in disc radii). The centroid's offset along t, in disc
 // radii, is E[(c + s x) x] / E[c + s x] over the part x > x0 R of the disc:
-//   whole disc (x0 <= -1): E[x^2] / (R E[c / s]) -> 1 / (4 (-x0));
+//   whole disc (x0 <= -1): s E[x^2] / (c R) = s R / (4 c) = 1 / (4 (-x0));
 //   cut at x0 (t0 = asin x0, a = acos x0, c = -x0 s R): (-x0 J1 + J2) / (-x0 J0 + J1), with the
 //   segment's integrals over R^2, R^3, R^4: J0 = a - sin t0 cos t0, J1 = 2/3 cos^3 t0,
 //   J2 = (a + sin(4 t0) / 4) / 4, sin(4 t0) / 4 = sin t0 cos t0 (1 - 2 sin^2 t0).
@@ -516,16 +516,20 @@ M4S void mssm_centroid_offset(float nx, float ny, float nz, float wx, float wy, 
 // Light-leak reduction (MSSMOptions::leakReduction). The reconstruction gives the visibility's
 // upper bound v (Kneiphof 2017 §3.2: lit surfaces are never shadowed, shadowed ones can leak) and
 // its lower bound v - wr (wr, the weight of the atom at the receiver's depth). Where the filter
-// region holds more than two distinct depths (a leg in front of a body in front of the ground),
-// the upper bound leaks light; there v is moved towards the lower bound as Lauritzen (2007, GPU
-// Gems 3 ch. 8) does for variance shadow maps, v -> clamp((v - r) / (1 - r), 0, 1), and never
-// below it. One blocker depth over one receiver depth (d33 = 0 but for the moment bias: the
-// reconstruction is exact there, tests/test_mssm.cpp) keeps v: r is scaled by min(1, d33 /
-// MSSM_LEAK_D33). Measured, 8192-spp truths, 320x180, built-in / courtyard + Wuson / interior +
-// spider / studio + Wuson, relative RMSE with the cosine centroid on: scale 1e-7 (r in full
-// almost everywhere) 2.82/3.30/2.93/5.13%, 1e-6 2.84/3.33/2.92/5.14%, 1e-5 2.96/3.48/2.92/5.15%,
-// 1e-4 3.01/3.64/2.92/5.16%; the planar half-plane of tests/test_mssm.cpp, max |V - V_analytic|:
-// 0.075 at 1e-7 and 1e-6, 0.031 at 1e-5 and 1e-4. 1e-5 is the smallest that keeps that profile.
+// region holds more than two distinct depths the upper bound can leak, and v is moved towards the
+// lower bound as Lauritzen (2007, GPU Gems 3 ch. 8) does for variance shadow maps,
+// v -> clamp((v - r) / (1 - r), 0, 1), never below it. One blocker depth over one receiver depth
+// (d33 = 0 but for the moment bias: the reconstruction is exact there, tests/test_mssm.cpp) keeps
+// v: r is scaled by min(1, d33 / MSSM_LEAK_D33). A measured choice, not a bound: it pays on the
+// scenes with the cosine centroid (README, "The cosine-weighted light"), but on the raised
+// receiver of tests/test_mssm6.cpp (three depths, MSSM4 leaking up to 0.21) it takes back only
+// 0.003 of a mean 0.16 excess. The scale, measured against the 8192-spp truths, 320x180, built-in /
+// courtyard + Wuson / interior + spider / studio + Wuson, relative RMSE with the centroid on (the
+// move then skipped where the search found no blocker; the landed default measures
+// 2.96/3.48/2.91/5.15%): 1e-7 (r in full almost everywhere) 2.82/3.30/2.93/5.13%, 1e-6
+// 2.84/3.33/2.92/5.14%, 1e-5 2.96/3.48/2.92/5.15%, 1e-4 3.01/3.64/2.92/5.16%; the planar
+// half-plane of tests/test_mssm.cpp, max |V - V_analytic|: 0.075 at 1e-7 and 1e-6, 0.031 at 1e-5
+// and 1e-4. 1e-5 is the smallest that keeps that profile.
 #define MSSM_LEAK_D33 1e-5f
 M4S float mssm_leak_reduction(float v, float wr, float r, m4s b_raw, float moment_bias) {
   const float d33 = hankel4_s(b_raw, moment_bias).d33;
@@ -800,7 +804,7 @@ kernel void mssm_reconstruct(global const float* m, global const float* zf, int 
   o[7] = wr;
 }
 
-// Test support (tests/test_mssm.cpp): mssm_centroid_offset for n cases, each 14 floats in `in`
+// Test support (tests/test_cosine_centroid.cpp): mssm_centroid_offset for n cases, each 14 floats in `in`
 // (normal, light axis, ex, ey, tan(alpha), blocker distance), the map's half-sizes hx, hy and
 // `size`; (du, dv) to `out`.
 kernel void mssm_centroid_probe(global const float* in, int n, float hx, float hy, int size,
