@@ -115,6 +115,48 @@ TEST(AutoRule, ExactGoesToTheBrightestWithinBudget) {
   EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Bitmask), 0);
 }
 
+TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
+  // powers 1, 3, 2, 0.5, 4 (brightest, its penumbra under a texel: hard whatever the budget)
+  const std::vector<AutoLight> lights = {lightWithPenumbra(1, 10), lightWithPenumbra(3, 10),
+                                         lightWithPenumbra(2, 40), lightWithPenumbra(0.5, 40),
+                                         lightWithPenumbra(4, 0.5)};
+  AutoOptions o;
+  o.exactLights = 0;
+  // no limit (the default): every resolved penumbra filtered
+  auto t = chooseShadowTechniques(lights, 0.001, o);
+  EXPECT_EQ(o.filteredLights, -1);
+  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::MSSM4), 4);
+  EXPECT_EQ(t[4], ShadowTechnique::Hard);
+  // 2: the two brightest of the resolved ones (powers 3 and 2); the unresolved light 4 does not
+  // take a place in the budget
+  o.filteredLights = 2;
+  t = chooseShadowTechniques(lights, 0.001, o);
+  EXPECT_EQ(t[1], ShadowTechnique::MSSM4);
+  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
+  EXPECT_EQ(t[0], ShadowTechnique::Hard);
+  EXPECT_EQ(t[3], ShadowTechnique::Hard);
+  EXPECT_EQ(t[4], ShadowTechnique::Hard);
+  // the budget counts PCSS lights too
+  o.pcssTexels = 20;
+  t = chooseShadowTechniques(lights, 0.001, o, 27.0f);
+  EXPECT_EQ(t[1], ShadowTechnique::PCSS);
+  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
+  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 3);
+  o.pcssTexels = 0;
+  // exact lights are outside the budget: the brightest resolved exact, the next two filtered
+  o.exactLights = 1;
+  t = chooseShadowTechniques(lights, 0.001, o);
+  EXPECT_EQ(t[4], ShadowTechnique::Bitmask);
+  EXPECT_EQ(t[1], ShadowTechnique::MSSM4);
+  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
+  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 2);
+  // 0: none filtered
+  o.exactLights = 0;
+  o.filteredLights = 0;
+  t = chooseShadowTechniques(lights, 0.001, o);
+  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 5);
+}
+
 TEST(AutoRule, BadOptionsNameTheField) {
   const std::vector<std::pair<AutoOptions, std::string>> bad = [] {
     std::vector<std::pair<AutoOptions, std::string>> v;
@@ -127,6 +169,11 @@ TEST(AutoRule, BadOptionsNameTheField) {
     o = AutoOptions{};
     o.pcssTexels = -2;
     v.push_back({o, "RenderOptions.autoChoice.pcssTexels"});
+    o = AutoOptions{};
+    o.filteredLights = -2;
+    v.push_back({o, "RenderOptions.autoChoice.filteredLights"});
+    o.filteredLights = 4097;
+    v.push_back({o, "RenderOptions.autoChoice.filteredLights"});
     return v;
   }();
   for (const auto& [o, field] : bad) {

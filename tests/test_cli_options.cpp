@@ -564,7 +564,8 @@ TEST_F(CliRenderOptions, AreaApproxOptions) {
 
 // Auto: the report lists each light's technique, and holds the "auto" block and those of the
 // techniques it picked. --auto-exact 0 gives no light exact (bitmask) visibility;
-// --auto-pcss-texels large sends every filtered light to PCSS.
+// --auto-pcss-texels large sends every filtered light to PCSS; --auto-filtered 1 leaves one light
+// filtered and gives the others that would have been hard shadows.
 TEST_F(CliRenderOptions, AutoChoices) {
   auto countOf = [](const json& report, const std::string& t) {
     int n = 0;
@@ -574,7 +575,17 @@ TEST_F(CliRenderOptions, AutoChoices) {
   const Rendered base = render("base", {"--shadows", "auto"});
   const Rendered none = render("none", {"--shadows", "auto", "--auto-exact", "0"});
   const Rendered pcss = render("pcss", {"--shadows", "auto", "--auto-pcss-texels", "1000"});
-  ASSERT_FALSE(base.image.empty() || none.image.empty() || pcss.image.empty());
+  const Rendered one =
+      render("one", {"--shadows", "auto", "--auto-exact", "0", "--auto-filtered", "1"});
+  ASSERT_FALSE(base.image.empty() || none.image.empty() || pcss.image.empty() || one.image.empty());
+  EXPECT_EQ(base.report["auto"]["filtered_lights"], -1);
+  EXPECT_EQ(one.report["auto"]["filtered_lights"], 1);
+  const int filteredNone = countOf(none.report, "mssm4") + countOf(none.report, "pcss");
+  ASSERT_GE(filteredNone, 2) << none.report.dump();  // else the case tests nothing
+  EXPECT_EQ(countOf(one.report, "mssm4") + countOf(one.report, "pcss"), 1) << one.report.dump();
+  EXPECT_EQ(countOf(one.report, "hard"), countOf(none.report, "hard") + filteredNone - 1)
+      << one.report.dump();
+  EXPECT_FALSE(samePixels(one.image, none.image));
   ASSERT_EQ(base.report["auto_lights"].size(), 4u) << base.report.dump();
   EXPECT_EQ(countOf(base.report, "bitmask"), kDefaults.autoChoice.exactLights) << base.report.dump();
   EXPECT_EQ(none.report["auto"]["exact_lights"], 0);
@@ -585,7 +596,7 @@ TEST_F(CliRenderOptions, AutoChoices) {
   EXPECT_EQ(countOf(base.report, "mssm4") + countOf(base.report, "pcss"),
             countOf(pcss.report, "pcss"))
       << base.report.dump() << pcss.report.dump();
-  for (const Rendered* r : {&base, &none, &pcss}) {
+  for (const Rendered* r : {&base, &none, &pcss, &one}) {
     std::vector<std::string> blocks = {"auto"};
     if (countOf(r->report, "mssm4") > 0) blocks.push_back("mssm");
     if (countOf(r->report, "pcss") > 0) blocks.push_back("pcss");

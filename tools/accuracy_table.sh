@@ -31,16 +31,12 @@ CONFIGS=(
   "mssm4-512|--shadows mssm4 --shadow-map-size 512"
   "auto-exact0|--shadows auto --auto-exact 0"
   "auto|--shadows auto")
+# shellcheck source=tools/evaluate_cached.sh
+. "$(dirname "$0")/evaluate_cached.sh"
 for s in builtin courtyard interior studio; do
   for c in "${CONFIGS[@]}"; do
-    name=${c%%|*}; args=${c#*|}
-    j="$OUT/$s.$name.json"
-    [ -f "$j" ] && continue
     # shellcheck disable=SC2086
-    "$P" evaluate --size 320x180 --spp "$SPP" --seed 11 ${SCENE[$s]} $args \
-      --truth "$OUT/truths" --json "$OUT/$s.$name.part.json" > "$OUT/$s.$name.txt" 2>&1
-    mv "$OUT/$s.$name.part.json" "$j"
-    echo "$s $name done"
+    evaluate_cached "$P" "$SPP" "$OUT" "$s" "${c%%|*}" ${SCENE[$s]} ${c#*|}
   done
 done
 /usr/bin/python3 - "$OUT" <<'PY'

@@ -96,6 +96,9 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.integer(app, "--auto-exact", "auto: the most lights given exact (bitmask) visibility, the "
               "brightest and softest first; 0: none", 0, 4096, num(R.autoChoice.exactLights), A,
               {"RenderOptions.autoChoice.exactLights"});
+  reg.integer(app, "--auto-filtered", "auto: the most lights given a filtered technique, the "
+              "brightest first, the others hard; -1: no limit", -1, 4096,
+              num(R.autoChoice.filteredLights), A, {"RenderOptions.autoChoice.filteredLights"});
   reg.real(app, "--auto-pcss-texels", "auto: PCSS for filtered lights whose filter is at most "
            "this many texels wide, MSSM4 beyond", any, num(R.autoChoice.pcssTexels), A,
            {"RenderOptions.autoChoice.pcssTexels"});
@@ -140,6 +143,7 @@ RenderOptions parseRenderOptions(const Args& a) {
   }
   if (a.has("auto-exact")) ro.autoChoice.exactLights = int(a.integer("auto-exact"));
   if (a.has("auto-pcss-texels")) ro.autoChoice.pcssTexels = float(a.real("auto-pcss-texels"));
+  if (a.has("auto-filtered")) ro.autoChoice.filteredLights = int(a.integer("auto-filtered"));
   ro.frontBackFaces = a.has("front-back");
   ro.bentNormals = a.has("bent-normals");
   if (a.has("bent-normals-scale")) {

@@ -1272,7 +1272,11 @@ PYBIND11_MODULE(_penumbra, m) {
                                  R.autoChoice.hardPixels).c_str())
       .def_readwrite("pcss_texels", &AutoOptions::pcssTexels,
                      withDefault("PCSS up to this filter width (texels), MSSM4 beyond.",
-                                 R.autoChoice.pcssTexels).c_str());
+                                 R.autoChoice.pcssTexels).c_str())
+      .def_readwrite("filtered_lights", &AutoOptions::filteredLights,
+                     withDefault("The most lights given a filtered technique, the brightest "
+                                 "first, the others hard; -1: no limit, -1..4096.",
+                                 R.autoChoice.filteredLights).c_str());
 
   py::class_<RenderOptions> ro(m, "RenderOptions",
                                "Options of Renderer.render. Keywords set fields, e.g. "

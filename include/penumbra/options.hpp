@@ -241,7 +241,7 @@ struct AreaApproxOptions {
 /// The brightest lights get exact sampled visibility (the bitmask technique, with
 /// RenderOptions::bitmask), up to exactLights of them; of the rest, a penumbra under a pixel or
 /// texel gets hard shadows, a filtered one PCSS (RenderOptions::pcss) or, past pcssTexels, MSSM4
-/// (RenderOptions::mssm).
+/// (RenderOptions::mssm), up to filteredLights of them (the brightest first; the others hard).
 struct AutoOptions {
   int exactLights = 1;          ///< budget: the most lights given exact visibility, by far the most
                                 ///< costly technique (320x180, 2-core CPU: one light 0.3 to 7 s,
@@ -257,6 +257,14 @@ struct AutoOptions {
                                 ///< auto 3.19/4.38/3.06/7.48% with MSSM4, 3.65/4.42/3.20/8.88% with
                                 ///< PCSS); PCSS costs about as much at the default clamp (2-core CPU).
                                 ///< Finite, >= 0
+  int filteredLights = -1;      ///< budget: the most lights given a filtered technique (PCSS or
+                                ///< MSSM4), the brightest first; the other lights that would be
+                                ///< filtered get hard shadows (the dim ones, whose share of the
+                                ///< error is small: with 64 lights, the 16 brightest filtered
+                                ///< measure within 0.1-0.35% of all 64 filtered (relative RMSE),
+                                ///< for 0.7x their time; bench/results/accuracy.md, "Light count
+                                ///< against technique"). In [-1, 4096]; -1: no limit (default);
+                                ///< 0: none filtered
 };
 
 struct RenderOptions {

@@ -126,7 +126,8 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
   if (uses({ShadowTechnique::Auto}))
     o["auto"] = {{"exact_lights", opt.autoChoice.exactLights},
                  {"hard_pixels", shortestDecimal(opt.autoChoice.hardPixels)},
-                 {"pcss_texels", shortestDecimal(opt.autoChoice.pcssTexels)}};
+                 {"pcss_texels", shortestDecimal(opt.autoChoice.pcssTexels)},
+                 {"filtered_lights", opt.autoChoice.filteredLights}};
   // `auto` reports each light's technique as the stat "auto/light_<i>" (a ShadowTechnique value,
   // lights in order): listed by name in "auto_lights" instead.
   Json stats = Json::object(), autoLights = Json::array();

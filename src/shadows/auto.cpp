@@ -18,6 +18,10 @@
 //     explicit filter reads every texel of the box: a cost growing with the width squared),
 //     MSSM4 beyond (a constant reconstruction per pixel after a prefilter whose cost does not
 //     depend on the width).
+//  4. past AutoOptions::filteredLights filtered lights (counted brightest first), the rest get hard
+//     shadows: a light's error share grows with its power, and a hard shadow costs a fraction of
+//     a filtered one, so a frame's time is better spent on more lights than on filtering dim ones
+//     (bench/results/accuracy.md, "Light count against technique").
 // The penumbra width is 2 tan(alpha) times the median caster-receiver distance of the light's
 // shadowed pixels (casterDistance). The rule reads light properties (power, cap size, that
 // distance, the map's texel) and the camera's pixel footprint, never a technique's measured
@@ -41,6 +45,7 @@ void validate(const AutoOptions& o) {
     badOption("RenderOptions.autoChoice.hardPixels", "be finite and >= 0", o.hardPixels);
   if (!(o.pcssTexels >= 0) || !std::isfinite(o.pcssTexels))
     badOption("RenderOptions.autoChoice.pcssTexels", "be finite and >= 0", o.pcssTexels);
+  checkRange("RenderOptions.autoChoice.filteredLights", o.filteredLights, -1, 4096);
 }
 
 namespace {
@@ -128,15 +133,25 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
   std::vector<ShadowTechnique> out(n, ShadowTechnique::MSSM4);
   const std::size_t budget = exactAllowed ? std::size_t(o.exactLights) : 0;
   for (std::size_t k = 0; k < n && k < budget; ++k) out[order[k]] = ShadowTechnique::Bitmask;
-  for (std::size_t i = 0; i < n; ++i) {
+  // in the same order, so that the filtered budget goes to the brightest
+  std::size_t filtered = 0;
+  for (std::size_t i : order) {
     if (out[i] == ShadowTechnique::Bitmask) continue;
     const double width = autoPenumbraWidth(lights[i]);
     const double texels = lights[i].texel > 0 ? width / lights[i].texel : 0;
     // 2. unresolved penumbra: hard
-    if (width < o.hardPixels * std::max(pixel, lights[i].texel)) out[i] = ShadowTechnique::Hard;
+    if (width < o.hardPixels * std::max(pixel, lights[i].texel)) {
+      out[i] = ShadowTechnique::Hard;
+      continue;
+    }
+    // 4. past the filtered budget: hard
+    if (o.filteredLights >= 0 && filtered >= std::size_t(o.filteredLights)) {
+      out[i] = ShadowTechnique::Hard;
+      continue;
+    }
+    ++filtered;
     // 3. filtered, by the filter's cost
-    else if (std::min(texels, double(maxFilterTexels)) <= o.pcssTexels)
-      out[i] = ShadowTechnique::PCSS;
+    if (std::min(texels, double(maxFilterTexels)) <= o.pcssTexels) out[i] = ShadowTechnique::PCSS;
   }
   return out;
 }
@@ -172,12 +187,14 @@ class AutoPass : public ShadowPass {
     const int nl = int(f.lights.size()), S = f.mapSize;
     // The camera's pixel footprint and each light's caster distance, from the G-buffer and the
     // light's depth map read back (every 4th pixel is plenty for a median).
-    const std::vector<cl_float4> gpos =
-        f.ctx.download<cl_float4>(f.gpos, std::size_t(f.pixels), "auto positions");
-    const std::vector<cl_float4> gnrm =
-        f.ctx.download<cl_float4>(f.gnrm, std::size_t(f.pixels), "auto normals");
-    const std::vector<cl_uint> maps =
-        f.ctx.download<cl_uint>(f.depth, std::size_t(S) * S * nl, "auto shadow maps");
+    // Read into vectors kept between frames: fresh ones are mmap'ed by the allocator once they
+    // pass 32 MiB (the maps of 64 lights at 384^2 are 38 MiB), then faulted in and zeroed every
+    // frame (bench/results/accuracy.md, "Light count against technique").
+    readInto(f.ctx, f.gpos, gpos_, std::size_t(f.pixels), "auto positions");
+    readInto(f.ctx, f.gnrm, gnrm_, std::size_t(f.pixels), "auto normals");
+    readInto(f.ctx, f.depth, maps_, std::size_t(S) * S * nl, "auto shadow maps");
+    const std::vector<cl_float4>&gpos = gpos_, &gnrm = gnrm_;
+    const std::vector<cl_uint>& maps = maps_;
     const double pixel = pixelFootprint(gpos, f.width, f.height);
     std::vector<AutoLight> info(nl);
     const bool known = f.areaLights && int(f.areaLights->size()) == nl;
@@ -268,6 +285,15 @@ class AutoPass : public ShadowPass {
     bytes_ += rowBytes * k;
   }
 
+  template <class T>
+  static void readInto(Context& ctx, const cl::Buffer& b, std::vector<T>& v, std::size_t count,
+                       const std::string& what) {
+    v.resize(count);
+    if (count) ctx.read(b, v.data(), count * sizeof(T), what);
+  }
+
+  std::vector<cl_float4> gpos_, gnrm_;  // the last frame's read-backs, their storage reused
+  std::vector<cl_uint> maps_;
   // A technique's subset, kept between frames: the frame holds references to these.
   struct Sub {
     std::vector<pb_light> lights;

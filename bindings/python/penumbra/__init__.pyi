@@ -436,8 +436,9 @@ class AutoOptions:
     exact_lights: int
     hard_pixels: float
     pcss_texels: float
+    filtered_lights: int
     def __init__(self, *, exact_lights: int = ..., hard_pixels: float = ...,
-                 pcss_texels: float = ...) -> None: ...
+                 pcss_texels: float = ..., filtered_lights: int = ...) -> None: ...
 
 class RenderOptions:
     width: int

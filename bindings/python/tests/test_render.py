@@ -78,6 +78,7 @@ def test_options():
     assert penumbra.parse_shadow_technique("auto") == penumbra.ShadowTechnique.AUTO
     o.auto_choice.exact_lights = 0
     assert o.auto_choice.exact_lights == 0 and penumbra.AutoOptions().pcss_texels == 0
+    assert penumbra.AutoOptions().filtered_lights == -1  # no limit
     for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
     assert m.cosine_centroid and 0 < m.leak_reduction < 1  # on by default
@@ -130,6 +131,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
     opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
     opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
+    opt.auto_choice.filtered_lights = 16
     # The report holds the shared "shadow" block and only the block of the technique used.
     def report_for(technique):
         opt.technique = technique
@@ -155,6 +157,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert r["brute"]["samples"] == 3 and blocks & set(r) == {"brute"}
     r = report_for("auto")  # this frame holds no per-light picks: the auto block alone
     assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
+    assert r["auto"]["filtered_lights"] == 16
     assert blocks & set(r) == {"auto"}
     r = report_for("hard")
     assert blocks & set(r) == set() and "shadow" in r

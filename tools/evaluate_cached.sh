@@ -1,0 +1,16 @@
+#!/bin/bash
+# Sourced by tools/accuracy_table.sh and tools/light_count_table.sh.
+# evaluate_cached PENUMBRA_CLI SPP OUT_DIR PAIR NAME ARGS...: `penumbra evaluate` at 320x180, seed
+# 11, truths cached in OUT_DIR/truths, into OUT_DIR/PAIR.NAME.json (and its console output into
+# .txt); skipped when that JSON exists, written under another name until complete so that an
+# interrupted run leaves no JSON to skip.
+evaluate_cached() {
+  local P=$1 SPP=$2 OUT=$3 pair=$4 name=$5
+  shift 5
+  local j="$OUT/$pair.$name.json"
+  [ -f "$j" ] && return 0
+  "$P" evaluate --size 320x180 --spp "$SPP" --seed 11 "$@" \
+    --truth "$OUT/truths" --json "$OUT/$pair.$name.part.json" > "$OUT/$pair.$name.txt" 2>&1
+  mv "$OUT/$pair.$name.part.json" "$j"
+  echo "$pair $name done"
+}
