@@ -28,16 +28,10 @@ using namespace penumbra::test;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-using V3 = std::array<double, 3>;
-
-V3 unit(V3 a) {
-  const double l = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-  return {a[0] / l, a[1] / l, a[2] / l};
-}
-double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(const V3& a, const V3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
+using V3 = dvec::D3;  // tests/common.hpp's double vectors
+using dvec::cross;
+using dvec::dot;
+const auto unit = dvec::unitD;
 
 struct Case {
   V3 n, w, ex, ey;

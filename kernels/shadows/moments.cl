@@ -112,10 +112,10 @@ M4S hankel4 hankel4_s(m4s b_raw, float moment_bias) {
 // returns that weight, `blocker_sum` the weighted depth sum for Kneiphof 2017 eq. 7 and
 // `receiver_weight` the weight of the atom at zf for eq. 19.
 // The reconstruction on four scalars, its branches as selects (hamburger4 takes a float4; the
-// batched CPU kernel calls this directly, vector types would stop its vectorizer).
-M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
-                       float* blocker_sum, float* receiver_weight) {
-  const hankel4 h = hankel4_s(b_raw, moment_bias);
+// batched CPU kernel calls this directly, vector types would stop its vectorizer). hamburger4_h
+// takes the factored matrix, for callers that also read its d33 (mssm_leak_reduction).
+M4S float hamburger4_h(const hankel4 h, float zf, float* blockers, float* blocker_sum,
+                       float* receiver_weight) {
   const float b1 = h.b1, b2 = h.b2, d22 = h.d22, l32 = h.l32, d33 = h.d33;
   float y2 = zf - b1;
   float y3 = zf * zf - b2 - l32 * y2;
@@ -143,6 +143,10 @@ M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
   *blocker_sum = zsum;
   *receiver_weight = wf == wf ? clamp(wf, 0.0f, 1.0f) : 0.0f;
   return 1.0f - *blockers;
+}
+M4S float hamburger4_s(m4s b_raw, float zf, float moment_bias, float* blockers,
+                       float* blocker_sum, float* receiver_weight) {
+  return hamburger4_h(hankel4_s(b_raw, moment_bias), zf, blockers, blocker_sum, receiver_weight);
 }
 
 static float hamburger4(float4 b_raw, float zf, float moment_bias, float* blockers,
@@ -444,17 +448,15 @@ M4S float4 mssm_box(global const long4* map, int size, const mssm_pixel* q, floa
                     fmin(q->v + h * q->texel / q->texel_y, (float)size));
 }
 
-// The filter's half-width from the blocker search's result (blockers `wb`, weighted depth sum
-// `zb`, receiver weight `wr` at receiver depth zf): Kneiphof 2017 eq. 5 from z_avg. A search that
-// finds
-// (almost) nothing, blocker weight under 1e-3, still tests the smallest filter: a blocker a few
-// texels wide next to the receiver (a contact) is under 1e-3 of a wide search box, and the
-// moments' lower bound underestimates small weights, so returning "fully lit" there leaked light
-// at contacts.
-static float mssm_filter_half_width(const mssm_pixel* q, const mssm_params* P, float zf, float wb,
-                                    float zb, float wr) {
+// The filter's half-width from the blocker search's result (blocker weight `wb`, and z_avg from
+// mssm_blocker_depth, which MSSM4's cosine centroid reads too): Kneiphof 2017 eq. 5 from z_avg. A
+// search that finds (almost) nothing, blocker weight under 1e-3, still tests the smallest filter:
+// a blocker a few texels wide next to the receiver (a contact) is under 1e-3 of a wide search box,
+// and the moments' lower bound underestimates small weights, so returning "fully lit" there
+// leaked light at contacts.
+static float mssm_filter_half_width(const mssm_pixel* q, const mssm_params* P, float wb,
+                                    float z_avg) {
   if (wb < 1e-3f) return 0.5f * P->min_filter;
-  float z_avg = mssm_blocker_depth(zf, wb, zb, wr, P, q->slope);
   return mssm_half_width(q, P, fmax(q->d - z_avg, 0.0f) * q->range * q->tan_a);
 }
 
@@ -531,8 +533,7 @@ M4S void mssm_centroid_offset(float nx, float ny, float nz, float wx, float wy, 
 // half-plane of tests/test_mssm.cpp, max |V - V_analytic|: 0.075 at 1e-7 and 1e-6, 0.031 at 1e-5
 // and 1e-4. 1e-5 is the smallest that keeps that profile.
 #define MSSM_LEAK_D33 1e-5f
-M4S float mssm_leak_reduction(float v, float wr, float r, m4s b_raw, float moment_bias) {
-  const float d33 = hankel4_s(b_raw, moment_bias).d33;
+M4S float mssm_leak_reduction(float v, float wr, float r, float d33) {
   const float g = clamp(d33 * (1.0f / MSSM_LEAK_D33), 0.0f, 1.0f);
   const float rg = r * (g == g ? g : 0.0f);
   return fmax(v - wr, clamp((v - rg) / (1.0f - rg), 0.0f, 1.0f));
@@ -560,12 +561,13 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   float zf = mssm_receiver(&q, &P, hs);
   float wb, zb, wr;
   hamburger4(mssm_box(sat, size, &q, hs), zf, P.moment_bias, &wb, &zb, &wr);
-  float hf = mssm_filter_half_width(&q, &P, zf, wb, zb, wr);
+  const float z_avg = mssm_blocker_depth(zf, wb, zb, wr, &P, q.slope);
+  float hf = mssm_filter_half_width(&q, &P, wb, z_avg);
   // Every pair, also where the search found no blocker: z_avg then tends to the receiver's depth
   // as the blockers' weight goes to 0, and so does the move (no jump where blockers appear).
   if (P.cosine_centroid) {
     float4 n = gnrm[px];
-    float dist = fmax(q.d - mssm_blocker_depth(zf, wb, zb, wr, &P, q.slope), 0.0f) * q.range;
+    float dist = fmax(q.d - z_avg, 0.0f) * q.range;
     float du, dv;
     mssm_centroid_offset(n.x, n.y, n.z, L.dir[0], L.dir[1], L.dir[2], L.ex[0], L.ex[1], L.ex[2],
                          L.ey[0], L.ey[1], L.ey[2], L.ex[3], L.ey[3], size, q.tan_a, dist, &du,
@@ -574,9 +576,10 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
     q.v = clamp(q.v + dv, 0.0f, (float)size);
   }
   float4 fm = mssm_box(sat, size, &q, hf);
-  float visibility = hamburger4(fm, mssm_receiver(&q, &P, hf), P.moment_bias, &wb, &zb, &wr);
   m4s fms = {fm.x, fm.y, fm.z, fm.w};
-  visibility = mssm_leak_reduction(visibility, wr, P.leak_reduction, fms, P.moment_bias);
+  const hankel4 h = hankel4_s(fms, P.moment_bias);
+  float visibility = hamburger4_h(h, mssm_receiver(&q, &P, hf), &wb, &zb, &wr);
+  visibility = mssm_leak_reduction(visibility, wr, P.leak_reduction, h.d33);
   vis[out] = clamp(visibility, 0.0f, 1.0f);
 }
 
@@ -711,12 +714,12 @@ PB_SIMD_LOOP(VIS_BATCH)
       m.w = m3[k];
       float wb, zb, wr;
       hamburger4_s(m, zr[k], P.moment_bias, &wb, &zb, &wr);
-      float hf = mssm_filter_half_width(&q, &P, zr[k], wb, zb, wr);
+      const float z_avg = mssm_blocker_depth(zr[k], wb, zb, wr, &P, q.slope);
+      float hf = mssm_filter_half_width(&q, &P, wb, z_avg);
       search_h[k] = h[k];
       if (P.cosine_centroid) {  // every pair, as mssm4_visibility
         const int px = list[min(b + k, n - 1)];
-        float dist = fmax(q.d - mssm_blocker_depth(zr[k], wb, zb, wr, &P, q.slope), 0.0f) *
-                     light.range;
+        float dist = fmax(q.d - z_avg, 0.0f) * light.range;
         float du, dv;
         mssm_centroid_offset(gnrm[4 * px], gnrm[4 * px + 1], gnrm[4 * px + 2], L->dir[0],
                              L->dir[1], L->dir[2], L->ex[0], L->ex[1], L->ex[2], L->ey[0],
@@ -743,8 +746,9 @@ PB_SIMD_LOOP(VIS_BATCH)
       m.z = m2[k];
       m.w = m3[k];
       float wb, zb, wr;
-      float visibility = hamburger4_s(m, zr[k], P.moment_bias, &wb, &zb, &wr);
-      visibility = mssm_leak_reduction(visibility, wr, P.leak_reduction, m, P.moment_bias);
+      const hankel4 hk = hankel4_s(m, P.moment_bias);
+      float visibility = hamburger4_h(hk, zr[k], &wb, &zb, &wr);
+      visibility = mssm_leak_reduction(visibility, wr, P.leak_reduction, hk.d33);
       if (b + k < n) out[list[min(b + k, n - 1)]] = clamp(visibility, 0.0f, 1.0f);
     }
   }
@@ -770,7 +774,7 @@ kernel void mssm6_visibility(global const float4* gpos, global const float4* gnr
   float4 b = mssm_box(mapB, size, &q, hs);
   float wb, zb, wr;
   hamburger6(mssm_box(mapA, size, &q, hs), odd ? b.zw : b.xy, zf, P.moment_bias, &wb, &zb, &wr);
-  float hf = mssm_filter_half_width(&q, &P, zf, wb, zb, wr);
+  float hf = mssm_filter_half_width(&q, &P, wb, mssm_blocker_depth(zf, wb, zb, wr, &P, q.slope));
   b = mssm_box(mapB, size, &q, hf);
   float visibility = hamburger6(mssm_box(mapA, size, &q, hf), odd ? b.zw : b.xy,
                                 mssm_receiver(&q, &P, hf), P.moment_bias, &wb, &zb, &wr);
@@ -828,8 +832,9 @@ kernel void mssm_leak_probe(global const float* in, int n, float moment_bias, gl
   global const float* c = in + 6 * i;
   m4s m = {c[0], c[1], c[2], c[3]};
   float wb, zb, wr;
-  float v = hamburger4_s(m, c[4], moment_bias, &wb, &zb, &wr);
+  const hankel4 h = hankel4_s(m, moment_bias);
+  float v = hamburger4_h(h, c[4], &wb, &zb, &wr);
   out[3 * i] = v;
   out[3 * i + 1] = wr;
-  out[3 * i + 2] = mssm_leak_reduction(v, wr, c[5], m, moment_bias);
+  out[3 * i + 2] = mssm_leak_reduction(v, wr, c[5], h.d33);
 }
