@@ -116,6 +116,9 @@ TEST(AutoRule, ExactGoesToTheBrightestWithinBudget) {
 }
 
 TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
+  using T = std::vector<ShadowTechnique>;
+  constexpr ShadowTechnique H = ShadowTechnique::Hard, M = ShadowTechnique::MSSM4,
+                            P = ShadowTechnique::PCSS, X = ShadowTechnique::Bitmask;
   // powers 1, 3, 2, 0.5, 4 (brightest, its penumbra under a texel: hard whatever the budget)
   const std::vector<AutoLight> lights = {lightWithPenumbra(1, 10), lightWithPenumbra(3, 10),
                                          lightWithPenumbra(2, 40), lightWithPenumbra(0.5, 40),
@@ -123,38 +126,23 @@ TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
   AutoOptions o;
   o.exactLights = 0;
   // no limit (the default): every resolved penumbra filtered
-  auto t = chooseShadowTechniques(lights, 0.001, o);
   EXPECT_EQ(o.filteredLights, -1);
-  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::MSSM4), 4);
-  EXPECT_EQ(t[4], ShadowTechnique::Hard);
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{M, M, M, M, H}));
   // 2: the two brightest of the resolved ones (powers 3 and 2); the unresolved light 4 does not
   // take a place in the budget
   o.filteredLights = 2;
-  t = chooseShadowTechniques(lights, 0.001, o);
-  EXPECT_EQ(t[1], ShadowTechnique::MSSM4);
-  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
-  EXPECT_EQ(t[0], ShadowTechnique::Hard);
-  EXPECT_EQ(t[3], ShadowTechnique::Hard);
-  EXPECT_EQ(t[4], ShadowTechnique::Hard);
-  // the budget counts PCSS lights too
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, M, M, H, H}));
+  // the budget counts PCSS lights too (light 1's 10-texel filter is under 20)
   o.pcssTexels = 20;
-  t = chooseShadowTechniques(lights, 0.001, o, 27.0f);
-  EXPECT_EQ(t[1], ShadowTechnique::PCSS);
-  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
-  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 3);
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o, 27.0f), (T{H, P, M, H, H}));
   o.pcssTexels = 0;
-  // exact lights are outside the budget: the brightest resolved exact, the next two filtered
+  // exact lights are outside the budget: the brightest (light 4) exact, the next two filtered
   o.exactLights = 1;
-  t = chooseShadowTechniques(lights, 0.001, o);
-  EXPECT_EQ(t[4], ShadowTechnique::Bitmask);
-  EXPECT_EQ(t[1], ShadowTechnique::MSSM4);
-  EXPECT_EQ(t[2], ShadowTechnique::MSSM4);
-  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 2);
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, M, M, H, X}));
   // 0: none filtered
   o.exactLights = 0;
   o.filteredLights = 0;
-  t = chooseShadowTechniques(lights, 0.001, o);
-  EXPECT_EQ(std::count(t.begin(), t.end(), ShadowTechnique::Hard), 5);
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, H, H, H, H}));
 }
 
 TEST(AutoRule, BadOptionsNameTheField) {
