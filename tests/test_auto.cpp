@@ -212,6 +212,18 @@ TEST(AutoInputs, CasterDistanceAndPixelFootprint) {
     }
   const double d = detail::casterDistance(L, map.data(), S, gpos, gnrm, 0.002f);
   EXPECT_NEAR(d, 2.0, 1e-4);
+  // the two-step form the pass uses: every 3rd pixel that sees geometry, packed in pixel order
+  // (pixels 0, 3, 6, ... of 40, the 4th of those with no geometry), and its median the same
+  gpos[9].s[3] = 0;
+  const auto samples = detail::casterSamples(gpos, gnrm, 3);
+  ASSERT_EQ(samples.size(), 13u);
+  EXPECT_EQ(samples[3].position[0], gpos[12].s[0]);
+  EXPECT_EQ(samples[3].position[2], gpos[12].s[2]);
+  EXPECT_EQ(samples[12].position[1], gpos[39].s[1]);
+  std::vector<double> scratch(5, -1.0);
+  EXPECT_EQ(detail::casterDistance(L, map.data(), S, samples, 0.002f, scratch),
+            detail::casterDistance(L, map.data(), S, gpos, gnrm, 0.002f, 3));
+  gpos[9].s[3] = 1;
   // facing away from the light: nothing is lit, so nothing is shadowed
   std::vector<cl_float4> down(gnrm.size(), {{0, -1, 0, 0}});
   EXPECT_EQ(detail::casterDistance(L, map.data(), S, gpos, down, 0.002f), 0.0);

@@ -16,6 +16,7 @@
 #include "common.hpp"
 #include "core/device_kind.hpp"
 #include "penumbra/scan.hpp"
+#include "shadows/hard.hpp"
 #include "shadows/mssm.hpp"
 #include "support/planar_penumbra.hpp"
 
@@ -119,6 +120,7 @@ namespace {
 // every depth, and depth maps mixing an open floor (depth near 1) with blockers in front of it.
 struct VisibilityInputs {
   cl::Buffer gpos, gnrm, ggeo, lights, sats;
+  cl::Buffer depth;  // the depth maps the moments come from (ShadowFrame::depth), for hard shadows
   std::size_t stride = 0;
 };
 
@@ -167,9 +169,13 @@ VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
   }
   // Moments (z, z^2, z^3, z^4) in fixed point, then the long4 SAT, as the renderer stores them.
   std::vector<std::int64_t> m(4 * std::size_t(S) * S * nl);
+  std::vector<std::uint32_t> depth(std::size_t(S) * S * nl);
   for (int l = 0; l < nl; ++l)
     for (int t = 0; t < S * S; ++t) {
       float z = u01(rng) < 0.3f ? 0.3f + 0.4f * u01(rng) : 0.9f + 0.1f * u01(rng);
+      const float world = z * lights[l].origin[3];
+      std::memcpy(&depth[std::size_t(l) * S * S + t], &world, 4);
+      if (t % 17 == 3) depth[std::size_t(l) * S * S + t] = PB_DEPTH_EMPTY;
       float z2 = z * z, mz[4] = {z, z2, z2 * z, z2 * z2};
       for (int c = 0; c < 4; ++c)
         m[(std::size_t(l) * S * S + t) * 4 + c] = std::llround(double(mz[c]) * PB_MOMENT_SCALE);
@@ -180,6 +186,7 @@ VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
   in.ggeo = ctx().upload(ggeo, "test ggeo");
   in.lights = ctx().upload(lights, "test lights");
   in.sats = ctx().upload(m, "test sats");
+  in.depth = ctx().upload(depth, "test depth");
   penumbra::summedAreaTable(ctx(), in.sats, ScanType::Long4, S, S, nl, "test/sat");
   in.stride = std::size_t(S) * S;
   return in;
@@ -266,6 +273,55 @@ TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
   expectSameVisibility(65, 2, 9, 7, tolerance);
   expectSameVisibility(1, 1, 1, 8, tolerance);
 }
+
+namespace {
+
+// Hard shadows' two kernels (src/shadows/hard.hpp) on the same frame-shaped inputs as MSSM4's
+// above, the bits of each: hard_visibility_batch (CPU devices: 64 pixels and every light per
+// work-item, SIMD across the pixels) against hard_visibility (one pixel per work-item). `flips`:
+// the values allowed to differ (0 on PoCL; a driver whose library fuses dot()'s products, as
+// oclgrind's does, can move a receiver across its texel's depth by that rounding).
+void expectSameHardVisibility(int pixels, int nl, int S, unsigned seed, std::size_t flips) {
+  VisibilityInputs in = visibilityInputs(pixels, nl, S, seed);
+  std::vector<float> out[2];
+  for (int batched : {0, 1}) {
+    cl::Buffer vis = ctx().buffer(std::size_t(pixels) * nl * 4, "test vis");
+    const float nan = std::nanf("");
+    ctx().fill(vis, &nan, 4, std::size_t(pixels) * nl * 4, "test vis");
+    detail::hardVisibility(ctx(), batched != 0, in.gpos, in.gnrm, in.ggeo, in.lights, in.depth, S,
+                           pixels, nl, 0.002f, vis);
+    out[batched] = ctx().download<float>(vis, std::size_t(pixels) * nl, "test vis");
+  }
+  std::size_t shadowed = 0, differ = 0;
+  for (std::size_t i = 0; i < out[0].size(); ++i) {
+    ASSERT_TRUE(out[0][i] == 0.0f || out[0][i] == 1.0f) << "pixel " << i % pixels;
+    ASSERT_TRUE(out[1][i] == 0.0f || out[1][i] == 1.0f) << "pixel " << i % pixels;
+    shadowed += out[0][i] == 0.0f;
+    if (std::memcmp(&out[0][i], &out[1][i], 4) != 0 && differ++ < 5 && flips == 0)
+      ADD_FAILURE() << pixels << " pixels, map " << S << ": pixel " << i % pixels << " light "
+                    << i / pixels << ": " << out[0][i] << " vs batched " << out[1][i];
+  }
+  EXPECT_LE(differ, flips) << pixels << " pixels, map " << S;
+  // the inputs shadow some pairs and leave others lit: a kernel writing a constant fails
+  if (pixels * nl >= 64) {
+    EXPECT_GT(shadowed, 0u) << pixels << " pixels, map " << S;
+    EXPECT_LT(shadowed, out[0].size()) << pixels << " pixels, map " << S;
+  }
+}
+
+}  // namespace
+
+// Pixel counts around the group of 64 (1, one short, exact, one over, a ragged end), odd and tiny
+// maps, empty texels.
+TEST(HardShadows, BatchedVisibilityKernelIsBitIdentical) {
+  const bool pocl = ctx().info().platform.find("Portable Computing Language") != std::string::npos;
+  for (int pixels : {1, 63, 64, 65, 1000})
+    for (int S : {1, 7, 37})
+      expectSameHardVisibility(pixels, 3, S, unsigned(pixels * 7 + S), pocl ? 0 : 2);
+}
+
+// The same on the simulator, small: bounds and races of both kernels.
+TEST(OclgrindHard, BatchedVisibilityKernel) { expectSameHardVisibility(65, 2, 9, 7, 2); }
 
 namespace {
 

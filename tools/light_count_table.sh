@@ -28,6 +28,7 @@ CONFIGS=(
   "hard-64|--lights 64 --shadows hard"
   "auto-64-f8|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 8"
   "auto-64-f16|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 16"
+  "auto-64-f24|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 24"
   "auto-64-f32|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 32"
   "mssm4-64|--lights 64")  # last: its floor is the 64-light column
 # shellcheck source=tools/evaluate_cached.sh

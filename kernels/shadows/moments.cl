@@ -55,8 +55,8 @@ PB_SIMD_LOOP(16)
 
 // Scalar helpers: written without vector types, so that the batched CPU kernel below
 // (mssm4_visibility_batch) vectorizes, and used by the per-pixel kernels too. mix_s and dot3_s
-// round as PoCL's library mix() and dot() do (products rounded before the sums: no fused
-// multiply-add), so code written with either gives the same bits there.
+// (filter.clh) round as PoCL's library mix() and dot() do (products rounded before the sums: no
+// fused multiply-add), so code written with either gives the same bits there.
 #define M4S static inline __attribute__((always_inline))
 
 typedef struct {
@@ -68,15 +68,6 @@ M4S float mix_s(float x, float y, float a) {
   float d = y - x;
   float m = d * a;
   return m + x;
-}
-
-// dot() of two float3 as the library computes it: (p0 + p1) + p2 of rounded products.
-M4S float dot3_s(float ax, float ay, float az, float bx, float by, float bz) {
-  float p0 = ax * bx;
-  float p1 = ay * by;
-  float p2 = az * bz;
-  float s = p0 + p1;
-  return p2 + s;
 }
 
 // The biased moments b1..b4 and the Hankel matrix's LDL^T factors d22, l32, d33 (d11 = 1).

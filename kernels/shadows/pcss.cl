@@ -77,6 +77,83 @@ kernel void hard_visibility(global const float4* gpos, global const float4* gnrm
   vis[out] = hard_test(depth + (size_t)l * size * size, size, &m, depth_bias);
 }
 
+// Hard shadows for CPU devices (src/shadows/hard.cpp picks it where the CPU forms run,
+// src/core/device_kind.hpp). PoCL runs hard_visibility one work-item at a time: its float3 values
+// and the copy of the light keep the work-group loop from vectorizing. Here a work-item takes
+// HARD_GROUP consecutive pixels and every light: it copies the pixels' G-buffer values into
+// arrays once (a scalar loop: in a SIMD loop each float of the float4 G-buffers would be a
+// gather, for every light), then runs each light over them in a SIMD loop over scalars (the map's
+// texel one gather per lane, the light's row of visibility contiguous stores; lanes past the last
+// pixel repeat it and write nothing). The loop repeats map_point_of, receiver_slope and hard_test
+// operation for operation (dot3_s rounds as the library's dot()), so both kernels give the same
+// bits (tests/test_mssm.cpp, HardShadows.BatchedVisibilityKernelIsBitIdentical). Global size
+// ceil(npixels / HARD_GROUP).
+#ifndef HARD_GROUP
+#define HARD_GROUP 64
+#endif
+kernel void hard_visibility_batch(global const float* gpos, global const float* gnrm,
+                                  global const float* ggeo, global const pb_light* lights,
+                                  int nlights, global const uint* depth, int size, int npixels,
+                                  float depth_bias, global float* vis) {
+  const int px0 = get_global_id(0) * HARD_GROUP;
+  const int n = min(HARD_GROUP, npixels - px0);
+  float P[3][HARD_GROUP], N[3][HARD_GROUP], G[3][HARD_GROUP];
+  bool geometry[HARD_GROUP];
+PB_SCALAR_LOOP
+  for (int k = 0; k < HARD_GROUP; ++k) {
+    const int px = min(px0 + k, npixels - 1);
+    for (int c = 0; c < 3; ++c) {
+      P[c][k] = gpos[4 * px + c];
+      N[c][k] = gnrm[4 * px + c];
+      G[c][k] = ggeo[4 * px + c];
+    }
+    geometry[k] = gpos[4 * px + 3] != 0.0f;
+  }
+  for (int l = 0; l < nlights; ++l) {
+    global const pb_light* L = lights + l;
+    global const uint* map = depth + (size_t)l * size * size;
+    global float* out = vis + (size_t)l * npixels + px0;
+    const float wx = L->dir[0], wy = L->dir[1], wz = L->dir[2];
+    const float exx = L->ex[0], exy = L->ex[1], exz = L->ex[2];
+    const float eyx = L->ey[0], eyy = L->ey[1], eyz = L->ey[2];
+    const float ox = L->origin[0], oy = L->origin[1], oz = L->origin[2];
+    const float hx = L->ex[3], hy = L->ey[3], range = L->origin[3];
+    const float sin_a = sqrt(fmax(1.0f - L->dir[3] * L->dir[3], 0.0f));
+    const float tx = 2.0f * hx / size, ty = 2.0f * hy / size;
+PB_SIMD_LOOP(16)
+    for (int k = 0; k < HARD_GROUP; ++k) {
+      // | and selects, no short-circuit: no branch in the SIMD loop
+      const bool dead = !geometry[k] | (dot3_s(N[0][k], N[1][k], N[2][k], wx, wy, wz) <= -sin_a);
+      // map_point_of
+      const float rx = P[0][k] - ox, ry = P[1][k] - oy, rz = P[2][k] - oz;
+      const float u = clamp((dot3_s(rx, ry, rz, exx, exy, exz) / hx + 1.0f) * 0.5f * size, 0.0f,
+                            (float)size);
+      const float v = clamp((1.0f - dot3_s(rx, ry, rz, eyx, eyy, eyz) / hy) * 0.5f * size, 0.0f,
+                            (float)size);
+      const float d = dot3_s(rx, ry, rz, -wx, -wy, -wz) / range;
+      // receiver_slope
+      const float gx = G[0][k], gy = G[1][k], gz = G[2][k];
+      const float nz = dot3_s(gx, gy, gz, wx, wy, wz);
+      // copysign(fmax(fabs(nz), 1e-6f), nz), on the bits
+      const float inv =
+          1.0f / as_float(as_int(fmax(fabs(nz), 1e-6f)) | (as_int(nz) & (int)0x80000000));
+      float sx = dot3_s(gx, gy, gz, exx, exy, exz) * inv;
+      float sy = dot3_s(gx, gy, gz, eyx, eyy, eyz) * inv;
+      const float len = sqrt(sx * sx + sy * sy);
+      const bool steep = len > PB_MAX_RECEIVER_SLOPE;
+      sx = steep ? sx * (PB_MAX_RECEIVER_SLOPE / len) : sx;
+      sy = steep ? sy * (PB_MAX_RECEIVER_SLOPE / len) : sy;
+      const float du = sx * tx / range, dv = -sy * ty / range;
+      // hard_test
+      const int i = min((int)u, size - 1), j = min((int)v, size - 1);
+      const float z = as_float(map[dead ? 0 : (size_t)j * size + i]) / range;
+      const float receiver = d - depth_bias + du * (i + 0.5f - u) + dv * (j + 0.5f - v);
+      const float lit = (dead | !(z < receiver)) ? 1.0f : 0.0f;
+      if (k < n) out[k] = lit;
+    }
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 // PCSS (Fernando 2005), Kneiphof 2017 §3.2: blocker search (eq. 4), penumbra width (eq. 5 for a
 // light

@@ -34,6 +34,20 @@ double casterDistance(const pb_light& L, const cl_uint* map, int size,
                       const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
                       float depthBias, int step = 1);
 
+// The same in two steps, for many lights over one G-buffer: the pixels casterDistance tests
+// (every step-th that sees geometry), packed once (`out` reuses its storage), then each light's
+// median over them (`gaps`: scratch storage, reused). The same value as above, bit for bit.
+struct CasterSample {
+  float position[3], normal[3];
+};
+std::vector<CasterSample> casterSamples(const std::vector<cl_float4>& gpos,
+                                        const std::vector<cl_float4>& gnrm, int step = 1);
+void casterSamples(const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
+                   int step, std::vector<CasterSample>& out);
+double casterDistance(const pb_light& L, const cl_uint* map, int size,
+                      const std::vector<CasterSample>& samples, float depthBias,
+                      std::vector<double>& gaps);
+
 // The estimated penumbra width, world units: the cap's diameter 2 tan(alpha) at the caster
 // distance.
 double autoPenumbraWidth(const AutoLight& l);
