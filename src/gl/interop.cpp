@@ -187,6 +187,10 @@ const std::vector<std::pair<std::string, double>>& Interop::timingsMs() const {
   return impl_->timings;
 }
 
+const std::vector<std::pair<std::string, double>>& Interop::stats() const {
+  return impl_->visibility.stats();
+}
+
 std::vector<LightView> Interop::lightViews(const LightSet& lights, const Bounds& bounds,
                                            int size) const {
   std::vector<LightView> out;
@@ -234,10 +238,17 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
     case ShadowTechnique::None: case ShadowTechnique::Hard: case ShadowTechnique::PCSS:
     case ShadowTechnique::CSSM: case ShadowTechnique::MSSM4: case ShadowTechnique::MSSM6:
       break;
+    case ShadowTechnique::Auto:  // its choices but the exact one run on the maps given
+      if (options.autoChoice.exactLights != 0)
+        badInput("GL interop: RenderOptions.autoChoice.exactLights is " +
+                 std::to_string(options.autoChoice.exactLights) +
+                 "; exact visibility needs the scene's triangles, which the interop does not "
+                 "have: set it to 0 (--auto-exact 0) for auto with GL");
+      break;
     default:
       badInput(std::string("GL interop: RenderOptions.shadows ") + toString(options.shadows) +
                " rasterizes more depth maps from the scene's triangles; with GL use none, "
-               "hard, pcss, cssm, mssm4 or mssm6");
+               "hard, pcss, cssm, mssm4, mssm6 or auto (with no exact light)");
   }
   if (nl > m.maxLights)
     badInput("GL interop: " + std::to_string(nl) + " lights; this GL context's uniform blocks " +

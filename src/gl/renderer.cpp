@@ -273,6 +273,7 @@ Frame GLRenderer::render(const Scene& scene, const Camera& camera, const LightSe
   for (auto& t : glTimes) frame.timingsMs.insert(frame.timingsMs.end() - 0, t);
   for (auto& t : m.interop.timingsMs()) frame.timingsMs.push_back(t);
   frame.timingsMs.emplace_back("total", msSince(tStart));
+  frame.stats = m.interop.stats();
   return frame;
 }
 

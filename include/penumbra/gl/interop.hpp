@@ -78,9 +78,9 @@ class Interop {
   std::vector<LightView> lightViews(const LightSet& lights, const Bounds& bounds,
                                     int size) const;
 
-  /// One frame; see the top of this file. opt.shadows may be none, hard, pcss, cssm, mssm4 or
-  /// mssm6 (the others rasterize more maps from the scene's triangles, which the interop does not
-  /// have); opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
+  /// One frame; see the top of this file. opt.shadows may be none, hard, pcss, cssm, mssm4,
+  /// mssm6, or auto with opt.autoChoice.exactLights 0 (the others, and auto's exact lights,
+  /// rasterize more maps from the scene's triangles, which the interop does not have); opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
   /// (a polygon's visibility is its bounding cap's, its irradiance exact, as in Renderer).
   /// opt.shadow.contactShadows is ignored: contact shadows cast rays against the scene's
   /// triangles, which the interop does not have, so its frames have none.
@@ -94,6 +94,8 @@ class Interop {
   /// interop/convert, interop/download (device -> host -> GL), gl/shade (fragment shader, with
   /// glFinish), plus the OpenCL visibility stages' device times.
   const std::vector<std::pair<std::string, double>>& timingsMs() const;
+  /// The last shade()'s statistics, as Frame::stats (e.g. auto's choice per light).
+  const std::vector<std::pair<std::string, double>>& stats() const;
   bool zeroCopy() const { return false; }  // see "Transfers" above
 
  private:
