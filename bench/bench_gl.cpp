@@ -1,7 +1,7 @@
 // `render --gl` against the OpenCL-only path, by stage: the default frame (built-in scene and sky,
-// 32 median-cut lights, MSSM4 at 384^2, 640x360) rendered by Renderer and by gl::GLRenderer (GL
-// rasterizes the G-buffer and shadow maps and shades, OpenCL computes visibility) on an EGL
-// (range 0) or OSMesa (range 1) headless context. Counters: ms per frame by stage (OpenCL device
+// 64 median-cut lights, auto (24 MSSM4, 40 hard) at 384^2, 640x360) rendered by Renderer and
+// by gl::GLRenderer (GL rasterizes the G-buffer and shadow maps and shades, OpenCL computes
+// visibility) on an EGL (range 0) or OSMesa (range 1) headless context. Counters: ms per frame by stage (OpenCL device
 // time for OpenCL stages, wall clock with glFinish for gl/* and interop/*); `host_copy_ms` is the
 // host-copy path's cost per frame (interop/upload + interop/download), `vs_opencl` the frame's
 // time over the OpenCL-only frame's measured in the same run. Without a display, run it with
@@ -36,7 +36,7 @@ double openclMs = 0;
 template <class R>
 void runFrames(benchmark::State& state, R& renderer) {
   Setup& s = setup();
-  RenderOptions ro;  // 640x360, MSSM4, 384^2
+  RenderOptions ro;  // the default frame: 640x360, auto (24 of the lights MSSM4), 384^2
   s.ctx.resetTimings();
   renderer.render(s.scene, s.camera, s.lights, s.env, ro);  // warm-up: kernels, GL variants
   std::map<std::string, double> sum;

@@ -80,7 +80,9 @@ int main(int argc, char** argv) try {
   gl::HeadlessContext context(gl::Backend::EGL);          // or the application's own context
   Scene scene = builtinScene();
   Environment env = builtinEnvironment();
-  LightSet lights = extractLights(cl, env, {});           // 32 lights + ambient residual
+  ExtractOptions eo;
+  eo.medianCut.lights = 32;
+  LightSet lights = extractLights(cl, env, eo);           // 32 lights + ambient residual
   Camera camera = frameCamera(scene, float(W) / float(H));
 
   // The application's vertex buffer: position, normal, albedo per vertex, unindexed.
@@ -157,9 +159,13 @@ int main(int argc, char** argv) try {
   glUniform1f(glGetUniformLocation(gbufProg, "uFar"), f);
   glDrawArrays(GL_TRIANGLES, 0, count);
 
-  // penumbra: visibility (MSSM4, OpenCL) and shading (GL) into the application's texture.
+  // penumbra: visibility (OpenCL) and shading (GL) into the application's texture. MSSM4 for
+  // every light here; the default (64 lights, auto: the 24 brightest MSSM4, the rest hard) works
+  // too (its hard shadows' edges show the GL and OpenCL rasterizers' different texels more).
   GLuint shaded = texture(GL_RGBA16F, W, H, GL_RGBA, GL_FLOAT), display = texture(GL_RGBA8, W, H, GL_RGBA, GL_UNSIGNED_BYTE);
-  interop.shade(maps, g, shaded, camera, lights, scene.bounds(), env, RenderOptions{});
+  RenderOptions opt;
+  opt.shadows = ShadowTechnique::MSSM4;
+  interop.shade(maps, g, shaded, camera, lights, scene.bounds(), env, opt);
 
   // Sample it: the display pass into an 8-bit target, read back for the PNG.
   glBindFramebuffer(GL_FRAMEBUFFER, fbo);

@@ -124,9 +124,12 @@ TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
                                          lightWithPenumbra(2, 40), lightWithPenumbra(0.5, 40),
                                          lightWithPenumbra(4, 0.5)};
   AutoOptions o;
-  o.exactLights = 0;
-  // no limit (the default): every resolved penumbra filtered
-  EXPECT_EQ(o.filteredLights, -1);
+  // the defaults: no exact light, 24 filtered (more than these five: every resolved one)
+  EXPECT_EQ(o.exactLights, 0);
+  EXPECT_EQ(o.filteredLights, 24);
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{M, M, M, M, H}));
+  // no limit: the same
+  o.filteredLights = -1;
   EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{M, M, M, M, H}));
   // 2: the two brightest of the resolved ones (powers 3 and 2); the unresolved light 4 does not
   // take a place in the budget

@@ -572,13 +572,16 @@ TEST_F(CliRenderOptions, AutoChoices) {
     for (const auto& l : report["auto_lights"]) n += l == t;
     return n;
   };
-  const Rendered base = render("base", {"--shadows", "auto"});
-  const Rendered none = render("none", {"--shadows", "auto", "--auto-exact", "0"});
-  const Rendered pcss = render("pcss", {"--shadows", "auto", "--auto-pcss-texels", "1000"});
+  // base: one exact light; none: auto's defaults (no exact light, 24 filtered: all four here)
+  const Rendered base = render("base", {"--shadows", "auto", "--auto-exact", "1"});
+  const Rendered none = render("none", {"--shadows", "auto"});
+  const Rendered pcss =
+      render("pcss", {"--shadows", "auto", "--auto-exact", "1", "--auto-pcss-texels", "1000"});
   const Rendered one =
       render("one", {"--shadows", "auto", "--auto-exact", "0", "--auto-filtered", "1"});
   ASSERT_FALSE(base.image.empty() || none.image.empty() || pcss.image.empty() || one.image.empty());
-  EXPECT_EQ(base.report["auto"]["filtered_lights"], -1);
+  EXPECT_EQ(none.report["auto"]["filtered_lights"], kDefaults.autoChoice.filteredLights);
+  EXPECT_EQ(kDefaults.autoChoice.filteredLights, 24);
   EXPECT_EQ(one.report["auto"]["filtered_lights"], 1);
   const int filteredNone = countOf(none.report, "mssm4") + countOf(none.report, "pcss");
   ASSERT_GE(filteredNone, 2) << none.report.dump();  // else the case tests nothing
@@ -587,11 +590,12 @@ TEST_F(CliRenderOptions, AutoChoices) {
       << one.report.dump();
   EXPECT_FALSE(samePixels(one.image, none.image));
   ASSERT_EQ(base.report["auto_lights"].size(), 4u) << base.report.dump();
-  EXPECT_EQ(countOf(base.report, "bitmask"), kDefaults.autoChoice.exactLights) << base.report.dump();
-  EXPECT_EQ(none.report["auto"]["exact_lights"], 0);
+  EXPECT_EQ(countOf(base.report, "bitmask"), 1) << base.report.dump();
+  EXPECT_EQ(none.report["auto"]["exact_lights"], kDefaults.autoChoice.exactLights);
+  EXPECT_EQ(kDefaults.autoChoice.exactLights, 0);
   EXPECT_EQ(countOf(none.report, "bitmask"), 0) << none.report.dump();
   EXPECT_FLOAT_EQ(pcss.report["auto"]["pcss_texels"].get<float>(), 1000.0f);
-  EXPECT_EQ(pcss.report["auto"]["exact_lights"], kDefaults.autoChoice.exactLights);
+  EXPECT_EQ(pcss.report["auto"]["exact_lights"], 1);
   EXPECT_EQ(countOf(pcss.report, "mssm4"), 0) << pcss.report.dump();
   EXPECT_EQ(countOf(base.report, "mssm4") + countOf(base.report, "pcss"),
             countOf(pcss.report, "pcss"))

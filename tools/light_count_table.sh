@@ -23,14 +23,14 @@ declare -A SCENE=(
   [courtyard-builtin]="--env $D/envmaps/courtyard.exr")
 PAIRS=(builtin courtyard interior studio courtyard-spider interior-wuson studio-spider courtyard-builtin)
 CONFIGS=(
-  "mssm4-32|"
-  "hard-32|--shadows hard"
+  "mssm4-32|--lights 32 --shadows mssm4"
+  "hard-32|--lights 32 --shadows hard"
   "hard-64|--lights 64 --shadows hard"
   "auto-64-f8|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 8"
   "auto-64-f16|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 16"
-  "auto-64-f24|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 24"
+  "auto-64-f24|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 24"  # the default
   "auto-64-f32|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 32"
-  "mssm4-64|--lights 64")  # last: its floor is the 64-light column
+  "mssm4-64|--lights 64 --shadows mssm4")  # last: its floor is the 64-light column
 # shellcheck source=tools/evaluate_cached.sh
 . "$(dirname "$0")/evaluate_cached.sh"
 for s in "${PAIRS[@]}"; do

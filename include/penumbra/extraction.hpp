@@ -17,7 +17,8 @@ class Context;
 struct Environment;
 
 struct MedianCutOptions {
-  int lights = 32;        ///< number of regions/lights, >= 1 (any N, not only powers of two)
+  int lights = 64;        ///< number of regions/lights, >= 1 (any N, not only powers of two);
+                          ///< default 64 (README, "The default frame")
   int faceSize = 256;     ///< cube face resolution used for the SATs, 1..4096
   int supersample = 4;    ///< sub-samples per equirect texel side when splatting to the cube
   float minHalfAngleDeg = 0.0f;  ///< lower clamp on the extracted half-angle (0: one texel's cap)

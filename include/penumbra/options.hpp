@@ -243,10 +243,10 @@ struct AreaApproxOptions {
 /// texel gets hard shadows, a filtered one PCSS (RenderOptions::pcss) or, past pcssTexels, MSSM4
 /// (RenderOptions::mssm), up to filteredLights of them (the brightest first; the others hard).
 struct AutoOptions {
-  int exactLights = 1;          ///< budget: the most lights given exact visibility, by far the most
+  int exactLights = 0;          ///< budget: the most lights given exact visibility, by far the most
                                 ///< costly technique (320x180, 2-core CPU: one light 0.3 to 7 s,
-                                ///< growing with its size; the default frame ~2 s). In [0, 4096];
-                                ///< 0: none. Default 1
+                                ///< growing with its size; the default frame ~0.1 s). In [0, 4096];
+                                ///< 0: none (default; the GL interop takes only 0)
   float hardPixels = 1.0f;      ///< a penumbra narrower than this many camera pixels or shadow-map
                                 ///< texels (the coarser) gets hard shadows. Finite, >= 0; default 1
   float pcssTexels = 0.0f;      ///< PCSS while the filter it would use (the penumbra in texels,
@@ -257,14 +257,16 @@ struct AutoOptions {
                                 ///< auto 3.19/4.38/3.06/7.48% with MSSM4, 3.65/4.42/3.20/8.88% with
                                 ///< PCSS); PCSS costs about as much at the default clamp (2-core CPU).
                                 ///< Finite, >= 0
-  int filteredLights = -1;      ///< budget: the most lights given a filtered technique (PCSS or
+  int filteredLights = 24;      ///< budget: the most lights given a filtered technique (PCSS or
                                 ///< MSSM4), the brightest first; the other lights that would be
                                 ///< filtered get hard shadows (the dim ones, whose share of the
                                 ///< error is small: with 64 lights, the 16 brightest filtered
                                 ///< measure within 0.1-0.35% of all 64 filtered (relative RMSE),
                                 ///< for 0.7x their time; bench/results/accuracy.md, "Light count
-                                ///< against technique"). In [-1, 4096]; -1: no limit (default);
-                                ///< 0: none filtered
+                                ///< against technique"). In [-1, 4096]; -1: no limit; 0: none
+                                ///< filtered. Default 24: with the default 64 lights, the
+                                ///< cheapest budget of that table within issue 13's median 3.0% and
+                                ///< worst 4.5% (README, "The default frame")
 };
 
 struct RenderOptions {
@@ -276,7 +278,9 @@ struct RenderOptions {
   /// and 1.26x (512) the 256 frame, the moments 2.25x and 4x the memory. 384 is the first size
   /// within 1.3x of the exact-visibility floor on every scene.
   int shadowMapSize = 384;
-  ShadowTechnique shadows = ShadowTechnique::MSSM4;  ///< default MSSM4
+  /// Default Auto (with autoChoice's defaults: the 24 brightest lights MSSM4, the rest hard;
+  /// README, "The default frame")
+  ShadowTechnique shadows = ShadowTechnique::Auto;
   Prefilter prefilter = Prefilter::SAT;              ///< CSSM, MSSM4, MSSM6; default SAT
   /// Depth maps average the front- and back-facing surfaces' depths (Kneiphof 2017 §4.2.3) instead
   /// of

@@ -143,5 +143,6 @@ def test_docstrings_show_the_struct_defaults():
     assert "Default 3e-05." in penumbra.MSSMOptions.moment_bias.__doc__
     assert "Default 0.002." in penumbra.ShadowOptions.depth_bias.__doc__
     assert "Default 384." in penumbra.RenderOptions.shadow_map_size.__doc__
-    assert "Default 'mssm4'." in penumbra.RenderOptions.technique.__doc__
+    assert "Default 'auto'." in penumbra.RenderOptions.technique.__doc__
+    assert "Default 24." in penumbra.AutoOptions.filtered_lights.__doc__
     assert "Default 256 MiB." in penumbra.BruteOptions.batch_bytes.__doc__

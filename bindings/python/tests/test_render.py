@@ -61,7 +61,8 @@ def test_image_is_a_view(scene, camera, lights, env, renderer):
 def test_options():
     o = penumbra.RenderOptions()
     assert (o.width, o.height, o.shadow_map_size) == (640, 360, 384)
-    assert o.technique == penumbra.ShadowTechnique.MSSM4 and o.prefilter == penumbra.Prefilter.SAT
+    assert o.technique == penumbra.ShadowTechnique.AUTO and o.prefilter == penumbra.Prefilter.SAT
+    assert (o.auto_choice.exact_lights, o.auto_choice.filtered_lights) == (0, 24)
     o.technique = "cssm"
     assert o.technique == penumbra.ShadowTechnique.CSSM
     o.technique = penumbra.ShadowTechnique.PCSS
@@ -78,7 +79,7 @@ def test_options():
     assert penumbra.parse_shadow_technique("auto") == penumbra.ShadowTechnique.AUTO
     o.auto_choice.exact_lights = 0
     assert o.auto_choice.exact_lights == 0 and penumbra.AutoOptions().pcss_texels == 0
-    assert penumbra.AutoOptions().filtered_lights == -1  # no limit
+    assert penumbra.AutoOptions().filtered_lights == 24  # the default frame's budget
     for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
     assert m.cosine_centroid and 0 < m.leak_reduction < 1  # on by default
@@ -116,7 +117,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert vis.min() >= -1e-4 and vis.max() <= 1 + 1e-4
     report = json.loads(penumbra.render_report_json(ctx, lights, env, small_options(), frame))
     assert (report["width"], report["height"], report["shadow_map_size"]) == (W, H, 64)
-    assert report["lights"] == len(lights) and report["shadows"] == "mssm4"
+    assert report["lights"] == len(lights) and report["shadows"] == "auto"
     assert report["environment"] == env.source and report["sanitized_pixels"] == 0
     assert report["shadow_map_bytes"] == frame.shadow_map_bytes
     assert report["shadow_map_bytes_per_texel"] == frame.shadow_map_bytes // (64 * 64 * len(lights))
@@ -155,10 +156,12 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert blocks & set(r) == {"pcss"}
     r = report_for("brute")
     assert r["brute"]["samples"] == 3 and blocks & set(r) == {"brute"}
-    r = report_for("auto")  # this frame holds no per-light picks: the auto block alone
+    # this frame was rendered with the default, auto, whose picks (all eight lights MSSM4 here)
+    # bring the mssm block
+    r = report_for("auto")
     assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
     assert r["auto"]["filtered_lights"] == 16
-    assert blocks & set(r) == {"auto"}
+    assert blocks & set(r) == {"auto", "mssm"}
     r = report_for("hard")
     assert blocks & set(r) == set() and "shadow" in r
     with pytest.raises(penumbra.BadInput):
