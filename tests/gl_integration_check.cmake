@@ -20,8 +20,8 @@ if(png_bytes LESS 10000)  # a flat or empty 320x180 picture compresses below thi
   message(FATAL_ERROR "gl_integration.png is only ${png_bytes} bytes")
 endif()
 # --no-contact-shadows: the interop receives no triangles, so the example has none either.
-execute_process(COMMAND ${CLI} render --size 320x180 --no-contact-shadows --lights 32 --shadows mssm4
-                        --out ${DIR}/opencl.exr
+execute_process(COMMAND ${CLI} render --size 320x180 --no-contact-shadows --lights 32
+                        --shadows mssm4 --out ${DIR}/opencl.exr
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "penumbra render failed (${rc}): ${err}")

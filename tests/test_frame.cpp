@@ -90,10 +90,10 @@ TechniqueError techniqueError(const Image& frame, const Truth& t) {
 // depth bias x25 0.0904, no shadows 0.3202; the reference's own noise over the same pixels 0.0060
 // (0.0048 over the whole frame), so the bound stands 0.006 above MSSM4 and 0.009 below the
 // nearest control, each margin at or above the noise (asserted: noise < 0.01), and hard shadows
-// lose to MSSM4 by 0.0241, four times the noise (asserted: more than twice). At 1024 spp and 128x72 the noise was
-// 0.0174, too close to the 0.02 gap between the default and the light size x0.1 control; at 4096
-// spp 0.0086. At 64x36 (8192 spp) the pixels are wider than the penumbrae and the default's lead
-// shrinks to 0.012 (MSSM4 0.054, hard 0.066). The environment truth cannot do this at any
+// lose to MSSM4 by 0.0241, four times the noise (asserted: more than twice). At 1024 spp and
+// 128x72 the noise was 0.0174, too close to the 0.02 gap between MSSM4 and the light size x0.1
+// control; at 4096 spp 0.0086. At 64x36 (8192 spp) the pixels are wider than the penumbrae and
+// MSSM4's lead shrinks to 0.012 (MSSM4 0.054, hard 0.066). The environment truth cannot do this at any
 // affordable sample count (issue 15: 2.8% noise at 1024 spp, and the extraction's own 3.2% in
 // every figure).
 // What MSSM4's 4% is made of: the square filter standing in for the disc-shaped cap (up to 0.023

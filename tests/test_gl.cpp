@@ -143,9 +143,9 @@ TEST(GLFrame, PolygonLightsMatchOpenCLPath) {
 TEST(GLFrame, MatchesOpenCLPathEGL) { expectMatchesOpenCL(gl::Backend::EGL); }
 
 // `auto` with no exact light: the same per-light choices on both paths (the rule reads the
-// G-buffer and the depth maps, which GL rasterizes in its own way), hard and MSSM4 both run, and the
-// image within the same bound as one technique's (measured 0.0002, as MSSM4 alone). With exact
-// lights asked for, the interop refuses (GLInterop.ChecksTextureFormatsAndSizes).
+// G-buffer and the depth maps, which GL rasterizes in its own way), hard and MSSM4 both run, and
+// the image within the same bound as one technique's (measured 0.0002, as MSSM4 alone). With
+// exact lights asked for, the interop refuses (GLInterop.ChecksTextureFormatsAndSizes).
 TEST(GLFrame, AutoWithoutExactLightsMatchesOpenCLPath) {
   softwareGL();
   gl::HeadlessContext glc;

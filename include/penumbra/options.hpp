@@ -245,8 +245,8 @@ struct AreaApproxOptions {
 struct AutoOptions {
   int exactLights = 0;          ///< budget: the most lights given exact visibility, by far the most
                                 ///< costly technique (320x180, 2-core CPU: one light 0.3 to 7 s,
-                                ///< growing with its size; the default frame ~0.1 s). In [0, 4096];
-                                ///< 0: none (default; the GL interop takes only 0)
+                                ///< growing with its size). In [0, 4096]; 0: none (default; the
+                                ///< GL interop takes only 0)
   float hardPixels = 1.0f;      ///< a penumbra narrower than this many camera pixels or shadow-map
                                 ///< texels (the coarser) gets hard shadows. Finite, >= 0; default 1
   float pcssTexels = 0.0f;      ///< PCSS while the filter it would use (the penumbra in texels,

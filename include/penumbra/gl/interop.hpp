@@ -80,7 +80,8 @@ class Interop {
 
   /// One frame; see the top of this file. opt.shadows may be none, hard, pcss, cssm, mssm4,
   /// mssm6, or auto with opt.autoChoice.exactLights 0 (the others, and auto's exact lights,
-  /// rasterize more maps from the scene's triangles, which the interop does not have); opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
+  /// rasterize more maps from the scene's triangles, which the interop does not have);
+  /// opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
   /// (a polygon's visibility is its bounding cap's, its irradiance exact, as in Renderer).
   /// opt.shadow.contactShadows is ignored: contact shadows cast rays against the scene's
   /// triangles, which the interop does not have, so its frames have none.
