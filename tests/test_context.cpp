@@ -158,6 +158,35 @@ TEST(Context, LargeCpuBuffersLiveInHugePageAlignedMemory) {
   }
 }
 
+// Context::mapRead: the view shows the buffer's contents; once it is gone, a kernel's writes to the
+// buffer land and a second view shows them; on a CPU device's own large buffers (host pages) the
+// view is the buffer's memory, nothing copied; no bytes give a null view, not an error.
+TEST(Context, ReadViewsShowTheBufferAndLetLaterKernelsWriteIt) {
+  Context& ctx = test::ctx();
+  for (const std::size_t w : {std::size_t(5), std::size_t(1024)}) {  // 20 bytes; 4 MiB
+    const std::size_t h = w == 5 ? 1 : 1024, n = w * h;
+    cl::Buffer b = ctx.buffer(n * 4, "test view");
+    std::vector<float> ones(n, 1.0f);
+    ctx.write(b, ones.data(), n * 4, "test view");
+    void* host = b.getInfo<CL_MEM_HOST_PTR>();
+    {
+      const Context::ReadView view = ctx.mapRead(b, n * 4, "test view");
+      const auto* v = static_cast<const float*>(view.data());
+      ASSERT_NE(v, nullptr);
+      EXPECT_EQ(v[0], 1.0f);
+      EXPECT_EQ(v[n - 1], 1.0f);
+      if (host) EXPECT_EQ(view.data(), host) << "a CPU buffer of host pages is viewed in place";
+    }
+    summedAreaTable(ctx, b, ScanType::Float, int(w), int(h), 1, "test/sat");
+    Context::ReadView view = ctx.mapRead(b, n * 4, "test view");
+    const auto* v = static_cast<const float*>(view.data());
+    EXPECT_EQ(v[n - 1], float(n)) << w << " x " << h;
+    view = Context::ReadView();
+    EXPECT_EQ(view.data(), nullptr);
+  }
+  EXPECT_EQ(ctx.mapRead(ctx.buffer(16, "test view"), 0, "test view").data(), nullptr);
+}
+
 // Context::scratch: one buffer per role, handed out again once its lease is released while it is
 // large enough (the same cl_mem), replaced by a larger one when a call needs more, kept apart from
 // other roles, and never handed to a second holder while leased.

@@ -6,7 +6,8 @@
 #   tools/same_images.sh OLD_CLI NEW_CLI [WORKDIR]
 # Every technique at its defaults, the options that change the frame's path (mip prefilter,
 # front/back faces, upper bound, bent normals, a user light set, greedy and center-surround
-# extraction, the SH9 ambient, an animation frame, the GL path), on the built-in scene, 96x54.
+# extraction, the SH9 ambient, an animation frame, `auto` mixing exact, filtered and hard lights,
+# the GL path), on the built-in scene, 96x54.
 set -euo pipefail
 old=$1 new=$2 dir=${3:-$(mktemp -d)}
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -35,6 +36,7 @@ configs=(
   "sh9|--ambient sh9"
   "polygon|--light-shape polygon --shadows pcss"
   "frame3|--frames 3 --shadows mssm4"
+  "auto-mixed|--shadows auto --auto-exact 2 --auto-filtered 3"
   "gl|--gl osmesa --shadows mssm4"
 )
 fail=0

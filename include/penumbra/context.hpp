@@ -150,6 +150,32 @@ class Context {
   }
   void fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes, std::size_t bytes,
             const std::string& what);
+  /// A buffer's first bytes on the host, read-only, until the view is destroyed (a blocking
+  /// clEnqueueMapBuffer; the unmap is queued by the destructor, so work queued after it sees the
+  /// buffer again). Where the device's memory is the host's (PoCL), the driver hands out the
+  /// buffer's own memory and nothing is copied, where read() copies: 38 MB a frame for the
+  /// default frame's shadow maps, read by `--shadows auto`. Keep the view shorter than any write
+  /// to the buffer.
+  class ReadView {
+   public:
+    ReadView() = default;
+    ReadView(ReadView&& o) noexcept { *this = std::move(o); }
+    ReadView& operator=(ReadView&& o) noexcept;
+    ReadView(const ReadView&) = delete;
+    ReadView& operator=(const ReadView&) = delete;
+    ~ReadView() { release(); }
+    const void* data() const { return ptr_; }
+
+   private:
+    friend class Context;
+    ReadView(Context* c, cl::Buffer b, void* p) : ctx_(c), buffer_(std::move(b)), ptr_(p) {}
+    void release() noexcept;
+    Context* ctx_ = nullptr;
+    cl::Buffer buffer_;
+    void* ptr_ = nullptr;
+  };
+  /// Errors (a driver refusing the map) throw Error naming `what`; no bytes give a null view.
+  ReadView mapRead(const cl::Buffer& b, std::size_t bytes, const std::string& what);
   void finish();
   /// A lease on a scratch buffer (scratch()): the buffer is the holder's alone until the lease is
   /// destroyed or reassigned, then goes back to the context for the next caller with its role.

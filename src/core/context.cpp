@@ -545,6 +545,34 @@ void Context::read(const cl::Buffer& b, void* dst, std::size_t bytes, const std:
   }
 }
 
+Context::ReadView Context::mapRead(const cl::Buffer& b, std::size_t bytes,
+                                  const std::string& what) {
+  if (bytes == 0) return ReadView();  // a map of no bytes is an error in OpenCL
+  try {
+    void* p = queue_.enqueueMapBuffer(b, CL_TRUE, CL_MAP_READ, 0, bytes);
+    return ReadView(this, b, p);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "mapping " + what + " for reading");
+  }
+}
+
+Context::ReadView& Context::ReadView::operator=(ReadView&& o) noexcept {
+  if (this != &o) {
+    release();
+    ctx_ = std::exchange(o.ctx_, nullptr);
+    buffer_ = std::move(o.buffer_);
+    ptr_ = std::exchange(o.ptr_, nullptr);
+  }
+  return *this;
+}
+
+void Context::ReadView::release() noexcept {
+  if (ptr_ && ctx_)  // a failed unmap leaves nothing to undo here; the queue reports its error
+    clEnqueueUnmapMemObject(ctx_->queue_(), buffer_(), ptr_, 0, nullptr, nullptr);
+  ptr_ = nullptr;
+  ctx_ = nullptr;
+}
+
 void Context::fill(cl::Buffer& b, const void* pattern, std::size_t patternBytes,
                    std::size_t bytes, const std::string& what) {
   try {

@@ -214,16 +214,18 @@ class AutoPass : public ShadowPass {
   void computeVisibility(ShadowFrame& f) override {
     validate(f.opt.autoChoice);
     const int nl = int(f.lights.size()), S = f.mapSize;
-    // The camera's pixel footprint and each light's caster distance, from the G-buffer and the
-    // light's depth map read back (every 4th pixel is plenty for a median).
-    // Read into vectors kept between frames: fresh ones are mmap'ed by the allocator once they
-    // pass 32 MiB (the maps of 64 lights at 384^2 are 38 MiB), then faulted in and zeroed every
-    // frame (bench/results/accuracy.md, "Light count against technique").
+    // The camera's pixel footprint and each light's caster distance, from the G-buffer read back
+    // and the lights' depth maps mapped (every 4th pixel is plenty for a median). The G-buffer
+    // goes into vectors kept between frames: fresh ones are mmap'ed by the allocator past 32 MiB,
+    // then faulted in and zeroed every frame (bench/results/accuracy.md, "Light count against
+    // technique"). The maps (38 MiB for 64 lights at 384^2), of which the medians read a few
+    // texels, are mapped: on a CPU device that copies nothing (bench/results/cpu_speed.md).
     readInto(f.ctx, f.gpos, gpos_, std::size_t(f.pixels), "auto positions");
     readInto(f.ctx, f.gnrm, gnrm_, std::size_t(f.pixels), "auto normals");
-    readInto(f.ctx, f.depth, maps_, std::size_t(S) * S * nl, "auto shadow maps");
+    Context::ReadView mapView =
+        f.ctx.mapRead(f.depth, std::size_t(S) * S * nl * sizeof(cl_uint), "auto shadow maps");
+    const auto* maps = static_cast<const cl_uint*>(mapView.data());
     const std::vector<cl_float4>&gpos = gpos_, &gnrm = gnrm_;
-    const std::vector<cl_uint>& maps = maps_;
     const double pixel = pixelFootprint(gpos, f.width, f.height);
     std::vector<AutoLight> info(nl);
     const bool known = f.areaLights && int(f.areaLights->size()) == nl;
@@ -238,13 +240,14 @@ class AutoPass : public ShadowPass {
     std::vector<double> distance(nl);
     auto lights = [&](unsigned t) {
       for (int l = int(t); l < nl; l += int(threads))
-        distance[l] = casterDistance(f.lights[l], maps.data() + std::size_t(S) * S * l, S,
+        distance[l] = casterDistance(f.lights[l], maps + std::size_t(S) * S * l, S,
                                      samples_, f.opt.shadow.depthBias, gaps_[t]);
     };
     std::vector<std::thread> pool;
     for (unsigned t = 1; t < threads; ++t) pool.emplace_back(lights, t);
     lights(0);
     for (std::thread& t : pool) t.join();
+    mapView = Context::ReadView();  // unmapped before the techniques' kernels read the maps
     for (int l = 0; l < nl; ++l)
       info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, distance[l]);
     // The bitmask technique needs the scene's triangles; a frame without them (the GL interop)
@@ -337,7 +340,6 @@ class AutoPass : public ShadowPass {
   }
 
   std::vector<cl_float4> gpos_, gnrm_;  // the last frame's read-backs, their storage reused
-  std::vector<cl_uint> maps_;
   std::vector<CasterSample> samples_;     // casterDistance's pixels, storage reused
   std::vector<std::vector<double>> gaps_;  // its scratch, one per thread
   // A technique's subset, kept between frames: the frame holds references to these.
