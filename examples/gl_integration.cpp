@@ -74,15 +74,16 @@ static std::array<float, 16> mul(const std::array<float, 16>& a, const std::arra
 
 int main(int argc, char** argv) try {
   std::string png = argc > 1 ? argv[1] : "gl_integration.png", exr = argc > 2 ? argv[2] : "";
-  int W = 320, H = 180, S = 256;
+  // penumbra's defaults: 64 lights, `auto` (the 24 brightest MSSM4, the rest hard), maps of
+  // opt.shadowMapSize texels a side (a map size of the application's own works as well)
+  RenderOptions opt;
+  int W = 320, H = 180, S = opt.shadowMapSize;
   if (argc > 3) std::sscanf(argv[3], "%dx%d", &W, &H);
   Context cl;  // OpenCL (PoCL here)
   gl::HeadlessContext context(gl::Backend::EGL);          // or the application's own context
   Scene scene = builtinScene();
   Environment env = builtinEnvironment();
-  ExtractOptions eo;
-  eo.medianCut.lights = 32;
-  LightSet lights = extractLights(cl, env, eo);           // 32 lights + ambient residual
+  LightSet lights = extractLights(cl, env, ExtractOptions{});  // 64 lights + ambient residual
   Camera camera = frameCamera(scene, float(W) / float(H));
 
   // The application's vertex buffer: position, normal, albedo per vertex, unindexed.
@@ -159,12 +160,8 @@ int main(int argc, char** argv) try {
   glUniform1f(glGetUniformLocation(gbufProg, "uFar"), f);
   glDrawArrays(GL_TRIANGLES, 0, count);
 
-  // penumbra: visibility (OpenCL) and shading (GL) into the application's texture. MSSM4 for
-  // every light here; the default (64 lights, auto: the 24 brightest MSSM4, the rest hard) works
-  // too (its hard shadows' edges show the GL and OpenCL rasterizers' different texels more).
+  // penumbra: visibility (OpenCL) and shading (GL) into the application's texture.
   GLuint shaded = texture(GL_RGBA16F, W, H, GL_RGBA, GL_FLOAT), display = texture(GL_RGBA8, W, H, GL_RGBA, GL_UNSIGNED_BYTE);
-  RenderOptions opt;
-  opt.shadows = ShadowTechnique::MSSM4;
   interop.shade(maps, g, shaded, camera, lights, scene.bounds(), env, opt);
 
   // Sample it: the display pass into an 8-bit target, read back for the PNG.

@@ -1,7 +1,7 @@
 # CTest gl_integration: runs examples/gl_integration (EXAMPLE) in DIR and checks what it wrote: the
 # PNG exists and is not trivially small, and its linear EXR matches `penumbra render` (CLI), the
-# OpenCL-only path on the same scene, sky, lights and camera, within BOUND (relative RMSE over
-# geometry pixels). The bound is set in tests/CMakeLists.txt, with its reason.
+# OpenCL-only path on the same scene, sky, lights, camera and defaults, within BOUND (relative
+# RMSE over geometry pixels). The bound is set in tests/CMakeLists.txt, with its reason.
 file(REMOVE_RECURSE ${DIR})
 file(MAKE_DIRECTORY ${DIR})
 execute_process(COMMAND ${EXAMPLE} ${DIR}/gl_integration.png ${DIR}/gl_integration.exr 320x180
@@ -20,8 +20,7 @@ if(png_bytes LESS 10000)  # a flat or empty 320x180 picture compresses below thi
   message(FATAL_ERROR "gl_integration.png is only ${png_bytes} bytes")
 endif()
 # --no-contact-shadows: the interop receives no triangles, so the example has none either.
-execute_process(COMMAND ${CLI} render --size 320x180 --no-contact-shadows --lights 32
-                        --shadows mssm4 --out ${DIR}/opencl.exr
+execute_process(COMMAND ${CLI} render --size 320x180 --no-contact-shadows --out ${DIR}/opencl.exr
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "penumbra render failed (${rc}): ${err}")
