@@ -1,10 +1,12 @@
-// The default frame by stage: built-in scene and sky, 32 median-cut lights, MSSM4 at 384^2,
-// 640x360 (the CLI's defaults). Each stage's device time (OpenCL profiling events) is reported as a
-// counter in ms per frame; `vs_unshadowed` is the frame's time over that of the same frame without
-// shadows, measured in the same run (what soft shadows cost relative to plain shading, or what
-// bent normals cost); `vs_eq7` the default frame's and auto's time over MSSM4 with eq. 7 alone and
-// no contact shadows (the default before issue 13); `vs_no_contact` the default frame's over the
-// same frame without contact shadows (what they cost).
+// Frames by stage: built-in scene and sky, 640x360, maps at the default 384^2; MSSM4 on 32
+// median-cut lights (the default frame until stop 36) and the default frame itself (BM_FrameAuto:
+// 64 lights, auto). The frame's time against Embree's at equal error is bench_equal_error's.
+// Each stage's device time (OpenCL profiling events) is reported as a counter in ms per frame;
+// `vs_unshadowed` is the frame's time over that of the same frame without shadows, measured in
+// the same run (what soft shadows cost relative to plain shading, or what bent normals cost);
+// `vs_eq7` MSSM4-32's time over MSSM4 with eq. 7 alone and no contact shadows (the default before
+// issue 13); `vs_no_contact` MSSM4-32's over the same frame without contact shadows (what they
+// cost).
 //
 // Throughput of the stages that scale, for MSSM4 (README "Speed on a CPU"):
 //   sat_fraction_of_copy   the moments' summed-area tables (read and written once each: 2 x the
@@ -190,7 +192,7 @@ BENCHMARK(BM_FrameAuto)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4PerPixel)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4NoContact)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_FrameMSSM4)
-    ->Args({32, 384})  // the default (kMap)
+    ->Args({32, 384})  // the default map size (kMap)
     ->Args({32, 256})
     ->Args({32, 512})
     ->Args({16, 384})
