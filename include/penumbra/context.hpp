@@ -155,7 +155,7 @@ class Context {
   /// buffer again). Where the device's memory is the host's (PoCL), the driver hands out the
   /// buffer's own memory and nothing is copied, where read() copies: 38 MB a frame for the
   /// default frame's shadow maps, read by `--shadows auto`. Keep the view shorter than any write
-  /// to the buffer.
+  /// to the buffer; views must not outlive their Context.
   class ReadView {
    public:
     ReadView() = default;
