@@ -4,8 +4,9 @@
 // Truth: referenceEnvironmentWithNoise at 4096 spp, seed 11, with its own relative noise s_t (the
 // RMSE of its two half-sample images over 2, over the mean: ReferenceImage::relativeNoise). It is
 // cached as an EXR (noise in its header) in PENUMBRA_BENCH_CACHE, or else in this build's
-// bench/cache, and made on the first run (about a minute on 2 cores). Delete the file after a
-// change to the reference.
+// bench/cache, and made on the first run (about a minute on 2 cores). The file is named by
+// truthKey (include/penumbra/evaluate.hpp), the digest `penumbra evaluate`'s cache uses: a change
+// of scene, camera, map, size, spp or seed makes a new truth.
 //
 // A reference at N spp has noise s_t sqrt(4096 / N) of its own, independent of the truth's, so its
 // error against the truth is sqrt(s_t^2 4096 / N + s_t^2). Set equal to the frame's error e:
@@ -22,6 +23,7 @@
 //   frame_ms         the default frame, warm, extraction included (the benchmark's iterations)
 //   vs_reference     reference_ms / frame_ms: how many times faster penumbra reaches that error
 #include <benchmark/benchmark.h>
+#include <penumbra/evaluate.hpp>
 #include <penumbra/penumbra.hpp>
 
 #include <chrono>
@@ -49,19 +51,18 @@ struct Truth {
 
 // The cached truth, or a new one written to the cache.
 Truth truth(const Scene& scene, const Camera& camera, const Environment& env) {
-  const std::string path = cacheDir() + "/truth_builtin_" + std::to_string(kWidth) + "x" +
-                           std::to_string(kHeight) + "_" + std::to_string(kTruthSpp) + "spp_seed" +
-                           std::to_string(kTruthSeed) + ".exr";
-  if (std::filesystem::exists(path)) {
-    const ImageAttributes a = readImageAttributes(path);
-    const auto n = a.find(kRelativeNoiseAttribute);
-    if (n != a.end()) return {readImage(path), n->second};
-  }
   ReferenceOptions ro;
   ro.width = kWidth;
   ro.height = kHeight;
   ro.spp = kTruthSpp;
   ro.seed = kTruthSeed;
+  const std::string path =
+      cacheDir() + "/" + truthKey(scene, camera, env, nullptr, ro) + "-environment.exr";
+  if (std::filesystem::exists(path)) {
+    const ImageAttributes a = readImageAttributes(path);
+    const auto n = a.find(kRelativeNoiseAttribute);
+    if (n != a.end()) return {readImage(path), n->second};
+  }
   ReferenceImage r = referenceEnvironmentWithNoise(scene, camera, env, ro);
   std::filesystem::create_directories(cacheDir());
   writeImage(path, r.image, 1.0f, {{kRelativeNoiseAttribute, r.relativeNoise}});
