@@ -160,9 +160,10 @@ int main(int argc, char** argv) try {
   glUniform1f(glGetUniformLocation(gbufProg, "uFar"), f);
   glDrawArrays(GL_TRIANGLES, 0, count);
 
-  // penumbra: visibility (OpenCL) and shading (GL) into the application's texture.
+  // penumbra: visibility (OpenCL) and shading (GL) into the application's texture; the scene's
+  // ground lets it take off the part of each low light that the ground hides.
   GLuint shaded = texture(GL_RGBA16F, W, H, GL_RGBA, GL_FLOAT), display = texture(GL_RGBA8, W, H, GL_RGBA, GL_UNSIGNED_BYTE);
-  interop.shade(maps, g, shaded, camera, lights, scene.bounds(), env, opt);
+  interop.shade(maps, g, shaded, camera, lights, scene.bounds(), env, opt, findGround(scene));
 
   // Sample it: the display pass into an 8-bit target, read back for the PNG.
   glBindFramebuffer(GL_FRAMEBUFFER, fbo);

@@ -365,6 +365,19 @@ TEST_F(CliRenderOptions, NoHorizonVisibilityTurnsItOff) {
   EXPECT_GT(d, 1e-4);
 }
 
+// The ground's occlusion of low lights (on by default): --no-ground-visibility leaves the maps'
+// visibility of the lights that reach below the horizontal, the frame changes (the built-in
+// scene's objects stand on its ground), and the report says which ran.
+TEST_F(CliRenderOptions, NoGroundVisibilityTurnsItOff) {
+  const Rendered off = render("noground", {"--shadows", "mssm4", "--no-ground-visibility"});
+  ASSERT_FALSE(off.image.empty());
+  EXPECT_EQ(off.report["shadow"]["ground_visibility"].get<bool>(), false);
+  EXPECT_EQ(mssm4().report["shadow"]["ground_visibility"].get<bool>(), true);
+  const double d = rel(off.image, mssm4().image);
+  RecordProperty("ground_change", std::to_string(d));
+  EXPECT_GT(d, 1e-4);
+}
+
 // Filter widths: both a smaller light and a smaller filter cap bring MSSM4 towards hard shadows
 // (the filter shrinks to a texel); the reports tell which field each one set.
 // The MSSM4 frames keep the filter on the light's axis, where the hard shadow is: the cosine

@@ -59,6 +59,10 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
            "their own map's visibility there (README \"Lights on the horizon\"); by default they "
            "take that of the lights above the horizon near their lit part", S,
            {"RenderOptions.shadow.horizonVisibility"});
+  reg.flag(app, "--no-ground-visibility", "lights that reach below the horizontal keep their "
+           "own map's visibility above the ground (README \"The ground and low lights\"); by "
+           "default the part of each such light that the ground hides is taken off", S,
+           {"RenderOptions.shadow.groundVisibility"});
   const std::string upper = R.mssm.upperBoundBlocker ? " (the default)" : "";
   reg.flag(app, "--upper-bound", "MSSM4/MSSM6: the upper-bound blocker depth (README, "
            "\"How it works\")" + (R.mssm.upperBoundBlocker ? upper : ""), S,
@@ -161,6 +165,7 @@ RenderOptions parseRenderOptions(const Args& a) {
   }
   if (a.has("contact-texels")) ro.shadow.contactTexels = float(a.real("contact-texels"));
   if (a.has("no-horizon-visibility")) ro.shadow.horizonVisibility = false;
+  if (a.has("no-ground-visibility")) ro.shadow.groundVisibility = false;
   // The GL path hands OpenCL textures only, no triangles to cast contact rays against (README,
   // "Contact shadows"): off, so that the report says what the frame had.
   if (a.has("gl")) {

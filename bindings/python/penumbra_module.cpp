@@ -1162,7 +1162,12 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("horizon_visibility", &ShadowOptions::horizonVisibility,
                      withDefault("Lights whose centre is below a pixel's horizon, for techniques "
                                  "that read shadow maps, take the mean visibility of the lights "
-                                 "above it near their lit part.", R.shadow.horizonVisibility).c_str());
+                                 "above it near their lit part.", R.shadow.horizonVisibility).c_str())
+      .def_readwrite("ground_visibility", &ShadowOptions::groundVisibility,
+                     withDefault("Lights that reach below the horizontal, for techniques that "
+                                 "read shadow maps, lose at pixels above the scene's ground the "
+                                 "part of the cap whose rays hit the ground.",
+                                 R.shadow.groundVisibility).c_str());
 
   py::class_<MSSMOptions> mo(m, "MSSMOptions", "Moment soft shadow map options (MSSM4, MSSM6).");
   initFromFields<MSSMOptions>(mo);

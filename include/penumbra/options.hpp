@@ -69,6 +69,13 @@ struct ShadowOptions {
   /// studio + Wuson, MSSM4 relative RMSE: off 2.94/3.72/2.98/5.63%, on 2.92/3.67/2.98/5.46%
   /// (bench/results/accuracy.md). Default on
   bool horizonVisibility = true;
+  /// The ground's occlusion of low lights (kernels/render/ground.cl): for every technique whose
+  /// visibility comes from depth maps, a light whose cap reaches below the horizontal loses, at a
+  /// pixel above the scene's ground (the mesh named "ground", flat and horizontal), the
+  /// cosine-weighted share of the cap whose rays hit the ground; a map, looking along the axis,
+  /// sees the ground edge-on or from below and cannot. The GL interop takes the ground from its
+  /// caller (gl::Interop::shade). README, "The ground and low lights". Default on
+  bool groundVisibility = true;
 };
 
 /// Moment soft shadow mapping with 4 moments (Kneiphof 2017 §3.2.1) and 6 (§4.2.1): what MSSM4 and

@@ -4,6 +4,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,17 @@ Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt = {});
 /// set the framing) from above and to the side, far enough that the bounds' sphere fits the view
 /// for the given aspect ratio (width/height).
 Camera frameCamera(const Scene& scene, float aspect);
+
+/// A horizontal rectangle at height y, x in [x0, x1] and z in [z0, z1] (y up): a scene's ground,
+/// as the ground's occlusion of low lights (ShadowOptions::groundVisibility) sees it.
+struct GroundPlane {
+  float y = 0, x0 = 0, x1 = 0, z0 = 0, z1 = 0;
+};
+
+/// The scene's ground: the first mesh named "ground" (what loadScene and builtinScene add) whose
+/// vertices all lie at one height and span a rectangle of non-zero area, as that rectangle (the
+/// vertices' extent in x and z); nothing when there is none.
+std::optional<GroundPlane> findGround(const Scene& scene);
 
 /// The camera's orthonormal basis for a width x height image. Pixel (px, py) (continuous, row 0 at
 /// the top, pixel centres at +0.5) looks along normalize(forward + sx*tanHalfX*right +

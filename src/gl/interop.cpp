@@ -225,7 +225,8 @@ std::vector<LightView> Interop::lightViews(const LightSet& lights, const Bounds&
 
 void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, TextureId output,
                     const Camera& camera, const LightSet& lightSet, const Bounds& bounds,
-                    const Environment& env, const RenderOptions& options) {
+                    const Environment& env, const RenderOptions& options,
+                    const std::optional<GroundPlane>& ground) {
   Impl& m = *impl_;
   auto& gl = m.gl;
   Context& ctx = m.ctx;
@@ -352,6 +353,7 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
   sf.depth = depth;
   sf.rasterizer = &noRaster;
   sf.areaLights = &lightSet.lights;
+  sf.ground = penumbra::detail::groundRect(ground, bounds);
   m.visibility.compute(sf);
   ctx.finish();
   m.timings.emplace_back("interop/visibility", msSince(t0));

@@ -253,7 +253,7 @@ Frame GLRenderer::render(const Scene& scene, const Camera& camera, const LightSe
   // --- visibility (OpenCL) and shading (GL)
   std::vector<TextureId> mapIds(m.maps.begin(), m.maps.begin() + nl);
   GBuffer g{m.gtex[0], m.gtex[1], m.gtex[3], m.gtex[2]};
-  m.interop.shade(mapIds, g, m.output, camera, lights, bounds, env, opt);
+  m.interop.shade(mapIds, g, m.output, camera, lights, bounds, env, opt, findGround(scene));
 
   // --- the shaded texture back to the host (what a GL application would not do: it samples it)
   t0 = Clock::now();

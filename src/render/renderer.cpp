@@ -103,8 +103,9 @@ struct Renderer::Impl {
   }
 
   // The lights' shadow maps when the technique reads them, then its visibility.
-  void shadows(const RenderOptions& opt, const LightSet& lightSet, const detail::LightFrames& lf,
-               const cl::Buffer& lightB, const detail::DeviceGBuffer& g) {
+  void shadows(const Scene& sc, const RenderOptions& opt, const LightSet& lightSet,
+               const detail::LightFrames& lf, const cl::Buffer& lightB,
+               const detail::DeviceGBuffer& g) {
     const int S = opt.shadowMapSize, nl = int(lf.lights.size());
     visibility.begin(opt.shadow, opt.shadows, opt.width * opt.height, nl);
     detail::ShadowFrame sf(ctx, pool, opt, lf.lights);
@@ -130,6 +131,7 @@ struct Renderer::Impl {
     sf.hostPositions = &scene.positions();
     sf.hostTriangles = &scene.triangles();
     sf.areaLights = &lightSet.lights;
+    sf.ground = detail::groundRect(findGround(sc), sc.bounds());
     visibility.compute(sf);
   }
 };
@@ -156,7 +158,7 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   const detail::DeviceGBuffer g = m.raster.gbuffer(camB, W, H);
   // bent normals, shadow maps and visibility
   const detail::BentBuffers bent = m.bentNormals(opt, lightB, nl, g);
-  m.shadows(opt, lightSet, lf, lightB, g);
+  m.shadows(scene, opt, lightSet, lf, lightB, g);
   // shading
   const detail::ShadeInputs in{g, lightB, m.visibility.buffer(), camB, m.scene.environment(env),
                                bent};

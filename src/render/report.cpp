@@ -73,11 +73,13 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
       if (used.count(t)) return true;
     return false;
   };
-  // Whether contact shadows and lights on the horizon ran on this frame (the visibility stage's
-  // "contact/lights" and "horizon/lights" count the lights they covered): neither for the bitmask
-  // techniques, and no contact shadows without triangles (GL interop).
-  double contactLights = 0, horizonLights = 0;
+  // Whether contact shadows, lights on the horizon and the ground's occlusion ran on this frame
+  // (the visibility stage's "contact/lights", "horizon/lights" and "ground/lights" count the
+  // lights they covered): none for the bitmask techniques, no contact shadows without triangles
+  // (GL interop), no ground step without a ground or a light that reaches below the horizontal.
+  double contactLights = 0, horizonLights = 0, groundLights = 0;
   for (const auto& [name, v] : f.stats) {
+    if (name == "ground/lights") groundLights = v;
     if (name == "contact/lights") contactLights = v;
     if (name == "horizon/lights") horizonLights = v;
   }
@@ -87,7 +89,8 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
                  {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)},
                  {"contact_shadows", opt.shadow.contactShadows && contactLights > 0},
                  {"contact_texels", shortestDecimal(opt.shadow.contactTexels)},
-                 {"horizon_visibility", opt.shadow.horizonVisibility && horizonLights > 0}};
+                 {"horizon_visibility", opt.shadow.horizonVisibility && horizonLights > 0},
+                 {"ground_visibility", opt.shadow.groundVisibility && groundLights > 0}};
   if (uses({ShadowTechnique::MSSM4, ShadowTechnique::MSSM6}))
     o["mssm"] = {{"moment_bias", shortestDecimal(opt.mssm.momentBias)},
                  {"slope_bias", shortestDecimal(opt.mssm.slopeBias)},

@@ -36,8 +36,10 @@ void Visibility::compute(ShadowFrame& f) {
     // bitmask's) need neither.
     const bool horizon = f.opt.shadow.horizonVisibility;
     const bool contact = f.opt.shadow.contactShadows && hasContactInputs(f);
-    if (horizon || contact) {
+    const bool ground = f.opt.shadow.groundVisibility && f.ground.present;
+    if (horizon || contact || ground) {
       std::vector<cl_uchar> mask(std::size_t(lights_), 0);
+      int groundLights = 0;
       int n = 0;
       for (int l = 0; l < lights_; ++l) n += mask[std::size_t(l)] = pass_->lightFromShadowMap(l);
       if (n > 0) {
@@ -49,9 +51,12 @@ void Visibility::compute(ShadowFrame& f) {
         if (contact) contactShadows(f, mapMaskBuffer_);
         // after contact shadows, so that the sources it reads are final
         if (horizon) horizon_.run(f, mapMaskBuffer_);
+        // last: it scales the final value of each pair
+        if (ground) groundLights = ground_.run(f, mapMaskBuffer_);
       }
       if (horizon) stats_.emplace_back("horizon/lights", double(n));
       if (contact) stats_.emplace_back("contact/lights", double(n));
+      if (ground) stats_.emplace_back("ground/lights", double(groundLights));
     }
   } else if (lights_ > 0) {
     const cl_float one = 1.0f;

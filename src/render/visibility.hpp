@@ -11,6 +11,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/options.hpp"
+#include "render/ground.hpp"
 #include "render/horizon.hpp"
 #include "shadows/shadow_pass.hpp"
 
@@ -18,7 +19,8 @@ namespace penumbra::detail {
 
 class Visibility {
  public:
-  Visibility(Context& ctx, BufferPool& pool) : ctx_(ctx), pool_(pool), horizon_(pool) {}
+  Visibility(Context& ctx, BufferPool& pool)
+      : ctx_(ctx), pool_(pool), horizon_(pool), ground_(pool) {}
 
   // Starts a frame of `pixels` x `lights` with technique t: sizes the visibility buffer and
   // makes the technique's pass unless the last frame's was the same technique. Passes hold what
@@ -37,7 +39,8 @@ class Visibility {
   const cl::Buffer& buffer() const { return vis_; }
   // The last frame's device bytes of the technique (Frame::shadowMapBytes) and its statistics
   // (Frame::stats), with "horizon/lights" and "contact/lights", the lights whose visibility a
-  // map gave, when those steps ran; 0 and none when no pass ran.
+  // map gave, when those steps ran, and "ground/lights", the lights that reach below the
+  // horizontal, when the ground step ran; 0 and none when no pass ran.
   std::size_t frameBytes() const { return bytes_; }
   const std::vector<std::pair<std::string, double>>& stats() const { return stats_; }
   // The last frame's visibility read back, light-major (Renderer::lastVisibility).
@@ -53,6 +56,7 @@ class Visibility {
   std::vector<cl_uchar> mapMask_;  // the lights whose visibility a map gave, as last uploaded
   cl::Buffer mapMaskBuffer_;
   Horizon horizon_;  // lights on the horizon (render/horizon.hpp)
+  GroundOcclusion ground_;  // the ground's occlusion of low lights (render/ground.hpp)
   std::size_t bytes_ = 0;
   std::vector<std::pair<std::string, double>> stats_;
 };

@@ -721,6 +721,26 @@ Scene sceneFrom(const std::string& pathOrBuiltin, const LoadOptions& opt) {
 // Cameras.
 // ---------------------------------------------------------------------------------------------
 
+std::optional<GroundPlane> findGround(const Scene& scene) {
+  for (const Mesh& m : scene.meshes) {
+    if (m.name != "ground" || m.positions.empty()) continue;
+    GroundPlane g;
+    g.y = m.positions[0][1];
+    g.x0 = g.x1 = m.positions[0][0];
+    g.z0 = g.z1 = m.positions[0][2];
+    bool flat = true;
+    for (const Vec3& p : m.positions) {
+      flat = flat && p[1] == g.y;
+      g.x0 = std::min(g.x0, p[0]);
+      g.x1 = std::max(g.x1, p[0]);
+      g.z0 = std::min(g.z0, p[2]);
+      g.z1 = std::max(g.z1, p[2]);
+    }
+    if (flat && g.x1 > g.x0 && g.z1 > g.z0) return g;
+  }
+  return std::nullopt;
+}
+
 Camera frameCamera(const Scene& scene, float aspect) {
   if (!std::isfinite(aspect) || aspect <= 0)
     badInput("frameCamera: the aspect ratio must be positive and finite, got " +

@@ -55,6 +55,14 @@ class DepthRasterizer {
                          const std::string& prefix) = 0;
 };
 
+// The frame's ground: a horizontal rectangle x0..x1, z0..z1 at height y (src/render/ground.hpp's
+// groundRect), absent where the scene has none.
+struct GroundRect {
+  bool present = false;
+  float y = 0, x0 = 0, x1 = 0, z0 = 0, z1 = 0;
+  float eps = 0;  // heights above y up to eps count as on the ground
+};
+
 // One frame as a technique sees it. The four references are what every frame has; the rest is
 // assigned by name where the frame is built (src/render/renderer.cpp, src/gl/interop.cpp), and
 // what a caller cannot give keeps its empty default (the GL interop has no triangles).
@@ -80,6 +88,7 @@ struct ShadowFrame {
     triangleCount = f.triangleCount;
     hostPositions = f.hostPositions;
     hostTriangles = f.hostTriangles;
+    ground = f.ground;
   }
   Context& ctx;
   BufferPool& pool;
@@ -105,6 +114,9 @@ struct ShadowFrame {
   // The lights themselves (shape, polygon vertices), parallel to `lights`: for techniques that
   // sample a light (lightSampleDirections in lights.hpp). Set by the renderer.
   const std::vector<AreaLight>* areaLights = nullptr;
+  // The scene's ground, for the ground's occlusion of low lights (src/render/ground.hpp); the GL
+  // interop has it from its caller.
+  GroundRect ground;
 
   // Depth maps of the scene for `views` through `rasterizer` (DepthRasterizer::depthMaps).
   void rasterizeDepth(const std::vector<pb_view>& views, cl::Buffer& out,

@@ -371,10 +371,11 @@ class ShadowOptions:
     contact_shadows: bool
     contact_texels: float
     horizon_visibility: bool
+    ground_visibility: bool
     def __init__(self, *, depth_bias: float = ..., light_size_scale: float = ...,
                  max_filter_texels: float = ..., min_filter_texels: float = ...,
                  contact_shadows: bool = ..., contact_texels: float = ...,
-                 horizon_visibility: bool = ...) -> None: ...
+                 horizon_visibility: bool = ..., ground_visibility: bool = ...) -> None: ...
 
 class MSSMOptions:
     moment_bias: float

@@ -87,6 +87,7 @@ def test_options():
         assert getattr(o.shadow, f) >= 0
     assert o.shadow.contact_shadows and o.shadow.contact_texels == 8  # on by default
     assert o.shadow.horizon_visibility  # on by default
+    assert o.shadow.ground_visibility  # on by default
     c = penumbra.CSSMOptions(order=8)
     assert c.order == 8 and c.sharpen_a == 30 and c.sharpen_b == 80
     assert (c.ringing_offset, c.damping, c.depth_bias, c.slope_bias) == (0, 0, 0, 0)
@@ -126,7 +127,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt = small_options(technique="cssm", prefilter="mip", front_back_faces=True)
     opt.shadow.depth_bias, opt.shadow.light_size_scale, opt.shadow.max_filter_texels = 0.0125, 0.5, 9
     opt.shadow.contact_shadows, opt.shadow.contact_texels = False, 3.5
-    opt.shadow.horizon_visibility = False
+    opt.shadow.horizon_visibility = opt.shadow.ground_visibility = False
     opt.mssm.moment_bias, opt.mssm.slope_bias, opt.mssm.upper_bound_tilt = 1.5e-4, 0.75, 1.25
     opt.mssm.cosine_centroid, opt.mssm.leak_reduction = False, 0.25
     opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
@@ -144,6 +145,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
             r["shadow"]["max_filter_texels"]) == (0.0125, 0.5, 9)
     assert (r["shadow"]["contact_shadows"], r["shadow"]["contact_texels"]) == (False, 3.5)
     assert r["shadow"]["horizon_visibility"] is False
+    assert r["shadow"]["ground_visibility"] is False
     assert (r["cssm"]["order"], r["cssm"]["sharpen_a"], r["cssm"]["sharpen_b"]) == (7, 11, 13)
     assert blocks & set(r) == {"cssm"}
     r = report_for("mssm4")

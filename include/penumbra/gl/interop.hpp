@@ -31,6 +31,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -84,10 +85,13 @@ class Interop {
   /// opt.width/height/shadowMapSize are taken from the textures. Cap and polygon lights
   /// (a polygon's visibility is its bounding cap's, its irradiance exact, as in Renderer).
   /// opt.shadow.contactShadows is ignored: contact shadows cast rays against the scene's
-  /// triangles, which the interop does not have, so its frames have none.
+  /// triangles, which the interop does not have, so its frames have none. `ground`: the scene's
+  /// ground for opt.shadow.groundVisibility (findGround(scene) for a penumbra Scene; the
+  /// application's own ground plane otherwise); without one the frame has no ground step.
   void shade(const std::vector<TextureId>& depthMaps, const GBuffer& gbuffer, TextureId output,
              const Camera& camera, const LightSet& lights, const Bounds& bounds,
-             const Environment& env, const RenderOptions& opt);
+             const Environment& env, const RenderOptions& opt,
+             const std::optional<GroundPlane>& ground = std::nullopt);
 
   /// Visibility of the last shade(), light-major, rows top-down (as Renderer::lastVisibility).
   std::vector<float> lastVisibility();
