@@ -8,22 +8,13 @@
 set -euo pipefail
 P=$1; D=$2; OUT=$3; SPP=${4:-8192}
 mkdir -p "$OUT/truths"
-declare -A SCENE=(
-  [builtin]=""
-  [courtyard]="--env $D/envmaps/courtyard.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [interior]="--env $D/envmaps/interior.exr --scene $D/meshes/good/spider.obj"
-  [studio]="--env $D/envmaps/studio.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [courtyard-spider]="--env $D/envmaps/courtyard.exr --scene $D/meshes/good/spider.obj"
-  [interior-wuson]="--env $D/envmaps/interior.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [studio-spider]="--env $D/envmaps/studio.exr --scene $D/meshes/good/spider.obj"
-  [courtyard-builtin]="--env $D/envmaps/courtyard.exr")
-PAIRS=(builtin courtyard interior studio courtyard-spider interior-wuson studio-spider courtyard-builtin)
+. "$(dirname "$0")/evaluate_cached.sh"
+scene_pairs "$D"
 CONFIGS=(
   "noground|--no-ground-visibility"
   "default|"
   "hardnoground|--shadows hard --no-ground-visibility"
   "hard|--shadows hard")
-. "$(dirname "$0")/evaluate_cached.sh"
 for s in "${PAIRS[@]}"; do
   for c in "${CONFIGS[@]}"; do
     # shellcheck disable=SC2086

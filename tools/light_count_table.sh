@@ -12,16 +12,8 @@
 set -euo pipefail
 P=$1; D=$2; OUT=$3; SPP=${4:-8192}; ROUNDS=${5:-3}
 mkdir -p "$OUT/truths"
-declare -A SCENE=(
-  [builtin]=""
-  [courtyard]="--env $D/envmaps/courtyard.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [interior]="--env $D/envmaps/interior.exr --scene $D/meshes/good/spider.obj"
-  [studio]="--env $D/envmaps/studio.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [courtyard-spider]="--env $D/envmaps/courtyard.exr --scene $D/meshes/good/spider.obj"
-  [interior-wuson]="--env $D/envmaps/interior.exr --scene $D/meshes/good/WusonOBJ.obj"
-  [studio-spider]="--env $D/envmaps/studio.exr --scene $D/meshes/good/spider.obj"
-  [courtyard-builtin]="--env $D/envmaps/courtyard.exr")
-PAIRS=(builtin courtyard interior studio courtyard-spider interior-wuson studio-spider courtyard-builtin)
+. "$(dirname "$0")/evaluate_cached.sh"
+scene_pairs "$D"
 CONFIGS=(
   "mssm4-32|--lights 32 --shadows mssm4"
   "hard-32|--lights 32 --shadows hard"
@@ -32,7 +24,6 @@ CONFIGS=(
   "auto-64-f32|--lights 64 --shadows auto --auto-exact 0 --auto-filtered 32"
   "mssm4-64|--lights 64 --shadows mssm4")  # last: its floor is the 64-light column
 # shellcheck source=tools/evaluate_cached.sh
-. "$(dirname "$0")/evaluate_cached.sh"
 for s in "${PAIRS[@]}"; do
   for c in "${CONFIGS[@]}"; do
     # shellcheck disable=SC2086
