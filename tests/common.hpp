@@ -9,7 +9,9 @@
 
 #include <array>
 #include <cmath>
+#include <random>
 #include <string>
+#include <vector>
 
 namespace penumbra::test {
 
@@ -56,6 +58,25 @@ inline V3 unit(double x, double y, double z) {
   return {float(u[0]), float(u[1]), float(u[2])};
 }
 }  // namespace dvec
+
+// A uniformly random unit vector (rejection from the cube, away from the centre).
+inline std::array<float, 3> randomUnit(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (;;) {
+    const float x = 2 * u(rng) - 1, y = 2 * u(rng) - 1, z = 2 * u(rng) - 1;
+    const float l = std::sqrt(x * x + y * y + z * z);
+    if (l > 0.1f && l <= 1.0f) return {x / l, y / l, z / l};
+  }
+}
+
+// A synthetic frame for the visibility stage's per-pixel steps (tests/test_horizon.cpp,
+// tests/test_ground.cpp): G-buffer positions and normals, lights, visibility [light][pixel].
+struct SyntheticFrame {
+  int w = 0, h = 0;
+  std::vector<cl_float4> gpos, gnrm;
+  std::vector<pb_light> lights;
+  std::vector<float> vis;
+};
 
 inline std::string data(const std::string& rel) { return std::string(PENUMBRA_TEST_DATA) + "/" + rel; }
 

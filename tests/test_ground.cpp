@@ -37,29 +37,19 @@ detail::GroundRect testGround() {
 // A synthetic frame: positions over and beyond the ground, a fifth of them on it, some background
 // pixels; random unit normals; lights from 40 degrees below to 40 above the horizontal with
 // half-angles of 3-40 degrees (most reach below it); random visibility.
-struct Synthetic {
-  int w, h;
-  std::vector<cl_float4> gpos, gnrm;
-  std::vector<pb_light> lights;
-  std::vector<float> vis;
-};
+using Synthetic = SyntheticFrame;
 
 Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  auto unitRandom = [&]() {
-    for (;;) {
-      const float x = 2 * u(rng) - 1, y = 2 * u(rng) - 1, z = 2 * u(rng) - 1;
-      const float l = std::sqrt(x * x + y * y + z * z);
-      if (l > 0.1f && l <= 1.0f) return std::array<float, 3>{x / l, y / l, z / l};
-    }
-  };
-  Synthetic s{w, h, {}, {}, {}, {}};
+  Synthetic s;
+  s.w = w;
+  s.h = h;
   for (int p = 0; p < w * h; ++p) {
     const bool background = u(rng) < 0.1f, onGround = u(rng) < 0.2f;
     const float y = onGround ? 0.2f : 0.2f + 1.5f * u(rng);
     s.gpos.push_back({{4 * u(rng) - 2, y, 4 * u(rng) - 1.5f, background ? 0.0f : 1.0f}});
-    const std::array<float, 3> n = unitRandom();
+    const std::array<float, 3> n = randomUnit(rng);
     s.gnrm.push_back({{n[0], n[1], n[2], 0.0f}});
   }
   for (int l = 0; l < nl; ++l) {

@@ -24,34 +24,24 @@ namespace {
 
 // A synthetic frame: random unit normals (in runs of equal ones, as on flat surfaces), some
 // background pixels, random caps (half-angles 3-40 degrees), random visibility.
-struct Synthetic {
-  int w, h;
-  std::vector<cl_float4> gpos, gnrm;
-  std::vector<pb_light> lights;
-  std::vector<float> vis;
-};
+using Synthetic = SyntheticFrame;
 
 Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  auto unitRandom = [&]() {
-    for (;;) {
-      const float x = 2 * u(rng) - 1, y = 2 * u(rng) - 1, z = 2 * u(rng) - 1;
-      const float l = std::sqrt(x * x + y * y + z * z);
-      if (l > 0.1f && l <= 1.0f) return std::array<float, 3>{x / l, y / l, z / l};
-    }
-  };
-  Synthetic s{w, h, {}, {}, {}, {}};
-  std::array<float, 3> n = unitRandom();
+  Synthetic s;
+  s.w = w;
+  s.h = h;
+  std::array<float, 3> n = randomUnit(rng);
   for (int p = 0; p < w * h; ++p) {
-    if (u(rng) < 0.3f) n = unitRandom();  // a new run
+    if (u(rng) < 0.3f) n = randomUnit(rng);  // a new run
     const bool background = u(rng) < 0.1f;
     s.gpos.push_back({{u(rng), u(rng), u(rng), background ? 0.0f : 1.0f}});
     s.gnrm.push_back({{n[0], n[1], n[2], 0.0f}});
   }
   for (int l = 0; l < nl; ++l) {
     pb_light L{};
-    const std::array<float, 3> d = unitRandom();
+    const std::array<float, 3> d = randomUnit(rng);
     for (int k = 0; k < 3; ++k) L.dir[k] = d[k];
     L.dir[3] = float(std::cos((3.0 + 37.0 * u(rng)) * M_PI / 180));
     s.lights.push_back(L);
