@@ -35,8 +35,9 @@ static inline bool ground_hit(float px, float pz, float h, float dx, float dy, f
 
 // One work-item per pixel. dirs: for each of the ngl lights in glights (the lights whose cap
 // reaches below the horizontal, in increasing index), GR_DIRS + 1 float4: its axis (w: the
-// tangent of how far below the horizontal the cap reaches), then its GR_DIRS directions. rect: (gy, x0, x1, z0), z1 and eps in rect2. mask: uchar per light, the
-// lights whose visibility came from a map (others are left alone). vis: float [light][pixel].
+// tangent of how far below the horizontal the cap reaches), then its GR_DIRS directions. rect:
+// (gy, x0, x1, z0); rect2: (z1, eps). mask: uchar per light, the lights whose visibility came
+// from a map (others are left alone). vis: float [light][pixel].
 kernel void ground_visibility(global const float4* gpos, global const float4* gnrm,
                               global const float4* dirs, global const int* glights, int ngl,
                               int npixels, float4 rect, float2 rect2, global const uchar* mask,
@@ -49,17 +50,16 @@ kernel void ground_visibility(global const float4* gpos, global const float4* gn
   const float h = p.y - gy;
   if (!(h > eps)) return;
   const float3 n = gnrm[px].xyz;
-  // the horizontal distance from p to the rectangle's farthest corner: no ray that goes down
-  // more steeply than h / reach hits it
+  // the horizontal distance from p to the rectangle's farthest corner: a ray whose slope below
+  // the horizontal is under h / reach meets the plane beyond every point of the rectangle
   const float fx = fmax(fabs(p.x - x0), fabs(p.x - x1)), fz = fmax(fabs(p.z - z0), fabs(p.z - z1));
   const float reach = sqrt(fx * fx + fz * fz);
   for (int k = 0; k < ngl; ++k) {
     const int l = glights[k];
     if (!mask[l]) continue;
     global const float4* d = dirs + (size_t)k * (GR_DIRS + 1);
-    // d[0].w: the tangent of the cap's lowest point's angle below the horizontal (its cap's
-    // steepest direction down); a ray reaches the plane within `reach` only if it goes down more
-    // steeply than h / reach
+    // d[0].w: the slope below the horizontal of the cap's steepest direction down; none of the
+    // cap's rays can meet the rectangle unless it exceeds h / reach
     if (!(d[0].w * reach > h)) continue;
     float total = 0.0f, blocked = 0.0f;
     for (int i = 1; i <= GR_DIRS; ++i) {
