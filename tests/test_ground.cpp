@@ -25,11 +25,7 @@ namespace {
 detail::GroundRect testGround() {
   detail::GroundRect g;
   g.present = true;
-  g.y = 0.2f;
-  g.x0 = -1.5f;
-  g.x1 = 1.5f;
-  g.z0 = -1.0f;
-  g.z1 = 2.0f;
+  g.plane = {0.2f, -1.5f, 1.5f, -1.0f, 2.0f};
   g.eps = 1e-5f;
   return g;
 }
@@ -67,7 +63,7 @@ Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
 
 // Whether the ray from p along d meets the rectangle, in double; `near` is set where the hit
 // point is within 1e-4 of the rectangle's edge (float rounding may go either way there).
-bool hitsGround(const detail::GroundRect& g, const D3& p, const D3& d, bool& near) {
+bool hitsGround(const GroundPlane& g, const D3& p, const D3& d, bool& near) {
   if (!(d[1] < 0)) return false;
   const double t = (p[1] - g.y) / -d[1];
   const double x = p[0] + t * d[0], z = p[2] + t * d[2];
@@ -81,7 +77,8 @@ bool hitsGround(const detail::GroundRect& g, const D3& p, const D3& d, bool& nea
 // within 1e-4 of its threshold.
 void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vector<float>& out,
                std::vector<char>& clear) {
-  const detail::GroundRect g = testGround();
+  const detail::GroundRect rect = testGround();
+  const GroundPlane& g = rect.plane;
   std::vector<cl_float4> dirs;
   std::vector<int> idx;
   detail::groundDirections(s.lights, dirs, idx);
@@ -92,7 +89,7 @@ void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vecto
     const cl_float4& q = s.gpos[std::size_t(p)];
     if (q.s[3] == 0.0f) continue;
     const double h = double(q.s[1]) - g.y;
-    if (!(h > g.eps)) continue;
+    if (!(h > rect.eps)) continue;
     const D3 pos{q.s[0], q.s[1], q.s[2]};
     const D3 n{s.gnrm[std::size_t(p)].s[0], s.gnrm[std::size_t(p)].s[1],
                s.gnrm[std::size_t(p)].s[2]};

@@ -20,10 +20,10 @@ GroundRect groundRect(const std::optional<GroundPlane>& ground, const Bounds& bo
 
 // For each light that reaches below the horizontal (axis y below the sine of its half-angle), its
 // axis (w: the tangent of how far below the horizontal the cap reaches) and kGroundDirs
-// directions uniform in solid angle over its cap, GR_DIRS + 1 float4 each,
-// into dirs, and its index into indices. The directions come in opposite pairs on N/2 rings of
-// equal solid angle (cos theta_j = 1 - (1 - cos a)(j + 1/2)/(N/2), azimuths j times the golden
-// angle and that plus pi), so their mean lies on the axis. Exposed for the tests' reference.
+// directions uniform in solid angle over its cap, GR_DIRS + 1 float4 each, into dirs, and its
+// index into indices. The directions are sphericalFibonacciCap's N/2 rings (lights/sampling.hpp)
+// and the same set turned by pi, interleaved: opposite pairs, ring by ring, so their mean lies on
+// the axis. Exposed for the tests' reference.
 void groundDirections(const std::vector<pb_light>& lights, std::vector<cl_float4>& dirs,
                       std::vector<int>& indices);
 

@@ -55,12 +55,11 @@ class DepthRasterizer {
                          const std::string& prefix) = 0;
 };
 
-// The frame's ground: a horizontal rectangle x0..x1, z0..z1 at height y (src/render/ground.hpp's
-// groundRect), absent where the scene has none.
+// The frame's ground (src/render/ground.hpp's groundRect), absent where the scene has none.
 struct GroundRect {
   bool present = false;
-  float y = 0, x0 = 0, x1 = 0, z0 = 0, z1 = 0;
-  float eps = 0;  // heights above y up to eps count as on the ground
+  GroundPlane plane;
+  float eps = 0;  // heights above plane.y up to eps count as on the ground
 };
 
 // One frame as a technique sees it. The four references are what every frame has; the rest is
