@@ -6,8 +6,8 @@
 //
 // Cases: square images of 256^2 to 2048^2, one at a time, and the renderer's own batch (32 shadow
 // maps of 256^2, long4 moments). Each runs with the device's default method (on CPUs the banded
-// sweep for long4, the passes for float4) and, as "passes", with the row and column passes forced,
-// the baseline the banded method is measured against in the same run.
+// sweep; for float4 with its sums in double, on devices with fp64) and, as "passes", with the row
+// and column passes forced, the baseline the banded method is measured against in the same run.
 //
 //   ./bench/bench_scan [--benchmark_filter=...]   (PENUMBRA_DEVICE picks the device)
 #include <benchmark/benchmark.h>

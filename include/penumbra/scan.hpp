@@ -32,10 +32,12 @@ struct ScanTuning {
   int columnLockstep = -1;  ///< 1: column steps synchronize each row (CPU default), 0: not (GPU)
   /// The banded one-pass method instead of the row and column passes: each image's rows in this
   /// many bands, each swept top to bottom by one work-item (kernels/common/scan.cl). 0: the
-  /// passes; -1: the device's choice (CPUs: banded for Long/Long4, with enough bands to give every
-  /// compute unit two sweeps; GPUs and float types: the passes; PENUMBRA_CPU_BATCHING=off or on
-  /// forces the passes or, for Long/Long4, the banded method on any device). The other knobs apply
-  /// to the passes only.
+  /// passes; -1: the device's choice (CPUs: banded, with enough bands to give every compute unit
+  /// two sweeps, for Long/Long4 and, on devices with fp64, for Float/Float4, whose sums the sweep
+  /// then carries in double and rounds once per value; GPUs, and float types without fp64: the
+  /// passes; PENUMBRA_CPU_BATCHING=off or on forces the passes or the banded method on any
+  /// device). Float tables banded without fp64 add in float along whole rows and bands. The other
+  /// knobs apply to the passes only.
   int bands = -1;
 };
 

@@ -221,8 +221,9 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
 // image only step 2 runs, and the image is read and written once: a copy's traffic. With B > 1
 // bands it is read once more. Integer tables come out identical to the passes' (integer addition
 // is associative); float ones round differently (a serial sum along each row, error growing with
-// the width rather than with its logarithm), so the host uses this method for integer types only
-// unless asked (src/core/scan.cpp).
+// the width rather than with its logarithm), so for float tables the host takes the form below
+// that carries the sums in double, and this one only when asked on a device without fp64
+// (src/core/scan.cpp).
 
 // Step 1: band_sums[(image * nbands + band) * width + x] = sum of column x over the band's rows.
 // Global size (nbands, batch), one work-item per group.
@@ -233,6 +234,7 @@ kernel void scan_band_sums(global const T* data, global T* band_sums, int width,
   const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
   global T* out = band_sums + (img * nbands + band) * (size_t)width;
   for (int x = 0; x < width; ++x) out[x] = ZERO;
+  if (band == nbands - 1) return;  // no band below needs the last one's sums: zeros, not read
   for (int y = y0; y < y1; ++y) {
     global const T* row = data + (img * height + y) * (size_t)width;
     for (int x = 0; x < width; ++x) out[x] += row[x];
@@ -274,3 +276,101 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
     }
   }
 }
+
+// ---- Banded method for float tables, accumulated in double (devices with cl_khr_fp64) ----
+//
+// The float form of the sweep above adds serially, so its error grows with the width and the band
+// (scan.cpp used it only when asked). Here every sum is carried in double (SCAN_ACC: double or
+// double4, TO_ACC and FROM_ACC its conversions, set by the host) and each table value is rounded
+// to float once: the table is the exact SAT of its inputs to within half an ulp of each value plus
+// the double sums' own error (n 2^-53 relative for n inputs), tighter than the passes, whose float
+// additions run through up to VPT + SEG + 2 log2 WG levels. The sweep keeps row y - 1 of the table
+// in double in a row of scratch per (band, image), `carry`, which stays in cache (width values).
+#if defined(SCAN_ACC) && defined(PB_HAS_FP64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef SCAN_ACC A;
+#define AZERO ((A)(0.0))
+
+// Step 1: carry[(image * nbands + band) * width + x] = sum of column x over the band's rows.
+// Global size (nbands, batch), one work-item per group.
+kernel void scan_band_sums_acc(global const T* data, global A* carry, int width, int height,
+                               int band_rows) {
+  const int band = get_global_id(0), nbands = get_global_size(0);
+  const size_t img = get_global_id(1);
+  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
+  global A* out = carry + (img * nbands + band) * (size_t)width;
+  for (int x = 0; x < width; ++x) out[x] = AZERO;
+  if (band == nbands - 1) return;  // as scan_band_sums: the last band's sums are not needed
+  for (int y = y0; y < y1; ++y) {
+    global const T* row = data + (img * height + y) * (size_t)width;
+    for (int x = 0; x < width; ++x) out[x] += TO_ACC(row[x]);
+  }
+}
+
+// Step 2: each column's band sums become the exclusive sums of the bands above.
+// Global size (width rounded up, batch).
+kernel void scan_col_offsets_acc(global A* carry, int width, int nbands) {
+  const int x = get_global_id(0), b = get_global_id(1);
+  if (x >= width) return;
+  global A* p = carry + (size_t)b * nbands * (size_t)width + x;
+  A acc = AZERO;
+  for (int s = 0; s < nbands; ++s, p += width) {
+    A v = *p;
+    *p = acc;
+    acc += v;
+  }
+}
+
+// Step 3: the sweep. The band's carry row first becomes row y0 - 1 of the table (the running sum
+// along x of the column sums above the band; zero for the first band, whose carry is not read
+// before), then follows the sweep down: S(x, y) = S(x, y - 1) + sum_{x' <= x} I(x', y).
+kernel void scan_band_apply_acc(global T* data, global A* carry, int width, int height,
+                                int band_rows) {
+  const int band = get_global_id(0), nbands = get_global_size(0);
+  const size_t img = get_global_id(1);
+  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
+  if (y0 >= y1) return;
+  global A* above = carry + (img * nbands + band) * (size_t)width;
+  if (band > 0) {
+    A acc = AZERO;
+    for (int x = 0; x < width; ++x) {
+      acc += above[x];
+      above[x] = acc;
+    }
+  } else {
+    for (int x = 0; x < width; ++x) above[x] = AZERO;
+  }
+  // Four rows at a time: each row's running sum is a chain of dependent additions along x, so
+  // four chains interleaved keep the adder busy (one row at a time ran at a fifth of a copy's
+  // bandwidth on PoCL, waiting on each addition's latency).
+  global T* row = data + (img * height + y0) * (size_t)width;
+  int y = y0;
+  for (; y + 4 <= y1; y += 4, row += 4 * (size_t)width) {
+    global T* r1 = row + width;
+    global T* r2 = r1 + width;
+    global T* r3 = r2 + width;
+    A a0 = AZERO, a1 = AZERO, a2 = AZERO, a3 = AZERO;
+    for (int x = 0; x < width; ++x) {
+      a0 += TO_ACC(row[x]);
+      a1 += TO_ACC(r1[x]);
+      a2 += TO_ACC(r2[x]);
+      a3 += TO_ACC(r3[x]);
+      const A s0 = above[x] + a0, s1 = s0 + a1, s2 = s1 + a2, s3 = s2 + a3;
+      above[x] = s3;
+      row[x] = FROM_ACC(s0);
+      r1[x] = FROM_ACC(s1);
+      r2[x] = FROM_ACC(s2);
+      r3[x] = FROM_ACC(s3);
+    }
+  }
+  for (; y < y1; ++y, row += width) {
+    A acc = AZERO;
+    for (int x = 0; x < width; ++x) {
+      acc += TO_ACC(row[x]);
+      const A s = above[x] + acc;
+      above[x] = s;
+      row[x] = FROM_ACC(s);
+    }
+  }
+}
+#endif

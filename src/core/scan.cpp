@@ -83,8 +83,11 @@ std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
 
 // Bands per image for the banded method: two sweeps per compute unit over the whole batch, so
 // that neither core idles while the other finishes (a batch that already has that many images
-// keeps one band each, the one-pass case).
-int defaultBands(Context& ctx, int batch) {
+// keeps one band each, the one-pass case); but no more bands than the batch has MiB over 2: more
+// than one band costs two more launches (the band sums and their offsets), about what sweeping
+// 2 MiB takes on PoCL (bench_scan, 256^2 float4, 1 MiB: 0.30 of a copy's bandwidth in four bands,
+// 0.53 in one; long4, 2 MiB: 0.26 and 0.79).
+int defaultBands(Context& ctx, int batch, std::size_t batchBytes) {
   cl_uint units = 1;
   try {
     units = ctx.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
@@ -92,7 +95,8 @@ int defaultBands(Context& ctx, int batch) {
     rethrowCl(e, "summedAreaTable: querying the compute units");
   }
   const long long want = 2LL * std::max<cl_uint>(units, 1);
-  return int(std::max<long long>(1, (want + batch - 1) / batch));
+  const long long worth = std::max<long long>(1, (long long)(batchBytes >> 21));
+  return int(std::max<long long>(1, std::min((want + batch - 1) / batch, worth)));
 }
 
 // The banded one-pass method (kernels/common/scan.cl, "Banded one-pass method"): `bands` bands
@@ -122,6 +126,39 @@ void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int h
   cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply", opts);
   ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
                  sums, cl_int(width), cl_int(height), cl_int(bandRows));
+}
+
+// The banded method for float tables on fp64 devices: the same three steps, every sum carried in
+// double (kernels/common/scan.cl, "accumulated in double"), the band rows' carry in a scratch of
+// bands * batch * width doubles (double4 for Float4). Same stage names as bandedTable.
+void bandedTableDouble(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
+                       int batch, int bands, const std::string& stage) {
+  const bool four = type == ScanType::Float4;
+  const std::string opts = options(type, 1, 1, 1, false) +
+                           (four ? " -DSCAN_ACC=double4 -DTO_ACC=convert_double4"
+                                   " -DFROM_ACC=convert_float4"
+                                 : " -DSCAN_ACC=double -DTO_ACC=convert_double"
+                                   " -DFROM_ACC=convert_float");
+  const int bandRows = (height + bands - 1) / bands;
+  bands = (height + bandRows - 1) / bandRows;  // no empty band
+  const std::size_t accBytes = four ? 4 * sizeof(cl_double) : sizeof(cl_double);
+  const std::size_t carryElems =
+      checkedMul(checkedMul(std::size_t(bands), std::size_t(batch), "band count"),
+                 std::size_t(width), "carry count");
+  cl::Buffer carry = ctx.buffer(checkedMul(carryElems, accBytes, "carry bytes"),
+                                stage + " band carry");
+  if (bands > 1) {
+    cl::Kernel sumK = ctx.kernel(kFile, "scan_band_sums_acc", opts);
+    cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets_acc", opts);
+    ctx.launchWith(stage + "/bands/sums", sumK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                   carry, cl_int(width), cl_int(height), cl_int(bandRows));
+    const std::size_t owg = std::min<std::size_t>(ctx.workGroupSize(offK, kColumnWg), nextPow2(width));
+    ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
+                   cl::NDRange(owg, 1), carry, cl_int(width), cl_int(bands));
+  }
+  cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply_acc", opts);
+  ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                 carry, cl_int(width), cl_int(height), cl_int(bandRows));
 }
 
 }  // namespace
@@ -191,10 +228,17 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
   // --- knobs -----------------------------------------------------------------------------------
   const Knobs& knobs = defaultKnobs(ctx);
   const bool integer = type == ScanType::Long || type == ScanType::Long4;
+  // float tables sweep in bands only where the device can carry their sums in double
+  const bool doubleSums = !integer && ctx.info().fp64;
   int bands = tuning.bands;
-  if (bands < 0) bands = detail::useCpuBatching(ctx) && integer ? defaultBands(ctx, batch) : 0;
+  if (bands < 0)
+    bands = detail::useCpuBatching(ctx) && (integer || doubleSums) ? defaultBands(ctx, batch, bytes)
+                                                                    : 0;
   if (bands > 0) {
-    bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), stage);
+    if (doubleSums)
+      bandedTableDouble(ctx, data, type, width, height, batch, std::min(bands, height), stage);
+    else
+      bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), stage);
     return;
   }
   const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : knobs.vpt;
