@@ -40,6 +40,18 @@ typedef SCAN_T T;
 #define ZERO ((T)(0))
 #define TILE (WG * VPT)
 
+// The banded method's accumulator (below, "Banded one-pass method"): the element type itself, or,
+// for float tables on devices with cl_khr_fp64, SCAN_ACC (double or double4) with its conversions
+// TO_ACC and FROM_ACC, all set by the host (src/core/scan.cpp).
+#ifdef SCAN_ACC
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef SCAN_ACC A;
+#else
+typedef T A;
+#define TO_ACC(x) (x)
+#endif
+#define AZERO ((A)(0))
+
 // Local-memory bank-conflict avoidance (Harris, Sengupta & Owens, "Parallel Prefix Sum (Scan)
 // with CUDA", GPU Gems 3 ch. 39.2.3): one element of padding per 128-byte row of 32 four-byte
 // banks. With VPT = 4 this makes both the serial per-item reads (stride VPT) and the tree steps
@@ -170,13 +182,14 @@ kernel void scan_col_segments(global const T* data, global T* seg_sums, int widt
 // Step 2: per (column, image), an exclusive scan over the segment sums, in place. Serial in the
 // segment count (height/SEG, small); columns and images run in parallel. Global size (width
 // rounded up, batch).
-kernel void scan_col_offsets(global T* seg_sums, int width, int nseg) {
+// The banded method's band offsets are the same scan over its band sums, in A.
+kernel void scan_col_offsets(global A* seg_sums, int width, int nseg) {
   const int x = get_global_id(0), b = get_global_id(1);
   if (x >= width) return;
-  global T* p = seg_sums + (size_t)b * nseg * (size_t)width + x;
-  T acc = ZERO;
+  global A* p = seg_sums + (size_t)b * nseg * (size_t)width + x;
+  A acc = AZERO;
   for (int s = 0; s < nseg; ++s, p += width) {
-    T v = *p;
+    A v = *p;
     *p = acc;
     acc += v;
   }
@@ -227,17 +240,17 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
 
 // Step 1: band_sums[(image * nbands + band) * width + x] = sum of column x over the band's rows.
 // Global size (nbands, batch), one work-item per group.
-kernel void scan_band_sums(global const T* data, global T* band_sums, int width, int height,
+kernel void scan_band_sums(global const T* data, global A* band_sums, int width, int height,
                            int band_rows) {
   const int band = get_global_id(0), nbands = get_global_size(0);
   const size_t img = get_global_id(1);
   const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
-  global T* out = band_sums + (img * nbands + band) * (size_t)width;
-  for (int x = 0; x < width; ++x) out[x] = ZERO;
+  global A* out = band_sums + (img * nbands + band) * (size_t)width;
+  for (int x = 0; x < width; ++x) out[x] = AZERO;
   if (band == nbands - 1) return;  // no band below needs the last one's sums: zeros, not read
   for (int y = y0; y < y1; ++y) {
     global const T* row = data + (img * height + y) * (size_t)width;
-    for (int x = 0; x < width; ++x) out[x] += row[x];
+    for (int x = 0; x < width; ++x) out[x] += TO_ACC(row[x]);
   }
 }
 
@@ -280,47 +293,15 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // ---- Banded method for float tables, accumulated in double (devices with cl_khr_fp64) ----
 //
 // The float form of the sweep above adds serially, so its error grows with the width and the band
-// (scan.cpp used it only when asked). Here every sum is carried in double (SCAN_ACC: double or
+// (scan.cpp uses it only when asked, on a device without fp64). Here every sum is carried in double (SCAN_ACC: double or
 // double4, TO_ACC and FROM_ACC its conversions, set by the host) and each table value is rounded
 // to float once: the table is the exact SAT of its inputs to within half an ulp of each value plus
 // the double sums' own error (n 2^-53 relative for n inputs), tighter than the passes, whose float
 // additions run through up to VPT + SEG + 2 log2 WG levels. The sweep keeps row y - 1 of the table
 // in double in a row of scratch per (band, image), `carry`, which stays in cache (width values).
-#if defined(SCAN_ACC) && defined(PB_HAS_FP64)
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-typedef SCAN_ACC A;
-#define AZERO ((A)(0.0))
-
-// Step 1: carry[(image * nbands + band) * width + x] = sum of column x over the band's rows.
-// Global size (nbands, batch), one work-item per group.
-kernel void scan_band_sums_acc(global const T* data, global A* carry, int width, int height,
-                               int band_rows) {
-  const int band = get_global_id(0), nbands = get_global_size(0);
-  const size_t img = get_global_id(1);
-  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
-  global A* out = carry + (img * nbands + band) * (size_t)width;
-  for (int x = 0; x < width; ++x) out[x] = AZERO;
-  if (band == nbands - 1) return;  // as scan_band_sums: the last band's sums are not needed
-  for (int y = y0; y < y1; ++y) {
-    global const T* row = data + (img * height + y) * (size_t)width;
-    for (int x = 0; x < width; ++x) out[x] += TO_ACC(row[x]);
-  }
-}
-
-// Step 2: each column's band sums become the exclusive sums of the bands above.
-// Global size (width rounded up, batch).
-kernel void scan_col_offsets_acc(global A* carry, int width, int nbands) {
-  const int x = get_global_id(0), b = get_global_id(1);
-  if (x >= width) return;
-  global A* p = carry + (size_t)b * nbands * (size_t)width + x;
-  A acc = AZERO;
-  for (int s = 0; s < nbands; ++s, p += width) {
-    A v = *p;
-    *p = acc;
-    acc += v;
-  }
-}
-
+// Steps 1 and 2 are scan_band_sums and scan_col_offsets above, built with SCAN_ACC: `carry` is
+// their band-sums buffer.
+#ifdef SCAN_ACC
 // Step 3: the sweep. The band's carry row first becomes row y0 - 1 of the table (the running sum
 // along x of the column sums above the band; zero for the first band, whose carry is not read
 // before), then follows the sweep down: S(x, y) = S(x, y - 1) + sum_{x' <= x} I(x', y).

@@ -100,19 +100,28 @@ int defaultBands(Context& ctx, int batch, std::size_t batchBytes) {
 }
 
 // The banded one-pass method (kernels/common/scan.cl, "Banded one-pass method"): `bands` bands
-// per image (1 <= bands <= height). Stages: STAGE/bands/sums and STAGE/bands/offsets with more than
-// one band, then STAGE/bands.
+// per image (1 <= bands <= height). With doubleSums (float types on an fp64 device) the sums are
+// carried in double (scan.cl, "accumulated in double"): the band sums are then also the sweep's
+// carry rows, so they are allocated for every band and the sweep is scan_band_apply_acc. Stages:
+// STAGE/bands/sums and STAGE/bands/offsets with more than one band, then STAGE/bands.
 void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height, int batch,
-                 int bands, const std::string& stage) {
-  const std::string opts = options(type, 1, 1, 1, false);  // the pass knobs are unused here
+                 int bands, bool doubleSums, const std::string& stage) {
+  std::string opts = options(type, 1, 1, 1, false);  // the pass knobs are unused here
+  std::size_t accBytes = scanElementBytes(type);
+  if (doubleSums) {
+    const bool four = type == ScanType::Float4;
+    opts += four ? " -DSCAN_ACC=double4 -DTO_ACC=convert_double4 -DFROM_ACC=convert_float4"
+                 : " -DSCAN_ACC=double -DTO_ACC=convert_double -DFROM_ACC=convert_float";
+    accBytes = (four ? 4 : 1) * sizeof(cl_double);
+  }
   const int bandRows = (height + bands - 1) / bands;
   bands = (height + bandRows - 1) / bandRows;  // no empty band
-  const std::size_t elemBytes = scanElementBytes(type);
   const std::size_t sumsElems =
-      bands > 1 ? checkedMul(checkedMul(std::size_t(bands), std::size_t(batch), "band count"),
-                             std::size_t(width), "band-sum count")
-                : 1;
-  cl::Buffer sums = ctx.buffer(checkedMul(sumsElems, elemBytes, "band-sum bytes"),
+      bands > 1 || doubleSums
+          ? checkedMul(checkedMul(std::size_t(bands), std::size_t(batch), "band count"),
+                       std::size_t(width), "band-sum count")
+          : 1;  // one band: the sums are never read, the one element keeps the argument valid
+  cl::Buffer sums = ctx.buffer(checkedMul(sumsElems, accBytes, "band-sum bytes"),
                                stage + " band sums");
   if (bands > 1) {
     cl::Kernel sumK = ctx.kernel(kFile, "scan_band_sums", opts);
@@ -122,43 +131,11 @@ void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int h
     const std::size_t owg = std::min<std::size_t>(ctx.workGroupSize(offK, kColumnWg), nextPow2(width));
     ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
                    cl::NDRange(owg, 1), sums, cl_int(width), cl_int(bands));
-  }  // one band: the sums are never read, the one element only keeps the argument valid
-  cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply", opts);
+  }
+  cl::Kernel applyK =
+      ctx.kernel(kFile, doubleSums ? "scan_band_apply_acc" : "scan_band_apply", opts);
   ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
                  sums, cl_int(width), cl_int(height), cl_int(bandRows));
-}
-
-// The banded method for float tables on fp64 devices: the same three steps, every sum carried in
-// double (kernels/common/scan.cl, "accumulated in double"), the band rows' carry in a scratch of
-// bands * batch * width doubles (double4 for Float4). Same stage names as bandedTable.
-void bandedTableDouble(Context& ctx, cl::Buffer& data, ScanType type, int width, int height,
-                       int batch, int bands, const std::string& stage) {
-  const bool four = type == ScanType::Float4;
-  const std::string opts = options(type, 1, 1, 1, false) +
-                           (four ? " -DSCAN_ACC=double4 -DTO_ACC=convert_double4"
-                                   " -DFROM_ACC=convert_float4"
-                                 : " -DSCAN_ACC=double -DTO_ACC=convert_double"
-                                   " -DFROM_ACC=convert_float");
-  const int bandRows = (height + bands - 1) / bands;
-  bands = (height + bandRows - 1) / bandRows;  // no empty band
-  const std::size_t accBytes = four ? 4 * sizeof(cl_double) : sizeof(cl_double);
-  const std::size_t carryElems =
-      checkedMul(checkedMul(std::size_t(bands), std::size_t(batch), "band count"),
-                 std::size_t(width), "carry count");
-  cl::Buffer carry = ctx.buffer(checkedMul(carryElems, accBytes, "carry bytes"),
-                                stage + " band carry");
-  if (bands > 1) {
-    cl::Kernel sumK = ctx.kernel(kFile, "scan_band_sums_acc", opts);
-    cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets_acc", opts);
-    ctx.launchWith(stage + "/bands/sums", sumK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
-                   carry, cl_int(width), cl_int(height), cl_int(bandRows));
-    const std::size_t owg = std::min<std::size_t>(ctx.workGroupSize(offK, kColumnWg), nextPow2(width));
-    ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
-                   cl::NDRange(owg, 1), carry, cl_int(width), cl_int(bands));
-  }
-  cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply_acc", opts);
-  ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
-                 carry, cl_int(width), cl_int(height), cl_int(bandRows));
 }
 
 }  // namespace
@@ -235,10 +212,7 @@ void summedAreaTable(Context& ctx, cl::Buffer& data, ScanType type, int width, i
     bands = detail::useCpuBatching(ctx) && (integer || doubleSums) ? defaultBands(ctx, batch, bytes)
                                                                     : 0;
   if (bands > 0) {
-    if (doubleSums)
-      bandedTableDouble(ctx, data, type, width, height, batch, std::min(bands, height), stage);
-    else
-      bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), stage);
+    bandedTable(ctx, data, type, width, height, batch, std::min(bands, height), doubleSums, stage);
     return;
   }
   const int vpt = tuning.valuesPerItem ? tuning.valuesPerItem : knobs.vpt;
