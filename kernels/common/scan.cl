@@ -295,10 +295,11 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // The float form of the sweep above adds serially, so its error grows with the width and the band
 // (scan.cpp uses it only when asked, on a device without fp64). Here every sum is carried in
 // double (SCAN_ACC: double or double4, TO_ACC and FROM_ACC its conversions, set by the host) and
-// each table value is rounded to float once: the table is the exact SAT of its inputs to within half an ulp of each value plus
-// the double sums' own error (n 2^-53 relative for n inputs), tighter than the passes, whose float
-// additions run through up to VPT + SEG + 2 log2 WG levels. The sweep keeps row y - 1 of the table
-// in double in a row of scratch per (band, image), `carry`, which stays in cache (width values).
+// each table value is rounded to float once: the table is the exact SAT of its inputs to within
+// half an ulp of each value plus the double sums' own error (n 2^-53 relative for n inputs),
+// tighter than the passes, whose float additions run through up to VPT + SEG + 2 log2 WG levels.
+// The sweep keeps row y - 1 of the table in double in a row of scratch per (band, image),
+// `carry`, which stays in cache (width values).
 // Steps 1 and 2 are scan_band_sums and scan_col_offsets above, built with SCAN_ACC: `carry` is
 // their band-sums buffer.
 #ifdef SCAN_ACC
