@@ -2,12 +2,13 @@
 // launch (kernels/render/ground.cl).
 #include "render/ground.hpp"
 
-#include "lights/sampling.hpp"
-
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <string>
+
+#include "lights/sampling.hpp"
 
 namespace penumbra::detail {
 
