@@ -52,6 +52,7 @@ double stat(const Frame& f, const std::string& name) {
 
 TEST(AutoRule, TinyPenumbraGetsHardShadows) {
   AutoOptions o;
+  o.exactShare = 0;  // these lights are large shares on small caps: that rule is PeakLights's
   o.exactLights = 0;
   // 0.5 texel of penumbra, pixel finer than the texel: the texel decides
   const auto t = chooseShadowTechniques({lightWithPenumbra(1, 0.5)}, 0.001, o);
@@ -66,6 +67,7 @@ TEST(AutoRule, TinyPenumbraGetsHardShadows) {
 
 TEST(AutoRule, FilteredByTheFilterWidthInTexels) {
   AutoOptions o;
+  o.exactShare = 0;  // these lights are large shares on small caps: that rule is PeakLights's
   o.exactLights = 0;
   o.pcssTexels = 8;
   const std::vector<AutoLight> lights = {lightWithPenumbra(1, 3), lightWithPenumbra(1, 7.9),
@@ -92,6 +94,7 @@ TEST(AutoRule, ExactGoesToTheBrightestWithinBudget) {
   const std::vector<AutoLight> lights = {lightWithPenumbra(1, 10), lightWithPenumbra(3, 2),
                                          lightWithPenumbra(2, 10), lightWithPenumbra(0.5, 40)};
   AutoOptions o;
+  o.exactShare = 0;  // these lights are large shares on small caps: that rule is PeakLights's
   o.exactLights = 1;
   auto t = chooseShadowTechniques(lights, 0.001, o);
   EXPECT_EQ(t[1], ShadowTechnique::Bitmask);
@@ -124,9 +127,14 @@ TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
                                          lightWithPenumbra(2, 40), lightWithPenumbra(0.5, 40),
                                          lightWithPenumbra(4, 0.5)};
   AutoOptions o;
-  // the defaults: no exact light, 24 filtered (more than these five: every resolved one)
+  // the defaults: no exact light by count, 24 filtered (more than these five: every resolved one);
+  // the compact bright sources' rule (PeakLights.AutoMakesCompactBrightLightsExact) is off here,
+  // since every light of these five is a large share on a small cap
   EXPECT_EQ(o.exactLights, 0);
   EXPECT_EQ(o.filteredLights, 24);
+  EXPECT_EQ(o.exactShare, 0.1f);
+  EXPECT_EQ(o.exactHalfAngleDeg, 5.0f);
+  o.exactShare = 0;
   EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{M, M, M, M, H}));
   // no limit: the same
   o.filteredLights = -1;
@@ -291,8 +299,10 @@ TEST(AutoFrame, ComposedRowsEqualEachTechniqueAlone) {
       EXPECT_EQ(differ, 0) << "light " << l << " (" << toString(t) << ")";
     }
   }
-  // every light hard (a hard threshold no penumbra reaches, no exact budget): the whole buffer
+  // every light hard (a hard threshold no penumbra reaches, no exact budget, no compact-source
+  // rule: the map's sun is one light of its own here): the whole buffer
   ro.autoChoice.exactLights = 0;
+  ro.autoChoice.exactShare = 0;
   ro.autoChoice.hardPixels = 1e9f;
   Frame all = r.render(scene, cam, lights, env, ro);
   EXPECT_EQ(stat(all, "auto/lights_hard"), nl);
@@ -324,6 +334,7 @@ TEST(AutoFrame, PlanarPenumbraWithinTheAnalyticBound) {
     RenderOptions ro;
     ro.shadows = ShadowTechnique::Auto;
     ro.autoChoice.exactLights = c.exact;
+    ro.autoChoice.exactShare = 0;  // the one light is all the power: that rule is PeakLights's
     ro.autoChoice.pcssTexels = c.pcssTexels;
     ro.bitmask.lightSamples = 256;
     PlanarFrame f = renderPlanar(s, ro);

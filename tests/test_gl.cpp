@@ -53,9 +53,11 @@ struct SmallFrame {
     opt.width = w;
     opt.height = h;
     opt.shadowMapSize = s;
-    // The GL interop receives textures, no triangles, so it has no contact shadows; the OpenCL
-    // path they are compared with goes without them too.
+    // The GL interop receives textures, no triangles, so it has no contact shadows and `auto`
+    // gives no light exact visibility there (AutoOptions::exactShare's compact sources included);
+    // the OpenCL path they are compared with goes without them too.
     opt.shadow.contactShadows = false;
+    opt.autoChoice.exactShare = 0;
   }
 };
 

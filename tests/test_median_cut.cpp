@@ -89,6 +89,7 @@ TEST(MedianCutXyz, PowersMatchRgbPathOnEveryMap) {
     Image cube = cubeMapEnergy(ctx(), env, m, 4);
     for (int n : {7, 32, 256}) {
       MedianCutOptions mc;
+      mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
       mc.lights = n;
       mc.faceSize = m;
       mc.mergeAcrossFaces = false;
@@ -115,6 +116,7 @@ TEST(MedianCutMerge, OnlyRegroupsRegions) {
   for (auto& env : everyMap())
     for (int n : {8, 64, 256}) {
       MedianCutOptions mc;
+      mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
       mc.lights = n;
       mc.faceSize = 64;
       mc.mergeAcrossFaces = false;
@@ -154,6 +156,7 @@ TEST(MedianCutMerge, DiscOnCubeEdgeAndCornerIsOneLight) {
     double discPower;
     Environment env = discMap(dir, 5.0f, 1e-4f, &discPower);
     MedianCutOptions mc;
+    mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
     mc.lights = 6;
     mc.faceSize = 64;
     LightSet set = extractMedianCut(ctx(), env, mc);
@@ -182,6 +185,7 @@ TEST(MedianCutMerge, SplitDiscOnEdgeMergesAcrossTheEdge) {
   env.power(p);
   for (int n : {8, 16, 32}) {
     MedianCutOptions mc;
+    mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
     mc.lights = n;
     mc.faceSize = 64;
     LightSet on = extractMedianCut(ctx(), env, mc);
@@ -212,6 +216,7 @@ TEST(MedianCutMerge, DeterministicAndRotates) {
       for (int c = 0; c < 3; ++c)
         rot.equirect.at((s + W / 4) % W, t, c) = env.equirect.at(s, t, c);
   MedianCutOptions mc;
+  mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
   mc.lights = 6;
   mc.faceSize = 64;
   LightSet a = extractMedianCut(ctx(), env, mc), b = extractMedianCut(ctx(), env, mc);
@@ -236,6 +241,7 @@ TEST(MedianCutMerge, RefusesBadCompactness) {
   Environment env = builtinEnvironment(64);
   for (float bad : {0.0f, -0.5f, 1.5f, std::nanf("")}) {
     MedianCutOptions mc;
+    mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
     mc.faceSize = 16;
     mc.mergeCompactness = bad;
     try {
@@ -266,6 +272,7 @@ TEST(OclgrindMedianCut, XyzSatsAndMerge) {
         small.equirect.at(s, t, c) = float(acc / 256);
       }
   MedianCutOptions mc;
+  mc.peakRatio = 0;  // median cut's own regions (PeakLights: bright sources apart)
   mc.lights = 6;
   mc.faceSize = 8;
   mc.supersample = 2;

@@ -1,5 +1,6 @@
 #!/bin/bash
-# Sourced by tools/accuracy_table.sh, tools/light_count_table.sh and tools/ground_table.sh.
+# Sourced by tools/accuracy_table.sh, tools/light_count_table.sh, tools/ground_table.sh and
+# tools/peak_table.sh.
 # evaluate_cached PENUMBRA_CLI SPP OUT_DIR PAIR NAME ARGS...: `penumbra evaluate` at 320x180, seed
 # 11, truths cached in OUT_DIR/truths, into OUT_DIR/PAIR.NAME.json (and its console output into
 # .txt); skipped when that JSON exists, written under another name until complete so that an
@@ -30,4 +31,16 @@ scene_pairs() {
     [courtyard-builtin]="--env $D/envmaps/courtyard.exr")
   PAIRS=(builtin courtyard interior studio courtyard-spider interior-wuson studio-spider
          courtyard-builtin)
+}
+
+# evaluate_pairs PENUMBRA_CLI SPP OUT_DIR: evaluate_cached for every pair of PAIRS (scene_pairs)
+# with every "name|options" entry of the array CONFIGS.
+evaluate_pairs() {
+  local P=$1 SPP=$2 OUT=$3 s c
+  for s in "${PAIRS[@]}"; do
+    for c in "${CONFIGS[@]}"; do
+      # shellcheck disable=SC2086
+      evaluate_cached "$P" "$SPP" "$OUT" "$s" "${c%%|*}" ${SCENE[$s]} ${c#*|}
+    done
+  done
 }

@@ -15,12 +15,7 @@ CONFIGS=(
   "default|"
   "hardnoground|--shadows hard --no-ground-visibility"
   "hard|--shadows hard")
-for s in "${PAIRS[@]}"; do
-  for c in "${CONFIGS[@]}"; do
-    # shellcheck disable=SC2086
-    evaluate_cached "$P" "$SPP" "$OUT" "$s" "${c%%|*}" ${SCENE[$s]} ${c#*|}
-  done
-done
+evaluate_pairs "$P" "$SPP" "$OUT"
 /usr/bin/python3 - "$OUT" "${PAIRS[@]}" <<'PY'
 import json, statistics, sys
 out, pairs = sys.argv[1], sys.argv[2:]

@@ -41,7 +41,7 @@ constexpr double kAutoTargetError = 0.03;
 constexpr int kAutoMaxLights = 256;
 // The long names of every extraction option (addExtractOptions): any of them asks `reference` for
 // the light-set truth, and none may stand beside --light-set.
-extern const char* const kExtractionOptionNames[14];
+extern const char* const kExtractionOptionNames[16];
 // The extraction options; an option that does not belong to the chosen method is refused.
 ExtractOptions parseExtractOptions(const Args& a);
 // extractLights; with --lights auto, says on stderr (unless --quiet) which count it chose, each

@@ -100,6 +100,13 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.integer(app, "--auto-exact", "auto: the most lights given exact (bitmask) visibility, the "
               "brightest and softest first; 0: none", 0, 4096, num(R.autoChoice.exactLights), A,
               {"RenderOptions.autoChoice.exactLights"});
+  reg.real(app, "--auto-exact-share", "auto: exact (bitmask) visibility also for every light "
+           "carrying at least this share of the lights' power on a cap no wider than the exact "
+           "angle; 0: none", {0, 1, false, false},
+           num(R.autoChoice.exactShare), A, {"RenderOptions.autoChoice.exactShare"});
+  reg.real(app, "--auto-exact-angle", "auto: the exact angle, the widest cap half-angle (degrees) "
+           "the exact share applies to", {0, 90, false, false},
+           num(R.autoChoice.exactHalfAngleDeg), A, {"RenderOptions.autoChoice.exactHalfAngleDeg"});
   reg.integer(app, "--auto-filtered", "auto: the most lights given a filtered technique, the "
               "brightest first, the others hard; -1: no limit", -1, 4096,
               num(R.autoChoice.filteredLights), A, {"RenderOptions.autoChoice.filteredLights"});
@@ -148,6 +155,9 @@ RenderOptions parseRenderOptions(const Args& a) {
   if (a.has("auto-exact")) ro.autoChoice.exactLights = int(a.integer("auto-exact"));
   if (a.has("auto-pcss-texels")) ro.autoChoice.pcssTexels = float(a.real("auto-pcss-texels"));
   if (a.has("auto-filtered")) ro.autoChoice.filteredLights = int(a.integer("auto-filtered"));
+  if (a.has("auto-exact-share")) ro.autoChoice.exactShare = float(a.real("auto-exact-share"));
+  if (a.has("auto-exact-angle"))
+    ro.autoChoice.exactHalfAngleDeg = float(a.real("auto-exact-angle"));
   ro.frontBackFaces = a.has("front-back");
   ro.bentNormals = a.has("bent-normals");
   if (a.has("bent-normals-scale")) {

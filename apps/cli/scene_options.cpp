@@ -72,6 +72,13 @@ void addExtractOptions(CLI::App& app, Registry& reg) {
            toString(am.model), kGroupLights, {"AmbientOptions.model"});
   reg.text(app, "--ambient-size", "WxH", "--ambient map: the irradiance map's size, each 1..1024",
            sizeText(am.mapWidth, am.mapHeight), kGroupLights);
+  reg.real(app, "--peak-ratio", "median-cut: texels brighter than this times the map's mean "
+           "luminance become lights of their own, one per connected set (at most lights / 4), "
+           "and median cut splits the rest (README \"Bright sources\"); 0: off",
+           Bounds::nonNegative(), num(mc.peakRatio), kGroupLights, {"MedianCutOptions.peakRatio"});
+  reg.real(app, "--peak-max-angle", "median-cut: a bright set whose cap would be wider than this "
+           "half-angle, degrees, stays with median cut", {0, 90, true, true},
+           num(mc.peakMaxHalfAngleDeg), kGroupLights, {"MedianCutOptions.peakMaxHalfAngleDeg"});
   reg.text(app, "--light-shape", "cap|polygon", "median-cut: a light from one region is a cap, "
            "or that region's exact cube-face quadrilateral (polygon)",
            toString(mc.shape), kGroupLights);
@@ -162,6 +169,9 @@ ExtractOptions parseExtractOptions(const Args& a) {
   if (only("rect", {M::Greedy})) eo.greedy.square = false;
   if (only("stop", {M::CenterSurround})) eo.centerSurround.stopFraction = float(a.real("stop"));
   if (only("sizes", {M::CenterSurround})) eo.centerSurround.sizes = int(a.integer("sizes"));
+  if (only("peak-ratio", {M::MedianCut})) eo.medianCut.peakRatio = float(a.real("peak-ratio"));
+  if (only("peak-max-angle", {M::MedianCut}))
+    eo.medianCut.peakMaxHalfAngleDeg = float(a.real("peak-max-angle"));
   if (only("light-shape", {M::MedianCut})) {
     const std::string shape = a.get("light-shape");
     if (shape == "cap") eo.medianCut.shape = LightShape::Cap;
@@ -203,9 +213,10 @@ LightSet extractNoting(Context& ctx, const Environment& env, ExtractOptions& eo,
   return set;
 }
 
-const char* const kExtractionOptionNames[14] = {
+const char* const kExtractionOptionNames[16] = {
     "extract", "lights", "target-error", "max-lights", "face-size", "threshold", "rect",
-    "stop", "sizes", "no-ambient", "ambient", "ambient-size", "light-shape", "light-texture"};
+    "stop", "sizes", "no-ambient", "ambient", "ambient-size", "light-shape", "light-texture",
+    "peak-ratio", "peak-max-angle"};
 
 bool userLightSet(const Args& a, LightSet& out) {
   if (!a.has("light-set")) return false;

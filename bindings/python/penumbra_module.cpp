@@ -979,6 +979,15 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("merge_compactness", &MedianCutOptions::mergeCompactness,
                      withDefault("Largest cap/region solid-angle ratio merged, (0, 1].",
                                  MC.mergeCompactness).c_str())
+      .def_readwrite("peak_ratio", &MedianCutOptions::peakRatio,
+                     withDefault("Texels brighter than this times the map's mean luminance "
+                                 "become lights of their own (connected sets, at most lights / "
+                                 "4); 0: off.",
+                                 MC.peakRatio).c_str())
+      .def_readwrite("peak_max_half_angle_deg", &MedianCutOptions::peakMaxHalfAngleDeg,
+                     withDefault("A bright set whose cap would be wider than this stays with "
+                                 "median cut, degrees, (0, 90).",
+                                 MC.peakMaxHalfAngleDeg).c_str())
       .def_readwrite("shape", &MedianCutOptions::shape,
                      "LightShape.CAP (default) or POLYGON: a light from one region becomes that "
                      "region's cube-face quadrilateral.");
@@ -1281,7 +1290,15 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("filtered_lights", &AutoOptions::filteredLights,
                      withDefault("The most lights given a filtered technique, the brightest "
                                  "first, the others hard; -1: no limit, -1..4096.",
-                                 R.autoChoice.filteredLights).c_str());
+                                 R.autoChoice.filteredLights).c_str())
+      .def_readwrite("exact_share", &AutoOptions::exactShare,
+                     withDefault("Exact visibility also for a light with at least this share of "
+                                 "the lights' power and a cap at most exact_half_angle_deg wide; "
+                                 "0: none, 0..1.",
+                                 R.autoChoice.exactShare).c_str())
+      .def_readwrite("exact_half_angle_deg", &AutoOptions::exactHalfAngleDeg,
+                     withDefault("The widest cap half-angle exact_share makes exact, 0..90.",
+                                 R.autoChoice.exactHalfAngleDeg).c_str());
 
   py::class_<RenderOptions> ro(m, "RenderOptions",
                                "Options of Renderer.render. Keywords set fields, e.g. "

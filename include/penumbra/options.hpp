@@ -264,6 +264,15 @@ struct AutoOptions {
                                 ///< auto 3.19/4.38/3.06/7.48% with MSSM4, 3.65/4.42/3.20/8.88% with
                                 ///< PCSS); PCSS costs about as much at the default clamp (2-core CPU).
                                 ///< Finite, >= 0
+  /// A compact bright source gets exact visibility too, past exactLights: a light carrying at least
+  /// exactShare of all the lights' power whose cap is at most exactHalfAngleDeg wide. Such a light
+  /// (a sun, which MedianCutOptions::peakRatio makes one light) casts the frame's strongest shadow,
+  /// sharp enough that a filter blurs it and hard shadows cut its penumbra, and exact visibility of
+  /// a small cap is cheap: each caster triangle walks only the few list texels its narrow
+  /// influence region covers (bench/results/accuracy.md, "Bright sources apart"). exactShare in
+  /// [0, 1], 0: off; exactHalfAngleDeg in [0, 90].
+  float exactShare = 0.1f;
+  float exactHalfAngleDeg = 5.0f;
   int filteredLights = 24;      ///< budget: the most lights given a filtered technique (PCSS or
                                 ///< MSSM4), the brightest first; the other lights that would be
                                 ///< filtered get hard shadows (the dim ones, whose share of the

@@ -165,6 +165,121 @@ std::vector<int> mergeAcrossFaceEdges(int m, const std::vector<pb_region>& regs,
   return group;
 }
 
+// Bright sources apart (MedianCutOptions::peakRatio). Median cut gives every region the same
+// energy, so a small source far brighter than the sky around it (a sun) is cut into several
+// lights, and the regions bordering it take slivers of its disc together with wide stretches of
+// sky: their caps then spread a sliver's power, which the sky's truth casts as the source's sharp
+// shadow, over tens of degrees. Here the texels brighter than `ratio` times the map's mean
+// luminance are grouped into connected sets (8-neighbours, the map wrapping around in longitude),
+// the brightest sets (at most maxLights, and only those carrying at least minShare of the map's
+// luminance, whose cap is at most maxHalfAngleDeg wide: a set dimmer than one median-cut light's
+// share would be cut no further by median cut, and as a light of its own it takes one from the
+// rest of the map; a wide set is a soft source, which median cut's regions represent well) each
+// become one cap resolved from its own texels with
+// the formulas of resolve_lights (kernels/environment/extract.cl: luminance-weighted mean
+// direction, cos a = 2R - 1, power the exact colour integral), and `base` is the map with those
+// texels set to 0, for median cut to split into the remaining lights. Every texel's energy is in
+// exactly one of the two, so the light set's power is the map's as before.
+struct PeakSplit {
+  Environment base;
+  std::vector<AreaLight> lights;
+};
+
+PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, double minShare,
+                        float maxHalfAngleDeg) {
+  PeakSplit out;
+  const Image& img = env.equirect;
+  const int W = img.width, H = img.height;
+  if (!(ratio > 0) || maxLights < 1 || W < 1 || H < 1) return out;
+  std::vector<double> dw(H);
+  for (int t = 0; t < H; ++t) dw[t] = env.texelSolidAngle(t);
+  auto lum = [&](int s, int t) {
+    return PB_LUM_R * img.at(s, t, 0) + PB_LUM_G * img.at(s, t, 1) + PB_LUM_B * img.at(s, t, 2);
+  };
+  double total = 0;
+  for (int t = 0; t < H; ++t)
+    for (int s = 0; s < W; ++s) total += double(lum(s, t)) * dw[t];
+  const double threshold = double(ratio) * total / (4 * kPi);
+  if (!(threshold > 0)) return out;
+  // Connected sets of bright texels, flood-filled in scan order (deterministic).
+  std::vector<int> label(std::size_t(W) * H, -1);
+  struct Set {
+    double lum = 0, rgb[3] = {0, 0, 0}, dir[3] = {0, 0, 0}, maxDw = 0;
+    std::vector<std::size_t> texels;
+  };
+  std::vector<Set> sets;
+  const float shift = env.rotationColumns();
+  std::vector<std::size_t> stack;
+  for (int t0 = 0; t0 < H; ++t0)
+    for (int s0 = 0; s0 < W; ++s0) {
+      const std::size_t i0 = std::size_t(t0) * W + s0;
+      if (label[i0] >= 0 || !(lum(s0, t0) > threshold)) continue;
+      Set set;
+      const int id = int(sets.size());
+      label[i0] = id;
+      stack.assign(1, i0);
+      while (!stack.empty()) {
+        const std::size_t i = stack.back();
+        stack.pop_back();
+        set.texels.push_back(i);
+        const int s = int(i % W), t = int(i / W);
+        const double L = double(lum(s, t)) * dw[t];
+        set.lum += L;
+        for (int c = 0; c < 3; ++c) set.rgb[c] += double(img.at(s, t, c)) * dw[t];
+        float x, y, z;  // the texel centre's world direction, the map's rotation applied
+        pb_equirect_dir(pb_env_world_column(s, shift, W) + 0.5f, float(t) + 0.5f, float(W),
+                        float(H), &x, &y, &z);
+        set.dir[0] += L * x;
+        set.dir[1] += L * y;
+        set.dir[2] += L * z;
+        set.maxDw = std::max(set.maxDw, dw[t]);
+        for (int dt = -1; dt <= 1; ++dt)
+          for (int ds = -1; ds <= 1; ++ds) {
+            const int t2 = t + dt;
+            if (t2 < 0 || t2 >= H) continue;
+            const int s2 = (s + ds + W) % W;
+            const std::size_t j = std::size_t(t2) * W + s2;
+            if (label[j] >= 0 || !(lum(s2, t2) > threshold)) continue;
+            label[j] = id;
+            stack.push_back(j);
+          }
+      }
+      sets.push_back(std::move(set));
+    }
+  if (sets.empty()) return out;
+  // Each set's cap; no cap narrower than its largest texel's (2 pi (1 - cos a) = dw), as
+  // resolve_lights. Sets wider than maxHalfAngleDeg, or dimmer than minShare, stay in the map.
+  const double cosMax = std::cos(double(maxHalfAngleDeg) * kDeg);
+  std::vector<double> cosA(sets.size());
+  std::vector<int> order;
+  for (std::size_t k = 0; k < sets.size(); ++k) {
+    const Set& set = sets[k];
+    const double len = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
+                                 set.dir[2] * set.dir[2]);
+    cosA[k] = std::min(2.0 * std::min(1.0, len / set.lum) - 1.0, 1.0 - set.maxDw / (2 * kPi));
+    if (cosA[k] >= cosMax && set.lum >= minShare * total) order.push_back(int(k));
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return sets[a].lum > sets[b].lum; });
+  if (int(order.size()) > maxLights) order.resize(std::size_t(maxLights));
+  if (order.empty()) return out;
+  out.base = env;
+  for (int k : order) {
+    const Set& set = sets[std::size_t(k)];
+    const double len = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
+                                 set.dir[2] * set.dir[2]);
+    AreaLight l;
+    l.direction = {float(set.dir[0] / len), float(set.dir[1] / len), float(set.dir[2] / len)};
+    l.cosAlpha = float(cosA[std::size_t(k)]);
+    l.setPower({float(set.rgb[0]), float(set.rgb[1]), float(set.rgb[2])});
+    out.lights.push_back(l);
+    for (std::size_t i : set.texels)
+      for (int c = 0; c < 3; ++c)
+        out.base.equirect.pixels[i * std::size_t(img.channels) + std::size_t(c)] = 0.0f;
+  }
+  return out;
+}
+
 }  // namespace
 
 LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutOptions& opt) {
@@ -182,6 +297,25 @@ LightSet extractMedianCut(Context& ctx, const Environment& env, const MedianCutO
     badInput("MedianCutOptions.maxHalfAngleDeg must be in (0, 90)");
   if (!(opt.mergeCompactness > 0 && opt.mergeCompactness <= 1))
     badInput("mergeCompactness must be in (0, 1], got " + detail::numberText(opt.mergeCompactness));
+
+  if (!(opt.peakRatio >= 0) || !std::isfinite(opt.peakRatio))
+    badInput("MedianCutOptions.peakRatio must be finite and >= 0, got " +
+             detail::numberText(opt.peakRatio));
+  if (!(opt.peakMaxHalfAngleDeg > 0 && opt.peakMaxHalfAngleDeg < 90))
+    badInput("MedianCutOptions.peakMaxHalfAngleDeg must be in (0, 90), got " +
+             detail::numberText(opt.peakMaxHalfAngleDeg));
+  // At most a quarter of the lights go to bright sources (none below 4 lights, where median cut
+  // cuts whole faces), each with at least one light's share of the map.
+  PeakSplit peaks = separatePeaks(env, opt.peakRatio, opt.lights / 4, 1.0 / opt.lights,
+                                  opt.peakMaxHalfAngleDeg);
+  if (!peaks.lights.empty()) {
+    MedianCutOptions rest = opt;
+    rest.lights = opt.lights - int(peaks.lights.size());
+    rest.peakRatio = 0;
+    LightSet set = extractMedianCut(ctx, peaks.base, rest);
+    for (AreaLight& l : peaks.lights) set.lights.push_back(std::move(l));
+    return set;
+  }
 
   detail::DeviceCube cube = detail::resampleToCube(ctx, env, m, opt.supersample);
   const double scale = cube.scale;

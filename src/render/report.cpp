@@ -130,7 +130,9 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     o["auto"] = {{"exact_lights", opt.autoChoice.exactLights},
                  {"hard_pixels", shortestDecimal(opt.autoChoice.hardPixels)},
                  {"pcss_texels", shortestDecimal(opt.autoChoice.pcssTexels)},
-                 {"filtered_lights", opt.autoChoice.filteredLights}};
+                 {"filtered_lights", opt.autoChoice.filteredLights},
+                 {"exact_share", shortestDecimal(opt.autoChoice.exactShare)},
+                 {"exact_half_angle_deg", shortestDecimal(opt.autoChoice.exactHalfAngleDeg)}};
   // `auto` reports each light's technique as the stat "auto/light_<i>" (a ShadowTechnique value,
   // lights in order): listed by name in "auto_lights" instead.
   Json stats = Json::object(), autoLights = Json::array();

@@ -9,7 +9,10 @@
 // walks the list texels of its influence region, which widens with the light's angular size. Gain
 // per cost is then about the power alone, so:
 //  1. the brightest lights get exact visibility, at most AutoOptions::exactLights of them (a
-//     count: the technique costs one to several default frames per light on a 2-core CPU);
+//     count: the technique costs one to several default frames per light on a 2-core CPU), and
+//     so does every compact bright source (a share of the power of at least
+//     AutoOptions::exactShare from a cap at most exactHalfAngleDeg wide): the cost grows with the
+//     light's size, and a small cap's is a fraction of a frame;
 //  2. a light whose penumbra is narrower than a camera pixel or a shadow-map texel, whichever is
 //     coarser (times hardPixels), gets hard shadows: neither the screen nor the map resolves a
 //     narrower penumbra, so a filter adds cost and no accuracy;
@@ -47,6 +50,10 @@ void validate(const AutoOptions& o) {
   if (!(o.pcssTexels >= 0) || !std::isfinite(o.pcssTexels))
     badOption("RenderOptions.autoChoice.pcssTexels", "be finite and >= 0", o.pcssTexels);
   checkRange("RenderOptions.autoChoice.filteredLights", o.filteredLights, -1, 4096);
+  if (!(o.exactShare >= 0 && o.exactShare <= 1))
+    badOption("RenderOptions.autoChoice.exactShare", "be in [0, 1]", o.exactShare);
+  if (!(o.exactHalfAngleDeg >= 0 && o.exactHalfAngleDeg <= 90))
+    badOption("RenderOptions.autoChoice.exactHalfAngleDeg", "be in [0, 90]", o.exactHalfAngleDeg);
 }
 
 namespace {
@@ -157,6 +164,15 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
   std::vector<ShadowTechnique> out(n, ShadowTechnique::MSSM4);
   const std::size_t budget = exactAllowed ? std::size_t(o.exactLights) : 0;
   for (std::size_t k = 0; k < n && k < budget; ++k) out[order[k]] = ShadowTechnique::Bitmask;
+  // 1b. compact bright sources: exact as well
+  if (exactAllowed && o.exactShare > 0) {
+    double total = 0;
+    for (const AutoLight& l : lights) total += l.power;
+    const double tanMax = std::tan(double(o.exactHalfAngleDeg) * M_PI / 180.0);
+    for (std::size_t i = 0; i < n; ++i)
+      if (lights[i].power >= double(o.exactShare) * total && lights[i].tanAlpha <= tanMax)
+        out[i] = ShadowTechnique::Bitmask;
+  }
   // in the same order, so that the filtered budget goes to the brightest
   std::size_t filtered = 0;
   for (std::size_t i : order) {

@@ -256,10 +256,13 @@ class MedianCutOptions:
     max_half_angle_deg: float
     merge_across_faces: bool
     merge_compactness: float
+    peak_ratio: float
+    peak_max_half_angle_deg: float
     shape: LightShape
     def __init__(self, *, lights: int = ..., face_size: int = ..., supersample: int = ...,
                  min_half_angle_deg: float = ..., max_half_angle_deg: float = ...,
                  merge_across_faces: bool = ..., merge_compactness: float = ...,
+                 peak_ratio: float = ..., peak_max_half_angle_deg: float = ...,
                  shape: LightShape = ...) -> None: ...
 
 class GreedyOptions:
@@ -438,8 +441,11 @@ class AutoOptions:
     hard_pixels: float
     pcss_texels: float
     filtered_lights: int
+    exact_share: float
+    exact_half_angle_deg: float
     def __init__(self, *, exact_lights: int = ..., hard_pixels: float = ...,
-                 pcss_texels: float = ..., filtered_lights: int = ...) -> None: ...
+                 pcss_texels: float = ..., filtered_lights: int = ..., exact_share: float = ...,
+                 exact_half_angle_deg: float = ...) -> None: ...
 
 class RenderOptions:
     width: int

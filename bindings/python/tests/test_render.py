@@ -134,6 +134,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
     opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
     opt.auto_choice.filtered_lights = 16
+    opt.auto_choice.exact_share, opt.auto_choice.exact_half_angle_deg = 0.25, 7.5
     # The report holds the shared "shadow" block and only the block of the technique used.
     def report_for(technique):
         opt.technique = technique
@@ -158,12 +159,14 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert blocks & set(r) == {"pcss"}
     r = report_for("brute")
     assert r["brute"]["samples"] == 3 and blocks & set(r) == {"brute"}
-    # this frame was rendered with the default, auto, whose picks (all eight lights MSSM4 here)
-    # bring the mssm block
+    # this frame was rendered with the default, auto, whose picks bring the bitmask block (the
+    # sun, a light of its own, exact: MedianCutOptions.peak_ratio, AutoOptions.exact_share) and
+    # the mssm block (the seven sky lights)
     r = report_for("auto")
     assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
     assert r["auto"]["filtered_lights"] == 16
-    assert blocks & set(r) == {"auto", "mssm"}
+    assert (r["auto"]["exact_share"], r["auto"]["exact_half_angle_deg"]) == (0.25, 7.5)
+    assert blocks & set(r) == {"auto", "mssm", "bitmask"}
     r = report_for("hard")
     assert blocks & set(r) == set() and "shadow" in r
     with pytest.raises(penumbra.BadInput):
