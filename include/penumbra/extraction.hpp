@@ -49,13 +49,13 @@ struct MedianCutOptions {
   LightShape shape = LightShape::Cap;
   /// Bright sources apart: texels brighter than peakRatio times the map's mean luminance are
   /// grouped into connected sets, and the brightest sets (at most lights / 4, each with at least
-  /// 1 / lights of the map's luminance, at most peakMaxHalfAngleDeg wide) become one cap each, resolved from their own texels, with
-  /// no regions; median cut splits the rest of the map into the other lights (README, "Bright
-  /// sources"). Default 100.
-  /// Median cut alone cuts such a source (a sun) into several lights and leaves slivers of it in
-  /// the neighbouring sky regions, whose wide caps then cast its sharp shadow as a soft one
-  /// (bench/results/accuracy.md, "Bright sources apart"). Finite, >= 0; 0: off; below 4 lights,
-  /// where median cut cuts whole faces, it never applies.
+  /// 1 / lights of the map's luminance and at most peakMaxHalfAngleDeg wide) become one cap each,
+  /// resolved from their own texels, with no regions; median cut splits the rest of the map into
+  /// the other lights (README, "Bright sources"). Median cut alone cuts such a source (a sun) into
+  /// several lights and leaves slivers of it in the neighbouring sky regions, whose wide caps then
+  /// cast its sharp shadow as a soft one (bench/results/accuracy.md, "Bright sources apart").
+  /// Finite, >= 0; default 100; 0: off. Below 4 lights, where median cut cuts whole faces, it
+  /// never applies.
   float peakRatio = 100.0f;
   /// Bright sources apart: a set whose cap would be wider than this (degrees) stays with median
   /// cut (a wide source casts soft shadows, which the filtered techniques handle, and its exact

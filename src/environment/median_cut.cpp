@@ -175,11 +175,11 @@ std::vector<int> mergeAcrossFaceEdges(int m, const std::vector<pb_region>& regs,
 // luminance, whose cap is at most maxHalfAngleDeg wide: a set dimmer than one median-cut light's
 // share would be cut no further by median cut, and as a light of its own it takes one from the
 // rest of the map; a wide set is a soft source, which median cut's regions represent well) each
-// become one cap resolved from its own texels with
-// the formulas of resolve_lights (kernels/environment/extract.cl: luminance-weighted mean
-// direction, cos a = 2R - 1, power the exact colour integral), and `base` is the map with those
-// texels set to 0, for median cut to split into the remaining lights. Every texel's energy is in
-// exactly one of the two, so the light set's power is the map's as before.
+// become one cap resolved from its own texels with the formulas of resolve_lights
+// (kernels/environment/extract.cl: luminance-weighted mean direction, cos a = 2R - 1, power the
+// exact colour integral), and `base` is the map with those texels set to 0, for median cut to
+// split into the remaining lights. Every texel's energy is in exactly one of the two, so the light
+// set's power is the map's as before.
 struct PeakSplit {
   Environment base;
   std::vector<AreaLight> lights;
@@ -250,13 +250,13 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
   // Each set's cap; no cap narrower than its largest texel's (2 pi (1 - cos a) = dw), as
   // resolve_lights. Sets wider than maxHalfAngleDeg, or dimmer than minShare, stay in the map.
   const double cosMax = std::cos(double(maxHalfAngleDeg) * kDeg);
-  std::vector<double> cosA(sets.size());
+  std::vector<double> cosA(sets.size()), len(sets.size());
   std::vector<int> order;
   for (std::size_t k = 0; k < sets.size(); ++k) {
     const Set& set = sets[k];
-    const double len = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
-                                 set.dir[2] * set.dir[2]);
-    cosA[k] = std::min(2.0 * std::min(1.0, len / set.lum) - 1.0, 1.0 - set.maxDw / (2 * kPi));
+    len[k] = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
+                       set.dir[2] * set.dir[2]);
+    cosA[k] = std::min(2.0 * std::min(1.0, len[k] / set.lum) - 1.0, 1.0 - set.maxDw / (2 * kPi));
     if (cosA[k] >= cosMax && set.lum >= minShare * total) order.push_back(int(k));
   }
   std::stable_sort(order.begin(), order.end(),
@@ -266,10 +266,9 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
   out.base = env;
   for (int k : order) {
     const Set& set = sets[std::size_t(k)];
-    const double len = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
-                                 set.dir[2] * set.dir[2]);
+    const double n = len[std::size_t(k)];
     AreaLight l;
-    l.direction = {float(set.dir[0] / len), float(set.dir[1] / len), float(set.dir[2] / len)};
+    l.direction = {float(set.dir[0] / n), float(set.dir[1] / n), float(set.dir[2] / n)};
     l.cosAlpha = float(cosA[std::size_t(k)]);
     l.setPower({float(set.rgb[0]), float(set.rgb[1]), float(set.rgb[2])});
     out.lights.push_back(l);
