@@ -10,6 +10,7 @@
 #include <string>
 
 #include "environment/cubemap.hpp"
+#include "environment/moment_cap.hpp"
 #include "penumbra/environment.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/extraction.hpp"
@@ -119,17 +120,10 @@ LightSet extractGreedy(Context& ctx, const Environment& env, const GreedyOptions
     const float cosMinCap = 1.0f - texelDw / float(2.0 * M_PI);
 
     AreaLight l;
-    // Direction and extent from the luminance moments of the taken energy, as for median cut
-    // (kernels/environment/extract.cl resolve_lights): mean direction, and cos a = 2R - 1 for a
-    // uniform cap whose mean resultant length is R.
-    double Y = double(g.removed[3]);
-    double mx = double(g.moment[0]), my = double(g.moment[1]), mz = double(g.moment[2]);
-    double len = std::sqrt(mx * mx + my * my + mz * mz);
+    // Direction and extent from the luminance moments of the taken energy, as for median cut.
     float cosA;
-    if (Y > 0 && len > 0) {
-      l.direction = {float(mx / len), float(my / len), float(mz / len)};
-      cosA = float(2.0 * std::min(1.0, len / Y) - 1.0);
-    } else {
+    if (!detail::capFromMoments(double(g.removed[3]), double(g.moment[0]), double(g.moment[1]),
+                                double(g.moment[2]), l.direction, cosA)) {
       float cx = 0.5f * (coord(g.x0) + coord(g.x1 - 1)), cy = 0.5f * (coord(g.y0) + coord(g.y1 - 1));
       float x, y, z;
       pb_cube_dir(g.face, cx, cy, &x, &y, &z);

@@ -19,6 +19,7 @@
 #include "penumbra/scan.hpp"
 #include "common/shared.h"
 #include "environment/cubemap.hpp"
+#include "environment/moment_cap.hpp"
 #include "lights/sampling.hpp"
 
 namespace penumbra {
@@ -202,7 +203,7 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
   const double threshold = double(ratio) * total / (4 * kPi);
   if (!(threshold > 0)) return out;
   // Connected sets of bright texels, flood-filled in scan order (deterministic).
-  std::vector<int> label(std::size_t(W) * H, -1);
+  std::vector<bool> seen(std::size_t(W) * H, false);
   struct Set {
     double lum = 0, rgb[3] = {0, 0, 0}, dir[3] = {0, 0, 0}, maxDw = 0;
     std::vector<std::size_t> texels;
@@ -213,10 +214,9 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
   for (int t0 = 0; t0 < H; ++t0)
     for (int s0 = 0; s0 < W; ++s0) {
       const std::size_t i0 = std::size_t(t0) * W + s0;
-      if (label[i0] >= 0 || !(lum(s0, t0) > threshold)) continue;
+      if (seen[i0] || !(lum(s0, t0) > threshold)) continue;
       Set set;
-      const int id = int(sets.size());
-      label[i0] = id;
+      seen[i0] = true;
       stack.assign(1, i0);
       while (!stack.empty()) {
         const std::size_t i = stack.back();
@@ -239,25 +239,28 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
             if (t2 < 0 || t2 >= H) continue;
             const int s2 = (s + ds + W) % W;
             const std::size_t j = std::size_t(t2) * W + s2;
-            if (label[j] >= 0 || !(lum(s2, t2) > threshold)) continue;
-            label[j] = id;
+            if (seen[j] || !(lum(s2, t2) > threshold)) continue;
+            seen[j] = true;
             stack.push_back(j);
           }
       }
       sets.push_back(std::move(set));
     }
   if (sets.empty()) return out;
-  // Each set's cap; no cap narrower than its largest texel's (2 pi (1 - cos a) = dw), as
-  // resolve_lights. Sets wider than maxHalfAngleDeg, or dimmer than minShare, stay in the map.
-  const double cosMax = std::cos(double(maxHalfAngleDeg) * kDeg);
-  std::vector<double> cosA(sets.size()), len(sets.size());
+  // Each set's cap (sets whose directions cancel have none); no cap narrower than its largest
+  // texel's (2 pi (1 - cos a) = dw), as resolve_lights. Sets wider than maxHalfAngleDeg, or dimmer
+  // than minShare, stay in the map.
+  const float cosMax = std::cos(maxHalfAngleDeg * kDeg);
+  std::vector<AreaLight> caps(sets.size());
   std::vector<int> order;
   for (std::size_t k = 0; k < sets.size(); ++k) {
     const Set& set = sets[k];
-    len[k] = std::sqrt(set.dir[0] * set.dir[0] + set.dir[1] * set.dir[1] +
-                       set.dir[2] * set.dir[2]);
-    cosA[k] = std::min(2.0 * std::min(1.0, len[k] / set.lum) - 1.0, 1.0 - set.maxDw / (2 * kPi));
-    if (cosA[k] >= cosMax && set.lum >= minShare * total) order.push_back(int(k));
+    float cosA;
+    if (!detail::capFromMoments(set.lum, set.dir[0], set.dir[1], set.dir[2], caps[k].direction,
+                                cosA))
+      continue;
+    caps[k].cosAlpha = std::min(cosA, float(1.0 - set.maxDw / (2 * kPi)));
+    if (caps[k].cosAlpha >= cosMax && set.lum >= minShare * total) order.push_back(int(k));
   }
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return sets[a].lum > sets[b].lum; });
@@ -266,10 +269,7 @@ PeakSplit separatePeaks(const Environment& env, float ratio, int maxLights, doub
   out.base = env;
   for (int k : order) {
     const Set& set = sets[std::size_t(k)];
-    const double n = len[std::size_t(k)];
-    AreaLight l;
-    l.direction = {float(set.dir[0] / n), float(set.dir[1] / n), float(set.dir[2] / n)};
-    l.cosAlpha = float(cosA[std::size_t(k)]);
+    AreaLight& l = caps[std::size_t(k)];
     l.setPower({float(set.rgb[0]), float(set.rgb[1]), float(set.rgb[2])});
     out.lights.push_back(l);
     for (std::size_t i : set.texels)
