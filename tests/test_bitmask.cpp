@@ -88,9 +88,10 @@ struct Agreement {
   double sampleFraction() const { return samples ? double(samplesAgree) / samples : 1.0; }
 };
 
-// Every captured (view sample, light sample) bit against an Embree shadow ray from the sample
-// (offset along its geometric normal, towards the ray's side) along the same direction. Pairs
-// whose direction is below the shading normal's horizon carry no weight and are not counted.
+// Every captured (view sample, light sample) bit against an Embree shadow ray from the sample (the
+// G-buffer's position: already off its surface by the renderer's shadow offset, as the reference's
+// rays start) along the same direction. Pairs whose direction is below the shading normal's horizon
+// carry no weight and are not counted.
 Agreement agreeWithEmbree(const Scene& scene, const BitmaskCapture& c) {
   detail::SampleTracer tracer(scene);
   const int nl = int(c.lights.size()), npx = c.pixels, K = int(c.disk.size());
@@ -101,17 +102,13 @@ Agreement agreeWithEmbree(const Scene& scene, const BitmaskCapture& c) {
       for (int px = t; px < npx; px += nt) {
         if (c.slot[std::size_t(l) * npx + px] < 0) continue;
         const auto& P = c.gpos[px];
-        const auto& G = c.ggeo[px];
         const auto& N = c.gnrm[px];
-        float eps = 1e-4f * (1.0f + std::max({std::fabs(P[0]), std::fabs(P[1]), std::fabs(P[2])}));
         bool all = true;
         for (int k = 0; k < K; ++k) {
           auto d = detail::bitmaskSampleDirection(c.lights[l], c.grids[l].tan_alpha, c.disk[k][0],
                                                   c.disk[k][1]);
           if (N[0] * d[0] + N[1] * d[1] + N[2] * d[2] <= 0.0f) continue;
-          float side = G[0] * d[0] + G[1] * d[1] + G[2] * d[2] >= 0 ? eps : -eps;
-          std::array<float, 3> o = {P[0] + side * G[0], P[1] + side * G[1], P[2] + side * G[2]};
-          bool ref = tracer.occluded(o, d);
+          bool ref = tracer.occluded({P[0], P[1], P[2]}, d);
           bool ours = (c.masks[(std::size_t(l) * npx + px) * c.words + k / 32] >> (k % 32)) & 1u;
           ++p;
           if (ref == ours) ++a; else all = false;
@@ -579,6 +576,59 @@ TEST(BitmaskJitter, AccumulationConvergesToReference) {
   std::printf("jitter, 128 samples, 20-degree light: relative RMSE vs Embree light-set reference "
               "(16384 spp): 1 frame %.5f, 8 frames %.5f\n", e1, e8);
   EXPECT_LT(e8, e1);
+}
+
+// The shadow terminator (src/scene/shadow_offset.hpp): where a smooth-shaded pixel faces the light
+// (n_s.w > 0) on a facet that faces away from it (n_g.w < 0), its rays towards the light leave
+// below the facet's plane. From the surface itself they run into the neighbouring facets and the
+// pixel turns black inside a lit area; from the G-buffer's position, lifted off the facet as the
+// Embree reference lifts its shadow rays, they meet what the reference's rays meet. The loaded
+// mesh (small facets, smooth normals) under one 2-degree light 20 degrees high, 160x90, against
+// the reference at 1024 spp. Measured: relative RMSE 0.0028 (with the G-buffer's offset set to 0:
+// 0.0169), and over the 44 pixels of the terminator band the frame's mean is 1.001 of the
+// reference's (offset 0: 0.043, the band black). Other light directions measured alike (0.0015 to
+// 0.0047 against 0.0050 to 0.0335; band means 0.989 to 1.005 against 0.000 to 0.326).
+TEST(BitmaskTerminator, LoadedMeshMatchesTheReference) {
+  Scene scene = loadScene(std::string(PENUMBRA_TEST_DATA) + "/meshes/good/WusonOBJ.obj");
+  const float el = float(20 * M_PI / 180), az = float(270 * M_PI / 180);
+  const std::array<float, 3> w = {std::cos(el) * std::cos(az), std::sin(el),
+                                  std::cos(el) * std::sin(az)};
+  LightSet lights = oneLight(w, 2);
+  lights.lights[0].radiance = {300, 300, 300};
+  const int W = 160, H = 90;
+  const Camera cam = frameCamera(scene, float(W) / H);
+  RenderOptions ro;
+  ro.width = W;
+  ro.height = H;
+  ro.shadows = ShadowTechnique::Bitmask;
+  BitmaskRun r = render(scene, cam, lights, ro);
+  ReferenceOptions rf;
+  rf.width = W;
+  rf.height = H;
+  rf.spp = 1024;
+  const Image ref = referenceLights(scene, cam, lights, Environment{builtinEnvironment()}, rf);
+  double frame = 0, truth = 0;
+  int band = 0;
+  for (int px = 0; px < W * H; ++px) {
+    if (r.cap.gpos[px][3] == 0) continue;
+    const auto& n = r.cap.gnrm[px];
+    const auto& g = r.cap.ggeo[px];
+    const float ns = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
+    const float ng = g[0] * w[0] + g[1] * w[1] + g[2] * w[2];
+    if (!(ns > 0.0f && ng < 0.0f)) continue;
+    ++band;
+    for (int k = 0; k < 3; ++k) {
+      frame += r.frame.image.pixels[std::size_t(px) * 4 + k];
+      truth += ref.pixels[std::size_t(px) * 4 + k];
+    }
+  }
+  const double e = relErr(r.frame.image, ref);
+  std::printf("terminator: relative RMSE %.4f; band %d pixels, frame mean / reference mean %.3f\n",
+              e, band, truth > 0 ? frame / truth : 0.0);
+  ASSERT_GE(band, 30);
+  ASSERT_GT(truth, 0.0);
+  EXPECT_NEAR(frame / truth, 1.0, 0.05);
+  EXPECT_LT(e, 0.008);
 }
 
 // Frame::stats and the reported bytes: list statistics as the capture counted them, and the

@@ -68,8 +68,11 @@ struct SmallFrame {
 // on caster edges that one path covers and the other not make up nearly all of the difference
 // (the frames' visibility differs by 0.0012 RMS; camera coverage is identical). Measured on this
 // frame (160x90, 16 lights, 128^2 maps, MSSM4; Mesa 22.3 llvmpipe, PoCL 3.1): 0.0011 with EGL and
-// with OSMesa (identical images). The bound leaves ~3.5x of that for other Mesa/LLVM versions;
-// swapped surfaces from a poor depth buffer gave 0.029, a row flip or a wrong matrix far more.
+// with OSMesa (identical images); 0.0003 since both lift their positions off the surface where
+// shadow tests start (README, "Where shadow tests start"; with only the OpenCL path lifting, two
+// pixels at the sun's hard shadow edge flipped and the frames differed by 0.0104). The bound
+// leaves ~3.5x of the first for other Mesa/LLVM versions; swapped surfaces from a poor depth
+// buffer gave 0.029, a row flip or a wrong matrix far more.
 constexpr double kGLBound = 0.004;
 
 void expectMatchesOpenCL(gl::Backend backend) {
@@ -249,6 +252,32 @@ void expectConversionsMatch(const std::vector<std::pair<int, int>>& sizes) {
         }
       EXPECT_EQ(wrong, 0) << "kind " << kind;
     }
+
+    // Positions lifted along the geometric normals (normalized), background left alone; a zero
+    // normal leaves its position.
+    std::vector<cl_float4> pos(std::size_t(w) * h), geo(pos.size());
+    for (std::size_t i = 0; i < pos.size(); ++i) {
+      pos[i] = {{u(rng) - 0.5f, u(rng), -u(rng), i % 4 == 1 ? 0.0f : 1.0f}};
+      const float a = 2.0f * u(rng);
+      geo[i] = i % 7 == 3 ? cl_float4{{0, 0, 0, 0}} : cl_float4{{2 * a, -a, 0.5f * a, 0}};
+    }
+    cl::Buffer posB = ctx().upload(pos, "positions"), geoB = ctx().upload(geo, "normals");
+    cl::Kernel lift = ctx().kernel("gl_interop.cl", "gl_lift_positions");
+    const float off = 1e-3f;
+    ctx().launchWith("test", lift, cl::NDRange(pos.size()), cl::NullRange, posB, geoB,
+                     cl_int(pos.size()), off);
+    auto lifted = ctx().download<cl_float4>(posB, pos.size(), "positions");
+    int moved = 0;
+    for (std::size_t i = 0; i < pos.size(); ++i) {
+      const float* q = geo[i].s;
+      const double len = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2]);
+      const bool lifts = pos[i].s[3] != 0 && len > 0;
+      moved += lifts;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(lifted[i].s[c], pos[i].s[c] + (lifts ? off * q[c] / len : 0.0), 1e-6) << i;
+      EXPECT_EQ(lifted[i].s[3], pos[i].s[3]) << i;
+    }
+    if (pos.size() >= 8) EXPECT_GT(moved, 0);
   }
 }
 

@@ -236,7 +236,7 @@ std::vector<float> gbufferDistances(const Scene& scene, const View& v) {
   RasterStage st(scene, 1);
   detail::Rasterizer& r = st.raster;
   cl::Buffer cam = ctx().upload(std::vector<pb_view>{v.pb()}, "test camera view");
-  const detail::DeviceGBuffer g = r.gbuffer(cam, v.w, v.h);
+  const detail::DeviceGBuffer g = r.gbuffer(cam, v.w, v.h, 0.0f);
   const std::size_t n = std::size_t(v.w) * v.h;
   std::vector<cl_float4> p = ctx().download<cl_float4>(g.position, n, "test positions");
   std::vector<float> t(n);
@@ -300,6 +300,46 @@ TEST(Raster, GBufferPositionsMatchDoublePrecisionHits) {
     EXPECT_GE(f.hits, 1);
     if (f.hits > 0) EXPECT_GT(raised.maxErr, 1e-4);
   }
+}
+
+// Where shadow tests start (src/scene/shadow_offset.hpp): the G-buffer's position is the hit moved
+// by the offset along the camera-facing geometric normal, which the G-buffer also stores; nothing
+// else moves. Two frames of the tilted pair, offset 0 and 1e-3.
+TEST(Raster, GBufferPositionsSitTheShadowOffsetOffTheSurface) {
+  const Scene scene = triScene();
+  const int w = 61, h = 23;
+  const double ty = std::tan(25 * M_PI / 180);
+  View v = makeView({1.5, 2.6, 2.2}, {0.05, 0.4, 0.05}, {0, 1, 0}, ty * w / h, ty, w, h, false);
+  RasterStage st(scene, 1);
+  cl::Buffer cam = ctx().upload(std::vector<pb_view>{v.pb()}, "test camera view");
+  const std::size_t n = std::size_t(w) * h;
+  std::vector<cl_float4> p[2], g[2];
+  for (int k = 0; k < 2; ++k) {
+    const detail::DeviceGBuffer gb = st.raster.gbuffer(cam, w, h, k == 0 ? 0.0f : 1e-3f);
+    p[k] = ctx().download<cl_float4>(gb.position, n, "test positions");
+    g[k] = ctx().download<cl_float4>(gb.geometricNormal, n, "test geometric normals");
+  }
+  int hits = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = std::size_t(y) * w + x;
+      ASSERT_EQ(p[0][i].s[3], p[1][i].s[3]) << x << "," << y;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(g[0][i].s[c], g[1][i].s[c]) << x << "," << y;
+      if (p[0][i].s[3] == 0) {
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(p[0][i].s[c], p[1][i].s[c]) << x << "," << y;
+        continue;
+      }
+      ++hits;
+      D3 o, d;
+      v.ray(x + 0.5, y + 0.5, &o, &d);
+      double towards = 0;
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(p[1][i].s[c] - p[0][i].s[c], 1e-3 * g[0][i].s[c], 1e-6) << x << "," << y;
+        towards += g[0][i].s[c] * d[c];
+      }
+      EXPECT_LE(towards, 0.0) << x << "," << y;  // the normal faces the camera: lifted towards it
+    }
+  EXPECT_GT(hits, 100);
 }
 
 namespace {
@@ -492,7 +532,7 @@ CameraBuffers cameraBuffers(const Scene& scene, const View& v, bool cpuForms) {
     RasterStage st(scene, 1);
     cl::Buffer cam = ctx().upload(std::vector<pb_view>{v.pb()}, "test camera view");
     ctx().resetTimings();
-    const detail::DeviceGBuffer g = st.raster.gbuffer(cam, v.w, v.h);
+    const detail::DeviceGBuffer g = st.raster.gbuffer(cam, v.w, v.h, 0.0f);
     // the path asked for ran: the bands, or the two passes of atomics
     bool bands = false, passes = false;
     for (const auto& [stage, ms] : ctx().stageTimesMs()) {

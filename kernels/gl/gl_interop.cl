@@ -33,3 +33,18 @@ kernel void gl_flip_gbuffer(global const float4* gl, int width, int height, int 
     v.w = 0.0f;
   out[(size_t)y * width + x] = v;
 }
+
+// Where shadow tests start (src/scene/shadow_offset.hpp): each geometry pixel's position moved by
+// `offset` along its geometric normal (facing the camera), as the OpenCL renderer's G-buffer and
+// the Embree reference move it. Run after gl_flip_gbuffer; n pixels.
+kernel void gl_lift_positions(global float4* gpos, global const float4* ggeo, int n,
+                              float offset) {
+  int i = get_global_id(0);
+  if (i >= n) return;
+  float4 p = gpos[i];
+  if (p.w == 0.0f) return;
+  float3 g = ggeo[i].xyz;
+  float len = length(g);
+  if (!(len > 0.0f)) return;
+  gpos[i] = (float4)(p.xyz + (offset / len) * g, 1.0f);
+}

@@ -379,12 +379,14 @@ kernel void raster_bands(global const float4* pos, global const int4* tris, int 
 
 // Camera G-buffer from the visibility pass: world position (w = 1 on geometry, 0 elsewhere),
 // shading normal (interpolated vertex normal, or geometric) facing the camera, geometric normal
-// facing the camera, albedo.
+// facing the camera, albedo. The position is the hit moved by `offset` along that geometric
+// normal: where every shadow test starts, as the Embree reference starts its shadow rays
+// (src/scene/shadow_offset.hpp says why).
 kernel void gbuffer_resolve(global const float4* pos, global const float4* nrm,
                             global const int4* tris, global const float4* albedo,
                             global const pb_view* views, global const uint* ids,
                             global float4* gpos, global float4* gnrm, global float4* ggeo,
-                            global float4* galb) {
+                            global float4* galb, float offset) {
   int x = get_global_id(0), y = get_global_id(1);
   pb_view v = views[0];
   if (x >= v.width || y >= v.height) return;
@@ -415,7 +417,7 @@ kernel void gbuffer_resolve(global const float4* pos, global const float4* nrm,
       if (dot(n, g) < 0.0f) n = -n;  // keep the shading normal on the visible side
     }
   }
-  gpos[i] = (float4)(o + tt * d, 1.0f);
+  gpos[i] = (float4)(o + tt * d + offset * g, 1.0f);
   gnrm[i] = (float4)(n, 0.0f);
   ggeo[i] = (float4)(g, 0.0f);
   galb[i] = albedo[t.w];

@@ -19,8 +19,11 @@
 // (d = alpha A + beta B + gamma C gives n_ab.d = gamma det, ...). The cone of three independent
 // half-spaces has one nappe, so the triangle's own plane needs no test of its own (a light at
 // infinity is behind every triangle). A sample on the triangle's plane (det = 0) is never blocked
-// by it, and a view sample is never tested against the triangle it lies on (G-buffer triangle id):
-// no depth bias. Closed meshes (mesh_orient != 0) cast from their light-back-facing triangles
+// by it. View samples are the G-buffer's positions, which sit a small offset off their own
+// triangle along its camera-facing normal, where the Embree reference starts its shadow rays
+// (src/scene/shadow_offset.hpp): so the sample's own triangle is tested as any other (it blocks
+// the directions below its plane whose ray crosses it, as it does the reference's), and no depth
+// bias is needed. Closed meshes (mesh_orient != 0) cast from their light-back-facing triangles
 // only (Sintorn et al. 2008 §3.3): a ray from outside that hits a closed mesh enters it through a
 // triangle
 // facing away from the ray's direction, so the triangles that face every light sample can go.
@@ -104,7 +107,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
                               global const pb_light* lights, global const pb_list_grid* grids,
                               int l0, global const int* counts, global const long* ends,
                               global const int* lists, global const float4* gpos,
-                              global const uint* gids, int npixels, global const uint* lut,
+                              int npixels, global const uint* lut,
                               global const float2* disk, int stripes,
                               global const int* zfar, volatile global uint* masks,
                               global const int* mesh_orient, float rot,
@@ -235,7 +238,6 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
           }
           if (apart) continue;
         }
-        if (gids[px] == (uint)tri) continue;  // a sample never shadows itself: no bias needed
         float3 A = V[0] - p, B = V[1] - p, C = V[2] - p;
         float3 nrm[3] = {cross(A, B), cross(B, C), cross(C, A)};
         float det = dot(A, nrm[1]);
@@ -290,18 +292,20 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
     }
 }
 
-// Global (pixels, lights of the batch), before bitmask_triangles. A view sample on a closed mesh
-// (mesh_orient != 0) is blocked from every light sample below its own triangle's plane: that ray
-// enters the mesh at once and must leave it through a triangle facing the light, which
-// bitmask_triangles skips on closed meshes (Sintorn et al. 2008 §3.3 keeps such samples out of the
-// lists
-// instead; ours are chosen by the shading normal, which may still see the light there). The
-// plane is the triangle's outward one (the mesh's winding), not the camera-facing normal.
+// Global (pixels, lights of the batch), before bitmask_triangles. A view sample on the inside of
+// a closed mesh (mesh_orient != 0; the camera sees the triangle's inner face, so the G-buffer
+// lifted the sample into the mesh) is blocked from every light sample below its own triangle's
+// outward plane: that ray crosses the mesh's interior and must leave it through a triangle facing
+// the light, which bitmask_triangles skips on closed meshes (Sintorn et al. 2008 §3.3). A sample
+// on the outside starts outside the mesh, where the back-face rule is exact: its rays below its
+// own plane meet the triangles that face away from them (its own among them), as the reference's
+// rays from the same point do.
 kernel void bitmask_self(global const float4* pos, global const int4* tris,
                          global const int* mesh_orient, global const uint* gids,
-                         global const pb_light* lights, global const pb_list_grid* grids, int l0,
-                         global const int* slot, global const float2* disk, int npixels,
-                         volatile global uint* masks, global const float4* frames) {
+                         global const float4* ggeo, global const pb_light* lights,
+                         global const pb_list_grid* grids, int l0, global const int* slot,
+                         global const float2* disk, int npixels, volatile global uint* masks,
+                         global const float4* frames) {
   int px = get_global_id(0), lb = get_global_id(1);
   if (px >= npixels) return;
   int l = l0 + lb;
@@ -313,6 +317,7 @@ kernel void bitmask_self(global const float4* pos, global const int4* tris,
   if (o == 0) return;
   float3 a = pos[t.x].xyz, b = pos[t.y].xyz, c = pos[t.z].xyz;
   float3 n = cross(b - a, c - a) * (float)o;
+  if (dot(n, ggeo[px].xyz) >= 0.0f) return;  // seen from outside
   pb_light L = lights[l];
 #ifdef HARD
   float nz = dot(n, vec3(L.dir));

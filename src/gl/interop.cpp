@@ -8,6 +8,7 @@
 
 #include "lights/light_buffers.hpp"
 #include "render/visibility.hpp"
+#include "scene/shadow_offset.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "glfuncs.hpp"
 #include "penumbra/context.hpp"
@@ -333,6 +334,10 @@ void Interop::shade(const std::vector<TextureId>& depthMaps, const GBuffer& g, T
     flip(rawPos, 0, gpos);
     flip(rawNrm, 1, gnrm);
     flip(g.geometricNormal ? rawGeo : rawNrm, 1, ggeo);
+    cl::Kernel lift = ctx.kernel("gl_interop.cl", "gl_lift_positions");
+    ctx.launchWith("interop/convert", lift, cl::NDRange(std::size_t(npx)), cl::NullRange, gpos,
+                   ggeo, cl_int(npx),
+                   cl_float(penumbra::detail::shadowRayOffset(bounds.lo.data(), bounds.hi.data())));
     if (nl > 0) {
       cl::Kernel d = ctx.kernel("gl_interop.cl", "gl_depth_to_distance");
       ctx.launchWith("interop/convert", d, cl::NDRange(S, S, nl), cl::NullRange, rawDepth, lightB,

@@ -28,6 +28,7 @@
 #include "core/json.hpp"
 #include "core/vec3.hpp"
 #include "reference/embree_scene.hpp"
+#include "scene/shadow_offset.hpp"
 
 namespace penumbra {
 namespace {
@@ -143,16 +144,9 @@ FlatScene flatten(const Scene& scene) {
       f.triMesh.push_back(std::uint32_t(mi));
     }
   }
-  // The offset must clear both the geometry's scale (1e-4 of the bounds radius) and float
-  // rounding of coordinates far from the origin.
-  double r2 = 0, maxAbs = 0;
-  for (int c = 0; c < 3; ++c) {
-    r2 += 0.25 * double(hi[c] - lo[c]) * double(hi[c] - lo[c]);
-    maxAbs = std::max({maxAbs, std::fabs(double(lo[c])), std::fabs(double(hi[c]))});
-  }
-  double radius = std::sqrt(r2);
-  f.epsilon = float(std::max({1e-4 * radius, 64.0 * std::numeric_limits<float>::epsilon() * maxAbs,
-                              1e-7}));
+  // The offset must clear both the geometry's scale and float rounding of coordinates far from
+  // the origin; the renderer's G-buffer uses the same one (scene/shadow_offset.hpp).
+  f.epsilon = shadowRayOffset(lo, hi);
   return f;
 }
 

@@ -62,7 +62,7 @@ void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull
                   cl_int(stripes), cl_int(pass), depth, ids, cl_int(cull));
 }
 
-DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H) {
+DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H, float shadowOffset) {
   const std::size_t npx = std::size_t(W) * H;
   DeviceGBuffer g;
   g.depth = pool_.buffer("camera depth", npx * 4);
@@ -95,7 +95,7 @@ DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H) {
   ctx_.launchWith("gbuffer/resolve", k, cl::NDRange(W, H), cl::NullRange,
                   scene_->positionBuffer(), scene_->normalBuffer(), scene_->triangleBuffer(),
                   scene_->albedoBuffer(), camera, g.ids, g.position, g.normal, g.geometricNormal,
-                  g.albedo);
+                  g.albedo, cl_float(shadowOffset));
   return g;
 }
 

@@ -33,7 +33,9 @@ class Rasterizer : public DepthRasterizer {
   void setFrame(const DeviceScene& scene, int mapSize, bool frontBackFaces);
   // The camera G-buffer for `camera` (one pb_view): stages gbuffer/depth, gbuffer/ids (on CPUs
   // gbuffer/rows, gbuffer/raster: the same bits), gbuffer/resolve. Every face counts (no culling).
-  DeviceGBuffer gbuffer(const cl::Buffer& camera, int width, int height);
+  // Positions are moved by shadowOffset along the camera-facing geometric normal: where shadow
+  // rays start (scene/shadow_offset.hpp).
+  DeviceGBuffer gbuffer(const cl::Buffer& camera, int width, int height, float shadowOffset);
   // Every depth map of the frame (the lights' and any a technique adds) goes through here, so
   // front/back applies to all of them alike: nearest surface, or the average of the front- and
   // back-facing surfaces' depths (Kneiphof 2017 §4.2.3).

@@ -18,6 +18,7 @@
 #include "render/rasterizer.hpp"
 #include "render/shading.hpp"
 #include "render/visibility.hpp"
+#include "scene/shadow_offset.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra {
@@ -155,7 +156,9 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
   cl::Buffer lightB = m.pool.upload("lights", lf.lights);
   // camera G-buffer
   m.raster.setFrame(m.scene, opt.shadowMapSize, opt.frontBackFaces);
-  const detail::DeviceGBuffer g = m.raster.gbuffer(camB, W, H);
+  const Bounds box = scene.bounds();
+  const detail::DeviceGBuffer g =
+      m.raster.gbuffer(camB, W, H, detail::shadowRayOffset(box.lo.data(), box.hi.data()));
   // bent normals, shadow maps and visibility
   const detail::BentBuffers bent = m.bentNormals(opt, lightB, nl, g);
   m.shadows(scene, opt, lightSet, lf, lightB, g);

@@ -18,24 +18,20 @@
 // §4.1).
 //
 // Self-shadowing without bias. Sintorn et al. 2008 §3.3 keeps only light-front-facing view samples
-// and lets
-// only light-back-facing triangles of closed casters block, so no triangle is both. On open
-// meshes (the built-in scene's ground grid) the back-face rule would drop every caster seen from
-// its front (a panel lit from its front side would cast nothing), so there every triangle casts
-// from both sides, and a view sample is never tested against the triangle it lies on, known
-// exactly from the G-buffer's triangle id; the occlusion test itself needs no offset (a sample
-// exactly on another triangle's plane is not blocked by it: the cone it spans is flat). What
-// remains are neighbours of the sample's own triangle in a mesh: across a convex edge they bend
-// away from the light side, across a concave edge they block for real, so they agree with the
-// ray tracer except at grazing angles.
+// and lets only light-back-facing triangles of closed casters block, so no triangle is both. Our
+// view samples are the G-buffer's positions, lifted off their triangle along its camera-facing
+// normal by the shadow offset the Embree reference starts its rays with
+// (src/scene/shadow_offset.hpp), so every triangle, the sample's own included, is tested as the
+// reference's ray meets it, and the occlusion test needs no bias (a sample exactly on another
+// triangle's plane is not blocked by it: the cone it spans is flat). On open meshes (the built-in
+// scene's ground grid) the back-face rule would drop every caster seen from its front (a panel lit
+// from its front side would cast nothing), so there every triangle casts from both sides.
 // Closed meshes (meshOrientation(), decided once per frame from the triangles) keep Sintorn et
-// al.'s (2008)
-// rule: triangles facing every light sample cast nothing (a ray from outside enters a closed mesh
-// through a triangle facing away from it), which drops about half of their triangles. Our view
-// samples are chosen by the shading normal, so a sample may lie on a triangle facing away from
-// part of the light; its rays below that triangle's plane are inside the mesh at once and are
-// blocked by kernels/shadows/bitmask.cl's bitmask_self, as the skipped far side would have blocked
-// them.
+// al.'s (2008) rule: triangles facing every light sample cast nothing (a ray from outside enters
+// a closed mesh through a triangle facing away from it), which drops about half of their
+// triangles. A sample seen from inside a closed mesh starts inside it, where that rule fails: its
+// rays below its triangle's outward plane are blocked by kernels/shadows/bitmask.cl's
+// bitmask_self, as the skipped far side would have blocked them.
 #include <algorithm>
 #include <array>
 #include <climits>
@@ -269,13 +265,13 @@ class BitmaskPass : public ShadowPass {
       const cl_uint z = 0;
       ctx.fill(masks, &z, 4, maskWords * 4, "bitmask masks");
       ctx.launchWith("bitmask/self", sk, cl::NDRange(npx, count), cl::NullRange, f.positions,
-                     f.triangles, orient, f.gids, f.lightBuffer, grids, cl_int(l0), slot, diskBuf_,
-                     cl_int(npx), masks, frameBuf);
+                     f.triangles, orient, f.gids, f.ggeo, f.lightBuffer, grids, cl_int(l0), slot,
+                     diskBuf_, cl_int(npx), masks, frameBuf);
       ctx.launchWith("bitmask/triangles", tk, cl::NDRange(f.triangleCount, kStripes, count),
                      cl::NullRange, f.positions, f.triangles, cl_int(f.triangleCount),
-                     f.lightBuffer, grids, cl_int(l0), counts, ends, lists, f.gpos, f.gids,
-                     cl_int(npx), lut_, diskBuf_, cl_int(kStripes), zfar, masks, orient,
-                     cl_float(rot), frameBuf);
+                     f.lightBuffer, grids, cl_int(l0), counts, ends, lists, f.gpos, cl_int(npx),
+                     lut_, diskBuf_, cl_int(kStripes), zfar, masks, orient, cl_float(rot),
+                     frameBuf);
       ctx.launchWith("bitmask/resolve", rk, cl::NDRange(npx, count), cl::NullRange, f.gnrm,
                      f.lightBuffer, grids, cl_int(l0), slot, diskBuf_, cl_int(npx), masks, f.vis,
                      weightBuf, frameBuf);

@@ -63,7 +63,9 @@ struct GBuffer {
   TextureId normal = 0;           ///< RGBA32F/RGBA16F: unit shading normal facing the camera
   TextureId albedo = 0;           ///< RGBA8, RGBA16F or RGBA32F: diffuse albedo in rgb
   TextureId geometricNormal = 0;  ///< optional, as `normal`; 0: the shading normal stands in (used
-                                  ///< by hard, PCSS and CSSM for receiver-plane tests)
+                                  ///< by hard, PCSS and CSSM for receiver-plane tests, and to lift
+                                  ///< positions off their surface where shadow tests start: README,
+                                  ///< "Where shadow tests start")
 };
 
 class Interop {
