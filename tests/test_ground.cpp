@@ -21,19 +21,23 @@ using namespace penumbra::test::dvec;
 
 namespace {
 
-// The ground of the synthetic frames: x in [-1.5, 1.5], z in [-1, 2], at y = 0.2.
+// The ground of the synthetic frames: x in [-1.5, 1.5], z in [-1, 2], at y = 0.2; positions
+// lifted 1e-3 along their geometric normals, as the G-buffer lifts them (GroundRect::lift).
 detail::GroundRect testGround() {
   detail::GroundRect g;
   g.present = true;
   g.plane = {0.2f, -1.5f, 1.5f, -1.0f, 2.0f};
   g.eps = 1e-5f;
+  g.lift = 1e-3f;
   return g;
 }
 
 // A synthetic frame: positions over and beyond the ground, a fifth of them on it, some background
-// pixels; random unit normals; lights from 40 degrees below to 40 above the horizontal with
-// half-angles of 3-40 degrees (most reach below it); random visibility.
+// pixels; random unit normals (shading and geometric alike), each position lifted along its normal
+// by the ground's `lift`; lights from 40 degrees below to 40 above the horizontal with half-angles
+// of 3-40 degrees (most reach below it); random visibility. onGround: the pixels on the ground.
 using Synthetic = SyntheticFrame;
+std::vector<char> onGroundOf;
 
 Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
   std::mt19937 rng(seed);
@@ -41,12 +45,18 @@ Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
   Synthetic s;
   s.w = w;
   s.h = h;
+  onGroundOf.clear();
+  const float lift = testGround().lift;
   for (int p = 0; p < w * h; ++p) {
     const bool background = u(rng) < 0.1f, onGround = u(rng) < 0.2f;
     const float y = onGround ? 0.2f : 0.2f + 1.5f * u(rng);
-    s.gpos.push_back({{4 * u(rng) - 2, y, 4 * u(rng) - 1.5f, background ? 0.0f : 1.0f}});
-    const std::array<float, 3> n = randomUnit(rng);
+    const float x = 4 * u(rng) - 2, z = 4 * u(rng) - 1.5f;
+    std::array<float, 3> n = randomUnit(rng);
+    if (onGround) n = {0.0f, n[1] < 0 ? -1.0f : 1.0f, 0.0f};  // the ground's, facing the camera
+    s.gpos.push_back({{x + lift * n[0], y + lift * n[1], z + lift * n[2],
+                       background ? 0.0f : 1.0f}});
     s.gnrm.push_back({{n[0], n[1], n[2], 0.0f}});
+    onGroundOf.push_back(onGround);
   }
   for (int l = 0; l < nl; ++l) {
     pb_light L{};
@@ -89,7 +99,8 @@ void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vecto
     const cl_float4& q = s.gpos[std::size_t(p)];
     if (q.s[3] == 0.0f) continue;
     const double h = double(q.s[1]) - g.y;
-    if (!(h > rect.eps)) continue;
+    // the surface point's own height: the position less its lift along the geometric normal
+    if (!(h - double(rect.lift) * s.gnrm[std::size_t(p)].s[1] > rect.eps)) continue;
     const D3 pos{q.s[0], q.s[1], q.s[2]};
     const D3 n{s.gnrm[std::size_t(p)].s[0], s.gnrm[std::size_t(p)].s[1],
                s.gnrm[std::size_t(p)].s[2]};
@@ -144,6 +155,7 @@ KernelRun runKernel(int w, int h, unsigned seed) {
   f.pixels = w * h;
   f.gpos = pool.upload("gpos", s.gpos);
   f.gnrm = pool.upload("gnrm", s.gnrm);
+  f.ggeo = f.gnrm;
   f.vis = pool.upload("vis", s.vis);
   f.ground = testGround();
   std::vector<cl_uchar> mask(s.lights.size(), 1);
@@ -161,7 +173,7 @@ KernelRun runKernel(int w, int h, unsigned seed) {
     if (vis[i] != s.vis[i]) {
       ++r.changed;
       r.maskedChanged += i / np == 2;
-      r.groundChanged += s.gpos[i % np].s[1] == 0.2f;
+      r.groundChanged += onGroundOf[i % np] != 0;
     }
   }
   return r;

@@ -36,19 +36,21 @@ static inline bool ground_hit(float px, float pz, float h, float dx, float dy, f
 // One work-item per pixel. dirs: for each of the ngl lights in glights (the lights whose cap
 // reaches below the horizontal, in increasing index), GR_DIRS + 1 float4: its axis (w: the
 // tangent of how far below the horizontal the cap reaches), then its GR_DIRS directions. rect:
-// (gy, x0, x1, z0); rect2: (z1, eps). mask: uchar per light, the lights whose visibility came
+// (gy, x0, x1, z0); rect2: (z1, eps, the G-buffer's lift, unused). mask: uchar per light, the lights whose visibility came
 // from a map (others are left alone). vis: float [light][pixel].
 kernel void ground_visibility(global const float4* gpos, global const float4* gnrm,
-                              global const float4* dirs, global const int* glights, int ngl,
-                              int npixels, float4 rect, float2 rect2, global const uchar* mask,
-                              global float* vis) {
+                              global const float4* ggeo, global const float4* dirs,
+                              global const int* glights, int ngl, int npixels, float4 rect,
+                              float4 rect2, global const uchar* mask, global float* vis) {
   const int px = get_global_id(0);
   if (px >= npixels) return;
   const float4 p = gpos[px];
   if (p.w == 0.0f) return;
   const float gy = rect.x, x0 = rect.y, x1 = rect.z, z0 = rect.w, z1 = rect2.x, eps = rect2.y;
   const float h = p.y - gy;
-  if (!(h > eps)) return;
+  // The surface point's own height (the G-buffer lifted it by rect2.z along its geometric normal,
+  // where its shadow rays start): the ground's pixels stand on it, whatever the lift.
+  if (!(h - rect2.z * ggeo[px].y > eps)) return;
   const float3 n = gnrm[px].xyz;
   // the horizontal distance from p to the rectangle's farthest corner: a ray whose slope below
   // the horizontal is under h / reach meets the plane beyond every point of the rectangle

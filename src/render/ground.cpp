@@ -9,6 +9,7 @@
 #include <string>
 
 #include "lights/sampling.hpp"
+#include "scene/shadow_offset.hpp"
 
 namespace penumbra::detail {
 
@@ -20,6 +21,7 @@ GroundRect groundRect(const std::optional<GroundPlane>& ground, const Bounds& bo
   g.present = true;
   g.plane = *ground;
   g.eps = float(1e-5 * size);
+  g.lift = shadowRayOffset(bounds.lo.data(), bounds.hi.data());
   return g;
 }
 
@@ -66,10 +68,10 @@ int GroundOcclusion::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
   cl::Kernel k =
       f.ctx.kernel("ground.cl", "ground_visibility", "-DGR_DIRS=" + std::to_string(kGroundDirs));
   const cl_float4 rect{{g.y, g.x0, g.x1, g.z0}};
-  const cl_float2 rect2{{g.z1, f.ground.eps}};
+  const cl_float4 rect2{{g.z1, f.ground.eps, f.ground.lift, 0.0f}};
   f.ctx.launchWith("ground", k, cl::NDRange(std::size_t(f.pixels)), cl::NullRange, f.gpos, f.gnrm,
-                   dirsB_, indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect, rect2,
-                   lightMask, f.vis);
+                   f.ggeo, dirsB_, indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect,
+                   rect2, lightMask, f.vis);
   return int(indices.size());
 }
 

@@ -59,7 +59,9 @@ class DepthRasterizer {
 struct GroundRect {
   bool present = false;
   GroundPlane plane;
-  float eps = 0;  // heights above plane.y up to eps count as on the ground
+  float eps = 0;   // heights above plane.y up to eps count as on the ground
+  float lift = 0;  // the G-buffer's shadow offset (scene/shadow_offset.hpp): a position is the
+                   // surface point moved by lift along its geometric normal
 };
 
 // One frame as a technique sees it. The four references are what every frame has; the rest is
