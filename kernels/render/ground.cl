@@ -36,8 +36,8 @@ static inline bool ground_hit(float px, float pz, float h, float dx, float dy, f
 // One work-item per pixel. dirs: for each of the ngl lights in glights (the lights whose cap
 // reaches below the horizontal, in increasing index), GR_DIRS + 1 float4: its axis (w: the
 // tangent of how far below the horizontal the cap reaches), then its GR_DIRS directions. rect:
-// (gy, x0, x1, z0); rect2: (z1, eps, the G-buffer's lift, unused). mask: uchar per light, the lights whose visibility came
-// from a map (others are left alone). vis: float [light][pixel].
+// (gy, x0, x1, z0); rect2: (z1, eps, the G-buffer's lift, unused). mask: uchar per light, the
+// lights whose visibility came from a map (others are left alone). vis: float [light][pixel].
 kernel void ground_visibility(global const float4* gpos, global const float4* gnrm,
                               global const float4* ggeo, global const float4* dirs,
                               global const int* glights, int ngl, int npixels, float4 rect,

@@ -6,10 +6,13 @@
 // Why an offset at all. Smooth-shaded meshes shade with interpolated vertex normals n_s, while
 // shadows are cast by the flat triangles. Near the terminator a point can face the light by n_s
 // (lit by the shading) while its own triangle faces away by the geometric normal n_g
-// (n_s.w > 0 > n_g.w): a ray towards the light then leaves below the triangle's plane and runs
-// into the neighbouring triangles of the same convex surface within a fraction of a triangle,
-// and the pixel turns black inside a lit area (the "shadow terminator" problem). Lifting the
-// origin clears those grazing neighbours as a real, curved surface would not block the light.
+// (n_s.w > 0 > n_g.w): a ray towards the light then leaves below the triangle's plane and, from
+// the surface itself, runs into the neighbouring triangles of the same convex surface within a
+// fraction of a triangle, and the pixel turns black inside a lit area (the "shadow terminator"
+// problem). From the lifted origin the ray still meets its own triangle where it crosses it, but
+// near the triangle's edges it passes over the neighbours, where the facets stray most from the
+// smooth surface; the reference has always started its rays there, and the renderer now does
+// too (bench/results/accuracy.md, "The shadow terminator").
 #pragma once
 #include <algorithm>
 #include <cmath>
