@@ -151,12 +151,13 @@ Frame Renderer::render(const Scene& scene, const Camera& camera, const LightSet&
 
   // scene, camera and lights on the device
   m.scene.update(scene);
-  const detail::LightFrames lf = detail::lightFrames(lightSet, scene.bounds(), opt.shadowMapSize);
+  // the scene's box, walked once: the light frames fit it, the shadow offset scales with it
+  const Bounds box = scene.bounds();
+  const detail::LightFrames lf = detail::lightFrames(lightSet, box, opt.shadowMapSize);
   cl::Buffer camB = m.pool.upload("camera", std::vector<pb_view>{cameraView(camera, W, H)});
   cl::Buffer lightB = m.pool.upload("lights", lf.lights);
   // camera G-buffer
   m.raster.setFrame(m.scene, opt.shadowMapSize, opt.frontBackFaces);
-  const Bounds box = scene.bounds();
   const detail::DeviceGBuffer g =
       m.raster.gbuffer(camB, W, H, detail::shadowRayOffset(box.lo.data(), box.hi.data()));
   // bent normals, shadow maps and visibility
