@@ -15,6 +15,8 @@
 //   visibility_Mpairs_s    pixel-light pairs a second in mssm4/visibility;
 //   raster_Mtexels_s       shadow-map texels a second in shadow-maps/raster;
 //   shade_Mpairs_s         pixel-light pairs a second in shade;
+//   contact_maps_Mpairs_s  pixel-light pairs a second in contact-shadows/maps (contact shadows
+//                          from the lights' side: every pair is screened, few are ray-tested);
 //   vs_per_pixel           the frame's time over the same frame with PENUMBRA_CPU_BATCHING=off
 //                          (the kernels GPUs run, one pixel per work-item), in the same run: what
 //                          the CPU forms of the kernels gain (1 on a GPU, where both are the same).
@@ -135,6 +137,8 @@ void runFrames(benchmark::State& state, ShadowTechnique technique, int lights, i
     state.counters["raster_Mtexels_s"] =
         double(lights) * mapSize * mapSize / (stageMs("shadow-maps/raster") * 1e3);
   if (stageMs("shade") > 0) state.counters["shade_Mpairs_s"] = pairs / (stageMs("shade") * 1e3);
+  if (stageMs("contact-shadows/maps") > 0)
+    state.counters["contact_maps_Mpairs_s"] = pairs / (stageMs("contact-shadows/maps") * 1e3);
 }
 
 // PENUMBRA_CPU_BATCHING=off for the scope; the caller's value (or its absence) after.

@@ -495,6 +495,9 @@ TEST_F(CliParams, ContactTexelsZero) { expectBad({"--contact-texels", "0"}, "--c
 TEST_F(CliParams, ContactTexelsWithoutContactShadows) {
   expectBad({"--contact-texels", "4", "--no-contact-shadows"}, "--contact-texels");
 }
+TEST_F(CliParams, ContactMapsWithoutContactShadows) {
+  expectBad({"--no-contact-maps", "--no-contact-shadows"}, "--no-contact-maps");
+}
 TEST_F(CliParams, UnknownCommand) { expectFailure({"frobnicate"}, {"frobnicate"}); }
 TEST_F(CliParams, UnknownDevice) {
   expectFailure({"render", "--size", "16x9", "--out", path("out.png"), "--device",

@@ -322,6 +322,26 @@ TEST_F(CliRenderOptions, NoContactShadowsTurnsThemOff) {
   EXPECT_EQ(darker, 0);
 }
 
+// Contact shadows from the lights' side (on with contact shadows) only darken too:
+// --no-contact-maps gives a frame at least as bright everywhere and different, and the report says
+// which ran; the screen-space rays stay.
+TEST_F(CliRenderOptions, NoContactMapsTurnsThemOff) {
+  const Rendered off = render("nocontactmaps", {"--shadows", "mssm4", "--no-contact-maps"});
+  ASSERT_FALSE(off.image.empty());
+  EXPECT_EQ(off.report["shadow"]["contact_maps"].get<bool>(), false);
+  EXPECT_EQ(off.report["shadow"]["contact_shadows"].get<bool>(), true);
+  EXPECT_EQ(mssm4().report["shadow"]["contact_maps"].get<bool>(), true);
+  const double d = rel(off.image, mssm4().image);
+  RecordProperty("contact_maps_change", std::to_string(d));
+  std::printf("[ penumbra ] --no-contact-maps changes the frame by %g\n", d);
+  EXPECT_GT(d, 1e-3);  // measured 0.0136
+  ASSERT_EQ(off.image.pixels.size(), mssm4().image.pixels.size());
+  int darker = 0;
+  for (std::size_t i = 0; i < off.image.pixels.size(); ++i)
+    darker += off.image.pixels[i] < mssm4().image.pixels[i];
+  EXPECT_EQ(darker, 0);
+}
+
 // The cosine-weighted light and the leak reduction (both on by default, MSSM4): each flag turns its
 // own one off, the report says so, and each changes the frame; --leak-reduction outside [0, 1) is
 // refused with the option's name, before any work; hard shadows read neither.

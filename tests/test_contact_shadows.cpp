@@ -1,13 +1,16 @@
-// Contact shadows (ShadowOptions::contactShadows, kernels/render/contact.cl): the kernel against a
-// plain C++ loop on awkward image sizes, the leak at a contact that a large depth bias opens and
-// contact shadows close (with its negative control), open ground left exactly as the technique
-// made it, which techniques get them, the option's checks, and the kernel under oclgrind.
+// Contact shadows (ShadowOptions::contactShadows, kernels/render/contact.cl): both kernels (the
+// camera's triangles, contact_shadows; the lights' maps, contact_map) against plain C++ loops on
+// awkward image sizes, the leak at a contact that a large depth bias opens and contact shadows
+// close (with its negative control), an occluder off screen that only the lights' maps find
+// (with its), open ground left exactly as the technique made it, which techniques get them, the
+// option's checks, and the kernels under oclgrind.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -15,6 +18,7 @@
 #include "common.hpp"
 #include "render/contact.hpp"
 #include "support/planar_penumbra.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -151,7 +155,7 @@ void reference(const Synthetic& s, float texels, int mapSize, bool maskLight2,
 // that differ from the reference where the reference is clear, and the number of entries the
 // kernel set to 0, in all and in light 2.
 struct KernelRun {
-  int mismatches = 0, zeroed = 0, zeroedLight2 = 0;
+  int mismatches = 0, zeroed = 0, zeroedLight2 = 0, close = 0, entries = 0;
 };
 KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
   const Synthetic s = synthetic(w, h, seed);
@@ -218,6 +222,245 @@ TEST(OclgrindContact, Kernel) {
   const KernelRun r = runKernel(9, 7, 5u);
   EXPECT_EQ(r.mismatches, 0);
   EXPECT_GT(r.zeroed, 0);
+}
+
+namespace {
+
+D3 scaled(D3 a, double k) { return {a[0] * k, a[1] * k, a[2] * k}; }
+D3 added(D3 a, D3 b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+D3 normalized(D3 a) { return scaled(a, 1.0 / std::sqrt(dot(a, a))); }
+
+// Two-sided ray-triangle in double: the distance along d (or +inf), the barycentric margin (how
+// far inside the triangle, < 0 outside) and whether the ray is (near) parallel to it.
+struct TriHit {
+  double t = INFINITY, margin = -1;
+  bool parallel = false;
+};
+TriHit rayTriangle(D3 o, D3 d, D3 a, D3 b, D3 c) {
+  TriHit h;
+  const D3 e1 = sub(b, a), e2 = sub(c, a), pv = cross(d, e2);
+  const double det = dot(e1, pv);
+  if (std::fabs(det) < 1e-9) {
+    h.parallel = std::fabs(det) > 0;
+    return h;
+  }
+  const D3 sv = sub(o, a), q = cross(sv, e1);
+  const double bu = dot(sv, pv) / det, bv = dot(d, q) / det;
+  h.t = dot(e2, q) / det;
+  h.margin = std::min({bu, bv, 1 - bu - bv});
+  return h;
+}
+
+// contact_map's frame: the synthetic frame's triangles, pixels and visibility; shading normals
+// tilted off the geometric ones (so that some light centres fall between the two horizons); and
+// light frames whose maps are drawn here as the rasterizer keeps them: each texel's ray along
+// -w from the light's near plane, the nearest triangle (either side; the least index at equal
+// distance) and its distance, PB_DEPTH_EMPTY / PB_ID_EMPTY where none.
+struct MapFrame {
+  Synthetic s;
+  std::vector<cl_float4> gnrm;
+  int S = 16;
+  std::vector<cl_uint> depth, ids;  // [light][row][column]
+};
+
+MapFrame mapFrame(int w, int h, unsigned seed) {
+  MapFrame m{synthetic(w, h, seed), {}, 16, {}, {}};
+  std::mt19937 rng(seed + 7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  // positions off their triangle along the camera-facing normal, as the renderer's G-buffer
+  // lifts them (scene/shadow_offset.hpp)
+  for (std::size_t p = 0; p < m.s.gpos.size(); ++p)
+    for (int k = 0; k < 3; ++k) m.s.gpos[p].s[k] += 2e-3f * m.s.ggeo[p].s[k];
+  for (const cl_float4& g : m.s.ggeo) {
+    const D3 ng = d3(g);
+    D3 n = normalized(added(ng, {0.6 * u(rng), 0.6 * u(rng), 0.6 * u(rng)}));
+    if (dot(n, ng) < 0.3) n = ng;
+    m.gnrm.push_back({{float(n[0]), float(n[1]), float(n[2]), 0.0f}});
+  }
+  const int S = m.S;
+  for (pb_light& L : m.s.lights) {
+    const D3 w{L.dir[0], L.dir[1], L.dir[2]};
+    const D3 ex = normalized(cross(w, std::fabs(w[1]) < 0.9 ? D3{0, 1, 0} : D3{1, 0, 0}));
+    const D3 ey = cross(ex, w);
+    const D3 org = added({0.5, 0.5, 0.5}, scaled(w, 2.0));
+    for (int k = 0; k < 3; ++k) {
+      L.ex[k] = float(ex[k]);
+      L.ey[k] = float(ey[k]);
+      L.origin[k] = float(org[k]);
+    }
+    L.origin[3] = 4.0f;  // the depth range (read by the map techniques, not here)
+    for (int cy = 0; cy < S; ++cy)
+      for (int cx = 0; cx < S; ++cx) {
+        const double xc = ((cx + 0.5) * 2.0 / S - 1.0) * L.ex[3];
+        const double yc = (1.0 - (cy + 0.5) * 2.0 / S) * L.ey[3];
+        const D3 o = added(org, added(scaled(ex, xc), scaled(ey, yc)));
+        double best = INFINITY;
+        cl_uint id = PB_ID_EMPTY;
+        for (std::size_t t = 0; t < m.s.tris.size(); ++t) {
+          const cl_int4 tr = m.s.tris[t];
+          const TriHit hit = rayTriangle(o, scaled(w, -1.0), d3(m.s.pos[tr.s[0]]),
+                                         d3(m.s.pos[tr.s[1]]), d3(m.s.pos[tr.s[2]]));
+          if (hit.margin >= 0 && hit.t > 0 && hit.t < best) {
+            best = hit.t;
+            id = cl_uint(t);
+          }
+        }
+        const float f = float(best);
+        cl_uint bits = PB_DEPTH_EMPTY;
+        if (id != PB_ID_EMPTY) std::memcpy(&bits, &f, 4);
+        m.depth.push_back(bits);
+        m.ids.push_back(id);
+      }
+  }
+  return m;
+}
+
+// contact_map's rule in double precision (contact.cl says why each part): the expected buffer
+// and, per entry, whether it is too close to call (p on a texel's edge, a comparison within 1e-5,
+// a horizon within 1e-6, a hit within 1e-4 of a triangle's edge or of the ray's end).
+void mapReference(const MapFrame& m, float texels, bool maskLight2, std::vector<float>& out,
+                  std::vector<char>& close) {
+  const Synthetic& s = m.s;
+  out = s.vis;
+  close.assign(s.vis.size(), 0);
+  const int np = s.w * s.h, S = m.S;
+  for (int p = 0; p < np; ++p) {
+    if (s.gpos[p].s[3] == 0) continue;
+    const D3 P = d3(s.gpos[p]), ng = d3(s.ggeo[p]), ns = d3(m.gnrm[p]);
+    const cl_uint own = s.ids[p];
+    const double lift = 4e-7 * (std::fabs(P[0]) + std::fabs(P[1]) + std::fabs(P[2]));
+    for (std::size_t l = 0; l < s.lights.size(); ++l) {
+      const std::size_t vi = l * np + p;
+      if ((maskLight2 && l == 2) || s.vis[vi] == 0) continue;
+      const pb_light& L = s.lights[l];
+      const D3 w{L.dir[0], L.dir[1], L.dir[2]}, ex{L.ex[0], L.ex[1], L.ex[2]},
+          ey{L.ey[0], L.ey[1], L.ey[2]}, r = sub(P, {L.origin[0], L.origin[1], L.origin[2]});
+      const double c = dot(ng, w), cs = dot(ns, w);
+      const double xp = dot(r, ex), yp = dot(r, ey), tp = -dot(r, w);
+      const double sx = 0.5 * S / L.ex[3], sy = 0.5 * S / L.ey[3];
+      const double u = xp * sx + 0.5 * S, v = 0.5 * S - yp * sy;
+      bool near = std::fabs(u - std::round(u)) < 1e-4 || std::fabs(v - std::round(v)) < 1e-4;
+      const int cx = std::clamp(int(std::floor(u)), 0, S - 1);
+      const int cy = std::clamp(int(std::floor(v)), 0, S - 1);
+      const double dx = (cx + 0.5 - u) / sx, dy = (v - cy - 0.5) / sy;
+      const std::size_t ti = (l * S + cy) * S + cx;
+      float tmf;
+      std::memcpy(&tmf, &m.depth[ti], 4);
+      const double tm = tmf;
+      const double texel = 2.0 * std::max(L.ex[3], L.ey[3]) / S, len = texels * texel;
+      const double tol = 1e-3 * texel;
+      const double lhs = (tm - tp + tol) * c, rhs = dx * dot(ng, ex) + dy * dot(ng, ey);
+      const bool up = c > 0 && lhs < rhs && tm >= tp - len;
+      const bool down = c <= 0 && cs > 0;
+      if (c > 0 && std::isfinite(tm))
+        near = near || std::fabs(lhs - rhs) < 1e-5 || std::fabs(tm - (tp - len)) < 1e-5;
+      near = near || std::fabs(c) < 1e-6 || (c <= 0 && std::fabs(cs) < 1e-6);
+      close[vi] = near;
+      if (!up && !down) continue;
+      const cl_uint id = m.ids[ti];
+      std::vector<cl_uint> tested;
+      if (down && own != PB_ID_EMPTY) tested.push_back(own);
+      if (id != PB_ID_EMPTY && id != own) tested.push_back(id);
+      const D3 o = up ? added(P, scaled(ng, std::max(1e-3 * texel, 2 * lift))) : P;
+      bool hit = false;
+      for (cl_uint t : tested) {
+        const cl_int4 tr = s.tris[t];
+        const TriHit th = rayTriangle(o, w, d3(s.pos[tr.s[0]]), d3(s.pos[tr.s[1]]),
+                                      d3(s.pos[tr.s[2]]));
+        if (th.parallel) close[vi] = 1;
+        if (std::fabs(th.margin) < 1e-4 && th.t > 0 && th.t < len * (1 + 1e-4)) close[vi] = 1;
+        if (th.margin >= 0 && std::fabs(th.t - len) < 1e-4 * len) close[vi] = 1;
+        if (th.margin >= 0 && std::fabs(th.t) < 1e-5) close[vi] = 1;  // starts on it
+        hit = hit || (th.margin >= 0 && th.t > 0 && th.t < len);
+      }
+      if (hit) out[vi] = 0;
+    }
+  }
+}
+
+// tiles: the CPU form (8 x 8 pixels a work-item, PENUMBRA_CPU_BATCHING=on) or a pixel a
+// work-item (=off), whatever the device.
+KernelRun runMapKernel(int w, int h, unsigned seed, bool tiles, bool maskLight2 = true) {
+  const MapFrame m = mapFrame(w, h, seed);
+  const Synthetic& s = m.s;
+  const float texels = 2.0f;
+  RenderOptions ro;
+  ro.shadow.contactTexels = texels;
+  detail::BufferPool pool(ctx());
+  detail::ShadowFrame f(ctx(), pool, ro, s.lights);
+  f.width = w;
+  f.height = h;
+  f.pixels = w * h;
+  f.mapSize = m.S;
+  f.lightBuffer = pool.upload("lights", s.lights);
+  f.gpos = pool.upload("gpos", s.gpos);
+  f.gnrm = pool.upload("gnrm", m.gnrm);
+  f.ggeo = pool.upload("ggeo", s.ggeo);
+  f.gids = pool.upload("ids", s.ids);
+  f.positions = pool.upload("positions", s.pos);
+  f.triangles = pool.upload("triangles", s.tris);
+  f.triangleCount = int(s.tris.size());
+  f.depth = pool.upload("depth", m.depth);
+  f.mapIds = pool.upload("map ids", m.ids);
+  f.vis = pool.upload("vis", s.vis);
+  std::vector<cl_uchar> mask(s.lights.size(), 1);
+  if (maskLight2) mask[2] = 0;
+  {
+    const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(tiles ? "on" : "off"));
+    detail::contactFromMaps(f, pool.upload("mask", mask));
+  }
+  const std::vector<float> got = ctx().download<float>(f.vis, s.vis.size(), "vis");
+  std::vector<float> want;
+  std::vector<char> close;
+  mapReference(m, texels, maskLight2, want, close);
+  KernelRun r;
+  const std::size_t np = std::size_t(w) * h;
+  r.entries = int(got.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    r.close += close[i];
+    if (!close[i] && got[i] != want[i]) ++r.mismatches;
+    const bool z = got[i] == 0 && s.vis[i] != 0;
+    r.zeroed += z;
+    r.zeroedLight2 += z && i / np == 2;
+  }
+  return r;
+}
+
+}  // namespace
+
+// contact_map (contact shadows from the lights' side) against the plain C++ rule: 1x1, a row, a
+// column, odd sizes, and one of several 8 x 8 tiles with partial ones at its edges, 5 lights each,
+// light 2 masked off and then not; in tiles (the CPU form) and a pixel a work-item.
+TEST(ContactShadows, MapKernelMatchesHostReference) {
+  int zeroed = 0, zeroedLight2 = 0, close = 0, entries = 0;
+  for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {1, 9}, {9, 1}, {7, 5}, {67, 33}}) {
+    const KernelRun masked = runMapKernel(w, h, unsigned(w * 71 + h), true);
+    close += masked.close;
+    entries += masked.entries;
+    EXPECT_EQ(masked.mismatches, 0) << w << "x" << h;
+    EXPECT_EQ(masked.zeroedLight2, 0) << w << "x" << h;
+    const KernelRun all = runMapKernel(w, h, unsigned(w * 71 + h), true, false);
+    EXPECT_EQ(all.mismatches, 0) << w << "x" << h;
+    const KernelRun single = runMapKernel(w, h, unsigned(w * 71 + h), false);
+    EXPECT_EQ(single.mismatches, 0) << w << "x" << h << ", a pixel a work-item";
+    EXPECT_EQ(single.zeroed, masked.zeroed) << w << "x" << h << ", a pixel a work-item";
+    zeroed += masked.zeroed;
+    zeroedLight2 += all.zeroedLight2;
+  }
+  std::printf("[ penumbra ] contact_map set %d entries to 0 (light 2 unmasked: %d); %d of %d "
+              "too close to call\n", zeroed, zeroedLight2, close, entries);
+  // Measured: 339 entries set to 0 (85 of light 2 unmasked), 5 of 11,325 too close to call.
+  EXPECT_GT(zeroed, 150);
+  EXPECT_LT(close, entries / 100);
+  EXPECT_GT(zeroedLight2, 5);
+}
+
+TEST(OclgrindContact, MapKernel) {
+  for (bool tiles : {true, false}) {
+    const KernelRun r = runMapKernel(9, 7, 5u, tiles);
+    EXPECT_EQ(r.mismatches, 0) << tiles;
+    EXPECT_GT(r.zeroed, 0) << tiles;
+  }
 }
 
 namespace {
@@ -292,6 +535,85 @@ TEST(ContactShadows, CloseTheLeakAtAContact) {
     const ContactRegions on = contactScene(t, true, 0.05f);
     ASSERT_GE(on.umbra, 20) << toString(t);
     ASSERT_GT(on.lit, 10000) << toString(t);
+    EXPECT_GT(off.umbraMax, 0.5) << toString(t);
+    EXPECT_LE(on.umbraMax, 0.05) << toString(t);
+    EXPECT_EQ(on.litMean, off.litMean) << toString(t);
+    ASSERT_EQ(on.visibility.size(), off.visibility.size());
+    int lighter = 0;
+    for (std::size_t i = 0; i < on.visibility.size(); ++i)
+      lighter += on.visibility[i] > off.visibility[i];
+    EXPECT_EQ(lighter, 0) << toString(t);
+  }
+}
+
+namespace {
+
+// The wall again, 0.3 high and 0.5 wide, with the camera framed so that the top edge of the image
+// meets the ground at x = 0.503: the wall is off screen (above that edge's plane everywhere), and
+// the ground at its foot, in its umbra, is the top rows of the image. With the depth bias of 0.05
+// the maps leak there, and the camera sees no triangle within 2 pixels that could block: only the
+// lights' maps, which see the wall, can close it.
+struct OffScreenRegions {
+  double umbraMax = 0, litMean = 0;
+  int umbra = 0, lit = 0;
+  std::vector<float> visibility;
+};
+
+OffScreenRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
+  PlanarPenumbra s;
+  s.blockers.clear();
+  Mesh m;
+  m.name = "short wall";
+  m.positions = {{0.5f, 0, -0.25f}, {0.5f, 0, 0.25f}, {0.5f, 0.3f, 0.25f}, {0.5f, 0.3f, -0.25f}};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}};
+  s.extraMeshes = {m};
+  const float c = float(std::sqrt(0.5));
+  s.light.direction = {-c, c, 0};
+  s.light.cosAlpha = float(std::cos(20.0 * M_PI / 180));
+  s.light.radiance = {1, 1, 1};
+  // eye 0.8 above the ground at x = 1.4; the top edge 41.73 degrees below the horizontal (ground
+  // at x = 1.4 - 0.8 / tan 41.73 = 0.503), the centre 20 degrees lower
+  const double top = std::atan2(0.8, 1.4 - 0.503), mid = top + 20.0 * M_PI / 180;
+  s.eye = {1.4f, 0.8f, 0.0f};
+  s.target = {float(1.4 - 0.8 / std::tan(mid)), 0.0f, 0.0f};
+  s.fovyDeg = 40;
+  s.imageWidth = 256;
+  s.imageHeight = 192;
+  RenderOptions ro;
+  ro.shadows = t;
+  ro.shadow.depthBias = 0.05f;
+  ro.shadow.contactFromMaps = fromMaps;
+  PlanarFrame f = renderPlanar(s, ro);
+  OffScreenRegions r;
+  for (const ReceiverPixel& p : f.receivers) {
+    if (p.x < 0.5) ADD_FAILURE() << "the ground behind the wall is on screen: x " << p.x;
+    if (p.x > 0.505 && p.x < 0.53 && std::fabs(p.z) < 0.15) {
+      r.umbraMax = std::max(r.umbraMax, p.vis);
+      ++r.umbra;
+    } else if (p.x > 1.05 || std::fabs(p.z) > 0.6) {  // beyond the shadow and its penumbra
+      r.litMean += p.vis;
+      ++r.lit;
+    }
+  }
+  r.litMean /= std::max(r.lit, 1);
+  r.visibility = f.visibility;
+  std::printf("[ penumbra ] off-screen wall, %s, from maps %s: umbra at the contact max V %.4f "
+              "over %d pixels; open ground mean V %.4f over %d\n",
+              toString(t), fromMaps ? "on" : "off", r.umbraMax, r.umbra, r.litMean, r.lit);
+  return r;
+}
+
+}  // namespace
+
+// An occluder the camera does not see: without the lights' maps the contact is lit (the negative
+// control: the screen-space rays find nothing), with them it is dark; nothing gets lighter, and
+// the open ground keeps its bits.
+TEST(ContactShadows, MapsFindOccludersOffScreen) {
+  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4}) {
+    const OffScreenRegions off = offScreenWall(t, false);
+    const OffScreenRegions on = offScreenWall(t, true);
+    ASSERT_GE(on.umbra, 100) << toString(t);
+    ASSERT_GT(on.lit, 1000) << toString(t);
     EXPECT_GT(off.umbraMax, 0.5) << toString(t);
     EXPECT_LE(on.umbraMax, 0.05) << toString(t);
     EXPECT_EQ(on.litMean, off.litMean) << toString(t);

@@ -345,17 +345,20 @@ TEST(Raster, GBufferPositionsSitTheShadowOffsetOffTheSurface) {
 namespace {
 
 // Depth of `nv` views (vb, n texels in all) by raster_views, the CPU form with one work-item per
-// view, with face culling `cull`.
+// view, with face culling `cull`; with `ids`, the triangle ids kept with the depth too (the
+// shadow maps of contact shadows from the lights' side).
 std::vector<cl_uint> rasterViews(const detail::DeviceScene& ds, const cl::Buffer& vb, int nv,
-                                 std::size_t n, int cull) {
+                                 std::size_t n, int cull, std::vector<cl_uint>* ids = nullptr) {
   cl::Kernel k = ctx().kernel("raster.cl", "raster_views",
                               "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx()));
-  cl::Buffer d = ctx().buffer(n * 4, "test depth");
-  const cl_uint emptyDepth = PB_DEPTH_EMPTY;
+  cl::Buffer d = ctx().buffer(n * 4, "test depth"), id = ctx().buffer(n * 4, "test ids");
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
   ctx().fill(d, &emptyDepth, 4, n * 4, "test depth");
+  ctx().fill(id, &emptyId, 4, n * 4, "test ids");
   ctx().launchWith("test/raster", k, cl::NDRange(nv), cl::NDRange(1), ds.positionBuffer(),
                    ds.triangleBuffer(), cl_int(ds.triangleCount()), vb, cl_int(nv), d,
-                   cl_int(cull));
+                   cl_int(cull), id, cl_int(ids ? 1 : 0));
+  if (ids) *ids = ctx().download<cl_uint>(id, n, "test ids");
   return ctx().download<cl_uint>(d, n, "test depth");
 }
 
@@ -425,6 +428,19 @@ TEST(Raster, RowSpansChangeNoPixel) {
       const std::vector<cl_uint> owned = rasterViews(ds, vb, 1, n, 0);
       SCOPED_TRACE(std::to_string(v.w) + "x" + std::to_string(v.h) + (v.ortho ? " ortho" : " camera"));
       EXPECT_EQ(owned, depth[2]) << "raster_views";
+      // raster_views keeping ids with the depth (one pass, SIMD rows for orthographic views):
+      // the same depths, and the ids of the two-pass kernels (the least index at the nearest
+      // depth) wherever its depth is theirs to the bit
+      std::vector<cl_uint> ownedIds;
+      EXPECT_EQ(rasterViews(ds, vb, 1, n, 0, &ownedIds), depth[2]) << "raster_views with ids";
+      std::size_t idMismatch = 0, idCompared = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        if (owned[i] == depth[1][i]) {
+          ++idCompared;
+          idMismatch += ownedIds[i] != ids[1][i];
+        }
+      EXPECT_EQ(idMismatch, 0u) << "raster_views with ids";
+      if (pocl) EXPECT_EQ(idCompared, n);
       EXPECT_EQ(depth[0], depth[1]);
       EXPECT_EQ(ids[0], ids[1]);
       if (pocl) {

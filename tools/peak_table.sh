@@ -6,7 +6,10 @@
 # OUT/truths. Writes OUT/PAIR.CONFIG.json (penumbra evaluate --json) and OUT/table.md.
 # Usage: tools/peak_table.sh PENUMBRA DATA_DIR OUT [SPP] [NEW_OPTIONS] [OLD_OPTIONS]
 # (NEW_OPTIONS default: none, today's defaults; OLD_OPTIONS: both turned off. Committed:
-# bench/results/accuracy/peaks, SPP 8192.)
+# bench/results/accuracy/peaks, SPP 8192.) Another comparison names its two settings in
+# OLD_LABEL and NEW_LABEL (the table's column heads; defaults: the bright sources'), e.g.
+# OLD_LABEL="contact maps off" NEW_LABEL="contact maps on" tools/peak_table.sh P D OUT 8192 ""
+# "--no-contact-maps".
 set -euo pipefail
 P=$1; D=$2; OUT=$3; SPP=${4:-8192}
 NEW=${5:-}
@@ -20,15 +23,16 @@ CONFIGS=(
   "hardold|--shadows hard $OLD"
   "hard|--shadows hard $NEW")
 evaluate_pairs "$P" "$SPP" "$OUT"
+OLD_LABEL=${OLD_LABEL:-median cut alone} NEW_LABEL=${NEW_LABEL:-bright sources apart} \
 /usr/bin/python3 - "$OUT" "${PAIRS[@]}" <<'PY'
-import json, statistics, sys
+import json, os, statistics, sys
 out, pairs = sys.argv[1], sys.argv[2:]
+old, new = os.environ["OLD_LABEL"], os.environ["NEW_LABEL"]
 names = ["old", "default", "hardold", "hard"]
-heads = ["median cut alone", "**bright sources apart**", "hard-64, median cut alone",
-         "hard-64, bright sources apart"]
+heads = [old, f"**{new}**", f"hard-64, {old}", f"hard-64, {new}"]
 def get(p, n):
     return json.load(open(f"{out}/{p}.{n}.json"))
-lines = ["| pair | truth noise | floor, median cut alone | floor, bright sources apart | "
+lines = [f"| pair | truth noise | floor, {old} | floor, {new} | "
          + " | ".join(heads) + " |",
          "| --- | --- | --- | --- | " + " | ".join("---" for _ in names) + " |"]
 for p in pairs:

@@ -53,6 +53,9 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.flag(app, "--no-contact-shadows", "no contact shadows (exact rays towards each light "
            "against the triangles seen around the pixel, for techniques that read shadow maps; "
            "README \"Contact shadows\"); on by default", S, {"RenderOptions.shadow.contactShadows"});
+  reg.flag(app, "--no-contact-maps", "contact shadows test only the triangles the camera sees, "
+           "not those each light's map sees at the pixel (README \"Contact shadows\"); on by "
+           "default", S, {"RenderOptions.shadow.contactFromMaps"});
   reg.real(app, "--contact-texels", "contact shadows: ray length in texels of each light's map",
            any, num(R.shadow.contactTexels), S, {"RenderOptions.shadow.contactTexels"});
   reg.flag(app, "--no-horizon-visibility", "lights whose centre is below a pixel's horizon keep "
@@ -171,8 +174,10 @@ RenderOptions parseRenderOptions(const Args& a) {
   if (a.has("max-filter")) ro.shadow.maxFilterTexels = float(a.real("max-filter"));
   if (a.has("no-contact-shadows")) {
     if (a.has("contact-texels")) badInput("--contact-texels needs contact shadows (drop --no-contact-shadows)");
+    if (a.has("no-contact-maps")) badInput("--no-contact-maps needs contact shadows (drop --no-contact-shadows)");
     ro.shadow.contactShadows = false;
   }
+  if (a.has("no-contact-maps")) ro.shadow.contactFromMaps = false;
   if (a.has("contact-texels")) ro.shadow.contactTexels = float(a.real("contact-texels"));
   if (a.has("no-horizon-visibility")) ro.shadow.horizonVisibility = false;
   if (a.has("no-ground-visibility")) ro.shadow.groundVisibility = false;
@@ -180,6 +185,7 @@ RenderOptions parseRenderOptions(const Args& a) {
   // "Contact shadows"): off, so that the report says what the frame had.
   if (a.has("gl")) {
     if (a.has("contact-texels")) badInput("--contact-texels does not work with --gl (no triangles on the OpenCL side)");
+    if (a.has("no-contact-maps")) badInput("--no-contact-maps does not work with --gl (no contact shadows there)");
     ro.shadow.contactShadows = false;
   }
   return ro;

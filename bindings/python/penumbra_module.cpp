@@ -1165,6 +1165,11 @@ PYBIND11_MODULE(_penumbra, m) {
                      withDefault("Contact shadows for techniques that read shadow maps: exact "
                                  "rays towards each light against the triangles seen within 2 "
                                  "pixels.", R.shadow.contactShadows).c_str())
+      .def_readwrite("contact_from_maps", &ShadowOptions::contactFromMaps,
+                     withDefault("Contact rays also test the triangle each light's map sees at "
+                                 "the pixel (occluders the camera does not see) and, below the "
+                                 "pixel's facet, its own triangle.",
+                                 R.shadow.contactFromMaps).c_str())
       .def_readwrite("contact_texels", &ShadowOptions::contactTexels,
                      withDefault("Contact rays' length in texels of each light's map, > 0.",
                                  R.shadow.contactTexels).c_str())

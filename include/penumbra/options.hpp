@@ -57,6 +57,18 @@ struct ShadowOptions {
   /// interior + spider / studio + Wuson, MSSM4 relative RMSE with 256² maps (the default then):
   /// off 3.41/4.99/3.66/8.32%, on 3.16/4.29/3.63/6.17% (bench/results/accuracy.md). Default on
   bool contactShadows = true;
+  /// Contact shadows from the lights' side (kernels/render/contact.cl, contact_map): the same
+  /// rays also test the triangle each light's map sees at the pixel, where that surface is nearer
+  /// the light than the pixel's tangent plane and within contactTexels texels of it (occluders
+  /// the camera does not see: a sheet lying on another, a caster off screen), and, where the
+  /// light's centre is below the pixel's facet while its shading normal sees it (the shadow
+  /// terminator of smooth-shaded meshes), the pixel's own triangle. The maps are then drawn with
+  /// triangle ids, 4 more bytes per texel per light. Needs contactShadows; off with
+  /// frontBackFaces (whose texels hold no one surface). Measured against the 8192-spp Embree
+  /// truths, 320x180, built-in / courtyard + Wuson / interior + spider / studio + Wuson, default
+  /// frame relative RMSE: off 1.37/2.58/1.53/2.84%, on 1.37/2.53/1.52/2.46%
+  /// (bench/results/accuracy.md, "Contact shadows from the lights' side"). Default on.
+  bool contactFromMaps = true;
   float contactTexels = 8.0f;   ///< contact rays' length in texels of each light's map. Finite,
                                 ///< > 0; default 8 (at 256² maps, 2 texels: 3.17/4.36/3.63/6.16%;
                                 ///< 16: 3.16/4.26/3.63/6.17%)

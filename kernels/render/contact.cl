@@ -87,7 +87,9 @@ kernel void contact_shadows(global const float4* gpos, global const float4* ggeo
     if (mask[l] == 0 || vis[vi] == 0.0f) continue;
     pb_light L = lights[l];
     float3 d = (float3)(L.dir[0], L.dir[1], L.dir[2]);
-    if (dot(d, ng) <= 0.0f) continue;  // below the receiver's horizon: the shading's zero
+    // below the facet's plane: contact_map tests the pixel's own triangle there, where the
+    // shading normal still sees the light (the smooth-shaded terminator)
+    if (dot(d, ng) <= 0.0f) continue;
     float texel = 2.0f * fmax(L.ex[3], L.ey[3]) / (float)map_size;
     float len = texels * texel;
     // Off the surface by a thousandth of a texel, and at least `lift`: p's own triangle is not
@@ -99,5 +101,138 @@ kernel void contact_shadows(global const float4* gpos, global const float4* ggeo
       hit = contact_hit(o, d, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz) < len;
     }
     if (hit) vis[vi] = 0.0f;
+  }
+}
+
+// ---- Contact shadows from the lights' side ----
+//
+// An occluder the camera does not see near the pixel escapes contact_shadows above: a sheet lying
+// a few thousandths above another, whose upper layer is hidden behind the lower at the pixel and
+// its neighbours (Wuson's tail tuft on studio.exr: three pixels of it, lit by every map and black
+// in the truth, carried three fifths of the default frame's squared technique error). The light's
+// own map sees it: rasterized with ids (Rasterizer::depthMapsWithIds), each texel names the
+// triangle nearest the light along the texel's ray, and the contact ray from p towards the
+// light's centre runs parallel to those rays, a fraction of a texel beside the ray of the texel p
+// falls in. So for each pair (p, l) of a map-shadowed light, with t the distance from the map's
+// near plane along its rays:
+// - up (the centre above p's facet, n_g . w > 0): the texel's surface is a candidate when it is
+//   nearer the light than p's tangent plane at the texel's ray, by more than a thousandth of a
+//   texel, and not more than the contact length nearer than p. A convex surface (p's own
+//   neighbours) lies on or beyond that plane and is no candidate; a farther occluder is the map
+//   technique's to find. The candidate's triangle is then tested exactly.
+// - down (the centre below p's facet while the shading normal still sees part of the cap: the
+//   shadow terminator of smooth-shaded meshes): the ray from p, lifted off its facet by the shadow
+//   offset (scene/shadow_offset.hpp), crosses the facet's plane within the contact length; p's own
+//   triangle and the texel's are tested exactly, as the Embree reference's ray meets them.
+// A hit sets the pair's visibility to 0, as contact_shadows does. Global (ceil(width / CM_TILE),
+// ceil(height / CM_TILE)): each work-item takes a CM_TILE x CM_TILE tile of pixels and, for each
+// map-shadowed light in turn, finds its candidates in a SIMD loop and tests them one by one (CPUs
+// run it with 8 x 8 tiles, GPUs with one pixel). Measured on the 640x360 built-in frame with 32
+// lights: 13-16 ms, where a per-light kernel over runs of 64 pixels of a row that re-read the
+// G-buffer for each light took 38-47 ms (its gathers), and reading the G-buffer once per run 22-25
+// ms (then the depth map's gather: a run's texels span a map's rows; bench/results/cpu_speed.md).
+#ifndef CM_TILE
+#define CM_TILE 1
+#endif
+#define CM_GROUP (CM_TILE * CM_TILE)
+kernel void contact_map(global const float* gpos, global const float* gnrm,
+                        global const float* ggeo, global const uint* ids,
+                        global const float4* pos, global const int4* tris, int ntris,
+                        global const pb_light* lights, global const uchar* mask, int nl,
+                        global const uint* depth, global const uint* map_ids, int map_size,
+                        int width, int height, global float* vis, float texels) {
+  const int x0 = get_global_id(0) * CM_TILE, y0 = get_global_id(1) * CM_TILE;
+  if (x0 >= width || y0 >= height) return;
+  const size_t npixels = (size_t)width * height;
+  // the tile's G-buffer, once for every light (structure of arrays: the light loop's SIMD lanes
+  // read it contiguously); a tile, not a run of one row, so that a light's map texels under it
+  // are a compact block, a few cache lines that the tile's rows share
+  float Px[CM_GROUP], Py[CM_GROUP], Pz[CM_GROUP], Gx[CM_GROUP], Gy[CM_GROUP], Gz[CM_GROUP],
+      Nx[CM_GROUP], Ny[CM_GROUP], Nz[CM_GROUP];
+  int pix[CM_GROUP];  // pixel index, -1 outside the image or on the background
+  for (int k = 0; k < CM_GROUP; ++k) {
+    const int x = x0 + k % CM_TILE, y = y0 + k / CM_TILE;
+    const bool in = x < width && y < height;
+    const int px = in ? y * width + x : y0 * width + x0;
+    Px[k] = gpos[4 * px];
+    Py[k] = gpos[4 * px + 1];
+    Pz[k] = gpos[4 * px + 2];
+    pix[k] = in && gpos[4 * px + 3] != 0.0f ? px : -1;
+    Gx[k] = ggeo[4 * px];
+    Gy[k] = ggeo[4 * px + 1];
+    Gz[k] = ggeo[4 * px + 2];
+    Nx[k] = gnrm[4 * px];
+    Ny[k] = gnrm[4 * px + 1];
+    Nz[k] = gnrm[4 * px + 2];
+  }
+  const size_t S2 = (size_t)map_size * map_size;
+  for (int l = 0; l < nl; ++l) {
+    if (mask[l] == 0) continue;
+    global const pb_light* L = lights + l;
+    const float wx = L->dir[0], wy = L->dir[1], wz = L->dir[2];
+    const float ox = L->origin[0], oy = L->origin[1], oz = L->origin[2];
+    const float ex0 = L->ex[0], ex1 = L->ex[1], ex2 = L->ex[2], hx = L->ex[3];
+    const float ey0 = L->ey[0], ey1 = L->ey[1], ey2 = L->ey[2], hy = L->ey[3];
+    const float texel = 2.0f * fmax(hx, hy) / (float)map_size;
+    const float len = texels * texel, tol = 1e-3f * texel;
+    const float sx = 0.5f * map_size / hx, sy = 0.5f * map_size / hy;  // texels per world unit
+    const float isx = 2.0f * hx / map_size, isy = 2.0f * hy / map_size;  // world units per texel
+    global const uint* md = depth + (size_t)l * S2;
+    global const uint* mi = map_ids + (size_t)l * S2;
+    global float* vl = vis + (size_t)l * npixels;
+    int flag[CM_GROUP], tex[CM_GROUP];
+    int nflag = 0;
+PB_SIMD_LOOP(16)
+    for (int k = 0; k < CM_GROUP; ++k) {
+      const float c = Gx[k] * wx + Gy[k] * wy + Gz[k] * wz;
+      const float cs = Nx[k] * wx + Ny[k] * wy + Nz[k] * wz;
+      const float rx = Px[k] - ox, ry = Py[k] - oy, rz = Pz[k] - oz;
+      const float xp = rx * ex0 + ry * ex1 + rz * ex2;
+      const float yp = rx * ey0 + ry * ey1 + rz * ey2;
+      const float tp = -(rx * wx + ry * wy + rz * wz);
+      // the texel p falls in (raster.cl's ortho view: row 0 at +ey)
+      const float u = xp * sx + 0.5f * map_size, v = 0.5f * map_size - yp * sy;
+      const int cx = (int)clamp(u, 0.0f, (float)(map_size - 1));
+      const int cy = (int)clamp(v, 0.0f, (float)(map_size - 1));
+      // the texel ray's lateral offset from p (world), and its depth
+      const float dx = (cx + 0.5f - u) * isx, dy = (v - cy - 0.5f) * isy;
+      const float tm = as_float(md[cy * map_size + cx]);
+      // up: nearer the light than p's tangent plane at the texel's ray by more than tol, and
+      // within the contact length: tm < tp + (dx a + dy b) / c - tol, times c > 0
+      const float a = Gx[k] * ex0 + Gy[k] * ex1 + Gz[k] * ex2;
+      const float b = Gx[k] * ey0 + Gy[k] * ey1 + Gz[k] * ey2;
+      const bool up = c > 0.0f && (tm - tp + tol) * c < dx * a + dy * b && tm >= tp - len;
+      const bool down = c <= 0.0f && cs > 0.0f;
+      flag[k] = pix[k] >= 0 ? (up ? 1 : down ? 2 : 0) : 0;
+      tex[k] = cy * map_size + cx;
+      nflag += flag[k] != 0;
+    }
+    if (nflag == 0) continue;  // most tiles of most lights
+    const float3 d = (float3)(wx, wy, wz);
+    for (int k = 0; k < CM_GROUP; ++k) {
+      if (flag[k] == 0 || vl[pix[k]] == 0.0f) continue;
+      const float3 P = (float3)(Px[k], Py[k], Pz[k]);
+      const uint own = ids[pix[k]], id = mi[tex[k]];
+      bool hit = false;
+      if (flag[k] == 1) {
+        // as contact_shadows: off the surface by a thousandth of a texel, and at least `lift`
+        const float lift = 4e-7f * (fabs(P.x) + fabs(P.y) + fabs(P.z));
+        const float3 o = P + (float3)(Gx[k], Gy[k], Gz[k]) * fmax(1e-3f * texel, 2.0f * lift);
+        if (id != PB_ID_EMPTY && id < (uint)ntris && id != own) {
+          const int4 t = tris[id];
+          hit = contact_hit(o, d, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz) < len;
+        }
+      } else {
+        if (own != PB_ID_EMPTY && own < (uint)ntris) {
+          const int4 t = tris[own];
+          hit = contact_hit(P, d, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz) < len;
+        }
+        if (!hit && id != PB_ID_EMPTY && id < (uint)ntris && id != own) {
+          const int4 t = tris[id];
+          hit = contact_hit(P, d, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz) < len;
+        }
+      }
+      if (hit) vl[pix[k]] = 0.0f;
+    }
   }
 }

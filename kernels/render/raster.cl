@@ -188,7 +188,8 @@ RS void rcross3(float ax, float ay, float az, float bx, float by, float bz, floa
 // (a, b, c), as the per-pixel loop of raster_triangles writes it. owned: this work-item is the
 // view's only writer (raster_views), so a plain load and store keep the minimum.
 RS void raster_row_ortho(const pb_view* v, float3 a, float3 b, float3 c, int y, int xs, int xe,
-                         volatile global uint* row, bool owned) {
+                         volatile global uint* row, volatile global uint* idrow, uint tri,
+                         bool owned) {
   // ray_triangle's per-triangle part: the direction is the view's forward everywhere
   float3 d = f3(v->forward);
   float3 e1 = b - a, e2 = c - a;
@@ -229,7 +230,25 @@ PB_SIMD_LOOP(RASTER_CHUNK)
       // load of hit[]). A chunk that would pass the row's end stays scalar: past it are another
       // view's texels.
       global uint* r = (global uint*)row + x0;
-      if (x0 + RASTER_CHUNK <= v->width) {
+      if (idrow) {
+        // pass 2: the id with the nearer depth (an equal depth keeps the earlier, lesser index)
+        global uint* ir = (global uint*)idrow + x0;
+        if (x0 + RASTER_CHUNK <= v->width) {
+PB_SIMD_LOOP(RASTER_CHUNK)
+          for (int k = 0; k < RASTER_CHUNK; ++k) {
+            const uint h = k < n ? hit[k] : PB_DEPTH_EMPTY;
+            const bool nearer = h < r[k];
+            ir[k] = nearer ? tri : ir[k];
+            r[k] = nearer ? h : r[k];
+          }
+        } else {
+          for (int k = 0; k < n; ++k)
+            if (hit[k] < r[k]) {
+              r[k] = hit[k];
+              ir[k] = tri;
+            }
+        }
+      } else if (x0 + RASTER_CHUNK <= v->width) {
 PB_SIMD_LOOP(RASTER_CHUNK)
         for (int k = 0; k < RASTER_CHUNK; ++k) r[k] = min(r[k], k < n ? hit[k] : PB_DEPTH_EMPTY);
       } else {
@@ -280,8 +299,9 @@ static inline __attribute__((always_inline)) void raster_triangle(
     if (!clipped) outline_row_span(outline, n, y, &xs, &xe);
 #endif
 #ifdef RASTER_ROW_SIMD
-    if (v.ortho && pass == 0) {
-      raster_row_ortho(&v, a, b, c, y, xs, xe, depth + base + (size_t)y * v.width, owned);
+    if (v.ortho && (pass == 0 || (pass == 2 && owned))) {
+      raster_row_ortho(&v, a, b, c, y, xs, xe, depth + base + (size_t)y * v.width,
+                       pass == 2 ? ids + base + (size_t)y * v.width : 0, (uint)tri, owned);
       continue;
     }
 #endif
@@ -333,12 +353,13 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
 // work-group, so that the views spread over the cores.
 kernel void raster_views(global const float4* pos, global const int4* tris, int ntris,
                          global const pb_view* views, int nviews, volatile global uint* depth,
-                         int cull) {
+                         int cull, volatile global uint* ids, int keep_ids) {
   const int vi = get_global_id(0);
   if (vi >= nviews) return;
   pb_view v = views[vi];
   for (int tri = 0; tri < ntris; ++tri)
-    raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, INT_MAX, 0, depth, depth, cull, true);
+    raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, INT_MAX, keep_ids ? 2 : 0, depth,
+                    keep_ids ? ids : depth, cull, true);
 }
 
 // The CPU form of the camera's two passes (src/render/rasterizer.cpp: the G-buffer on CPU

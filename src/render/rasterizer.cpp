@@ -51,9 +51,10 @@ void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull
                         cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
   const int ntris = scene_->triangleCount();
   if (views_() && pass == 0 && nviews > 1 && nviews >= cores_) {
+    // ids apart from depth: raster_views keeps each texel's id with its depth (raster.cl's pass 2)
     ctx_.launchWith(stage, views_, cl::NDRange(nviews), cl::NDRange(1), scene_->positionBuffer(),
                     scene_->triangleBuffer(), cl_int(ntris), views, cl_int(nviews), depth,
-                    cl_int(cull));
+                    cl_int(cull), ids, cl_int(&ids != &depth));
     return;
   }
   const int stripes = useCpuBatching(ctx_) ? kCpuStripes : kGpuStripes;
@@ -97,6 +98,24 @@ DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H, float 
                   scene_->albedoBuffer(), camera, g.ids, g.position, g.normal, g.geometricNormal,
                   g.albedo, cl_float(shadowOffset));
   return g;
+}
+
+void Rasterizer::depthMapsWithIds(const std::vector<pb_view>& views, cl::Buffer& out,
+                                  cl::Buffer& ids, const std::string& prefix) {
+  if (frontBack_)
+    throw Error(ErrorKind::Internal, prefix + ": depth maps with ids and front/back maps at once");
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
+  cl::Buffer& vb = pool_.upload("views " + prefix, views);
+  const std::size_t texels = views.size() * std::size_t(mapSize_) * mapSize_;
+  ctx_.fill(out, &emptyDepth, 4, texels * 4, prefix + "/raster");
+  ctx_.fill(ids, &emptyId, 4, texels * 4, prefix + "/ids");
+  const int nviews = int(views.size());
+  if (views_() && nviews > 1 && nviews >= cores_) {
+    raster(vb, nviews, 0, Cull::None, out, ids, prefix + "/raster");  // depth and ids at once
+    return;
+  }
+  raster(vb, nviews, 0, Cull::None, out, out, prefix + "/raster");
+  raster(vb, nviews, 1, Cull::None, out, ids, prefix + "/ids");
 }
 
 void Rasterizer::depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,

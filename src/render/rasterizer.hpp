@@ -41,10 +41,16 @@ class Rasterizer : public DepthRasterizer {
   // back-facing surfaces' depths (Kneiphof 2017 §4.2.3).
   void depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
                  const std::string& prefix) override;
+  // The same, and in `ids` the triangle each texel sees (the least index among those at its
+  // depth, PB_ID_EMPTY where none; as the camera's id pass). Not with front/back maps, whose
+  // texels hold no one surface's depth.
+  void depthMapsWithIds(const std::vector<pb_view>& views, cl::Buffer& out, cl::Buffer& ids,
+                        const std::string& prefix);
 
  private:
   // One raster_triangles launch over `nviews` views: pass 0 writes depth, pass 1 the ids of the
-  // triangles that won it (pass 0 over several views on a CPU: raster_views).
+  // triangles that won it (pass 0 over several views on a CPU: raster_views, which writes the
+  // ids too when `ids` is not `depth`).
   void raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
               cl::Buffer& ids, const std::string& stage);
 

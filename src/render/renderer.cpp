@@ -30,7 +30,8 @@ std::string mib(std::uint64_t bytes) { return std::to_string((bytes + (1u << 20)
 // Refuses, before any device work, a frame whose own buffers cannot fit the device: camera depth
 // and triangle ids (4 + 4 bytes a pixel), the four G-buffer planes and the shaded frame (16 each),
 // the visibility buffer (4 bytes a pixel per light) and, for a technique that reads them, one
-// 32-bit depth map per light in one buffer: the sizes the stages allocate (rasterizer.cpp,
+// 32-bit depth map per light in one buffer (and, for contact shadows from the lights' side, as
+// many triangle ids): the sizes the stages allocate (rasterizer.cpp,
 // shading.cpp, visibility.cpp, Impl::shadows below). A technique's own maps and lists come on top
 // and are refused as they are allocated (Context::buffer).
 void checkFrameFits(const Context& ctx, const RenderOptions& opt, int lights) {
@@ -41,6 +42,9 @@ void checkFrameFits(const Context& ctx, const RenderOptions& opt, int lights) {
   const auto pass = lights > 0 ? detail::makeShadowPass(opt.shadows) : nullptr;
   const bool readsMaps = pass && pass->usesShadowMaps();
   const std::uint64_t maps = readsMaps ? texels * std::uint64_t(lights) * 4 : 0;
+  // and, for contact shadows from the lights' side, the maps' triangle ids (as large)
+  const std::uint64_t mapIds = opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
+                                       !opt.frontBackFaces ? maps : 0;
   const std::uint64_t largest = std::max({px * 16, vis, maps});
   const char* largestRole =
       largest == maps ? "shadow maps" : largest == vis ? "visibility buffer" : "frame plane";
@@ -55,10 +59,11 @@ void checkFrameFits(const Context& ctx, const RenderOptions& opt, int lights) {
                     " allows " + mib(d.maxAllocBytes) +
                     " MiB per buffer (out of device memory; reduce the size or light count)");
   // Against the whole device: this renderer's buffers from the last frame are reused, not added.
-  if (frame + vis + maps > d.globalMemBytes)
+  if (frame + vis + maps + mapIds > d.globalMemBytes)
     throw Error(ErrorKind::OutOfMemory,
-                what + " needs at least " + mib(frame + vis + maps) + " MiB (frame " + mib(frame) +
-                    ", visibility " + mib(vis) + ", shadow maps " + mib(maps) + ") but device " +
+                what + " needs at least " + mib(frame + vis + maps + mapIds) + " MiB (frame " +
+                    mib(frame) + ", visibility " + mib(vis) + ", shadow maps " +
+                    mib(maps + mapIds) + ") but device " +
                     d.name + " has " + mib(d.globalMemBytes) +
                     " MiB (out of device memory; reduce the size or light count)");
 }
@@ -114,7 +119,15 @@ struct Renderer::Impl {
       // Techniques with their own light-space structures (the bitmask's lists) never read them.
       const bool maps = visibility.readsShadowMaps();
       sf.depth = pool.buffer("shadow maps", maps ? std::size_t(S) * S * nl * 4 : 4);
-      if (maps) raster.depthMaps(lf.views, sf.depth, "shadow-maps");
+      // contact.cl also tests the triangle each light's map sees around a pixel
+      const bool ids = maps && opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
+                       !opt.frontBackFaces;
+      if (ids) {
+        sf.mapIds = pool.buffer("shadow-map ids", std::size_t(S) * S * nl * 4);
+        raster.depthMapsWithIds(lf.views, sf.depth, sf.mapIds, "shadow-maps");
+      } else if (maps) {
+        raster.depthMaps(lf.views, sf.depth, "shadow-maps");
+      }
     }
     sf.width = opt.width;
     sf.height = opt.height;

@@ -88,6 +88,8 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
                  {"max_filter_texels", shortestDecimal(opt.shadow.maxFilterTexels)},
                  {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)},
                  {"contact_shadows", opt.shadow.contactShadows && contactLights > 0},
+                 {"contact_maps", opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
+                                      !opt.frontBackFaces && contactLights > 0},
                  {"contact_texels", shortestDecimal(opt.shadow.contactTexels)},
                  {"horizon_visibility", opt.shadow.horizonVisibility && horizonLights > 0},
                  {"ground_visibility", opt.shadow.groundVisibility && groundLights > 0}};

@@ -48,7 +48,10 @@ void Visibility::compute(ShadowFrame& f) {
           mapMaskBuffer_ = pool_.upload("map-visibility lights", mask);
           mapMask_ = mask;
         }
-        if (contact) contactShadows(f, mapMaskBuffer_);
+        if (contact) {
+          contactShadows(f, mapMaskBuffer_);
+          if (f.opt.shadow.contactFromMaps) contactFromMaps(f, mapMaskBuffer_);
+        }
         // after contact shadows, so that the sources it reads are final
         if (horizon) horizon_.run(f, mapMaskBuffer_);
         // last: it scales the final value of each pair

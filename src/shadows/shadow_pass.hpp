@@ -102,6 +102,9 @@ struct ShadowFrame {
                                           // geometric normal (facing the camera), float4 each
   cl::Buffer depth;                       // per light S*S uint: ray distance bits from the near
                                           // plane (as_float), PB_DEPTH_EMPTY where nothing
+  cl::Buffer mapIds;                      // per light S*S uint: the triangle each texel of
+                                          // `depth` sees (PB_ID_EMPTY: none); null where the
+                                          // maps were drawn without (contact.cl reads them)
   cl::Buffer vis;                         // out: float [light][pixel], 1 = unshadowed (set by
                                           // the visibility stage, src/render/visibility.hpp)
   DepthRasterizer* rasterizer = nullptr;  // more depth maps of the scene (rasterizeDepth)

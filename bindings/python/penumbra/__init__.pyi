@@ -372,12 +372,14 @@ class ShadowOptions:
     max_filter_texels: float
     min_filter_texels: float
     contact_shadows: bool
+    contact_from_maps: bool
     contact_texels: float
     horizon_visibility: bool
     ground_visibility: bool
     def __init__(self, *, depth_bias: float = ..., light_size_scale: float = ...,
                  max_filter_texels: float = ..., min_filter_texels: float = ...,
-                 contact_shadows: bool = ..., contact_texels: float = ...,
+                 contact_shadows: bool = ..., contact_from_maps: bool = ...,
+                 contact_texels: float = ...,
                  horizon_visibility: bool = ..., ground_visibility: bool = ...) -> None: ...
 
 class MSSMOptions:

@@ -86,6 +86,7 @@ def test_options():
     for f in ("light_size_scale", "max_filter_texels", "min_filter_texels"):
         assert getattr(o.shadow, f) >= 0
     assert o.shadow.contact_shadows and o.shadow.contact_texels == 8  # on by default
+    assert o.shadow.contact_from_maps  # on by default, with contact shadows
     assert o.shadow.horizon_visibility  # on by default
     assert o.shadow.ground_visibility  # on by default
     c = penumbra.CSSMOptions(order=8)
@@ -145,6 +146,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     assert (r["shadow"]["depth_bias"], r["shadow"]["light_size_scale"],
             r["shadow"]["max_filter_texels"]) == (0.0125, 0.5, 9)
     assert (r["shadow"]["contact_shadows"], r["shadow"]["contact_texels"]) == (False, 3.5)
+    assert r["shadow"]["contact_maps"] is False  # needs contact shadows
     assert r["shadow"]["horizon_visibility"] is False
     assert r["shadow"]["ground_visibility"] is False
     assert (r["cssm"]["order"], r["cssm"]["sharpen_a"], r["cssm"]["sharpen_b"]) == (7, 11, 13)
