@@ -157,18 +157,13 @@ void reference(const Synthetic& s, float texels, int mapSize, bool maskLight2,
 struct KernelRun {
   int mismatches = 0, zeroed = 0, zeroedLight2 = 0, close = 0, entries = 0;
 };
-KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
-  const Synthetic s = synthetic(w, h, seed);
-  const float texels = 10.0f;
-  const int mapSize = 16;
-  RenderOptions ro;
-  ro.shadow.contactTexels = texels;
-  detail::BufferPool pool(ctx());
-  detail::ShadowFrame f(ctx(), pool, ro, s.lights);
-  f.width = w;
-  f.height = h;
-  f.pixels = w * h;
-  f.mapSize = mapSize;
+
+// The frame's fields both kernels read, from the synthetic frame, map size S.
+void fillFrame(detail::ShadowFrame& f, detail::BufferPool& pool, const Synthetic& s, int S) {
+  f.width = s.w;
+  f.height = s.h;
+  f.pixels = s.w * s.h;
+  f.mapSize = S;
   f.lightBuffer = pool.upload("lights", s.lights);
   f.gpos = pool.upload("gpos", s.gpos);
   f.ggeo = pool.upload("ggeo", s.ggeo);
@@ -177,23 +172,46 @@ KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
   f.triangles = pool.upload("triangles", s.tris);
   f.triangleCount = int(s.tris.size());
   f.vis = pool.upload("vis", s.vis);
-  // Light 2 stands for one whose visibility already tests triangles: left alone.
-  std::vector<cl_uchar> mask(s.lights.size(), 1);
-  if (maskLight2) mask[2] = 0;
-  detail::contactShadows(f, pool.upload("mask", mask));
-  const std::vector<float> got = ctx().download<float>(f.vis, s.vis.size(), "vis");
-  std::vector<float> want;
-  std::vector<char> close;
-  reference(s, texels, mapSize, maskLight2, want, close);
+}
+
+// The kernel's result `got` against the reference's `want` where `close` does not excuse it.
+KernelRun tally(const Synthetic& s, const std::vector<float>& got, const std::vector<float>& want,
+                const std::vector<char>& close) {
   KernelRun r;
-  const std::size_t np = std::size_t(w) * h;
+  const std::size_t np = std::size_t(s.w) * s.h;
+  r.entries = int(got.size());
   for (std::size_t i = 0; i < got.size(); ++i) {
+    r.close += close[i];
     if (!close[i] && got[i] != want[i]) ++r.mismatches;
     const bool z = got[i] == 0 && s.vis[i] != 0;
     r.zeroed += z;
     r.zeroedLight2 += z && i / np == 2;
   }
   return r;
+}
+
+// Light 2 stands for one whose visibility already tests triangles: left alone.
+std::vector<cl_uchar> lightMask(const Synthetic& s, bool maskLight2) {
+  std::vector<cl_uchar> mask(s.lights.size(), 1);
+  if (maskLight2) mask[2] = 0;
+  return mask;
+}
+
+KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
+  const Synthetic s = synthetic(w, h, seed);
+  const float texels = 10.0f;
+  const int mapSize = 16;
+  RenderOptions ro;
+  ro.shadow.contactTexels = texels;
+  detail::BufferPool pool(ctx());
+  detail::ShadowFrame f(ctx(), pool, ro, s.lights);
+  fillFrame(f, pool, s, mapSize);
+  detail::contactShadows(f, pool.upload("mask", lightMask(s, maskLight2)));
+  const std::vector<float> got = ctx().download<float>(f.vis, s.vis.size(), "vis");
+  std::vector<float> want;
+  std::vector<char> close;
+  reference(s, texels, mapSize, maskLight2, want, close);
+  return tally(s, got, want, close);
 }
 
 }  // namespace
@@ -388,42 +406,19 @@ KernelRun runMapKernel(int w, int h, unsigned seed, bool tiles, bool maskLight2 
   ro.shadow.contactTexels = texels;
   detail::BufferPool pool(ctx());
   detail::ShadowFrame f(ctx(), pool, ro, s.lights);
-  f.width = w;
-  f.height = h;
-  f.pixels = w * h;
-  f.mapSize = m.S;
-  f.lightBuffer = pool.upload("lights", s.lights);
-  f.gpos = pool.upload("gpos", s.gpos);
+  fillFrame(f, pool, s, m.S);
   f.gnrm = pool.upload("gnrm", m.gnrm);
-  f.ggeo = pool.upload("ggeo", s.ggeo);
-  f.gids = pool.upload("ids", s.ids);
-  f.positions = pool.upload("positions", s.pos);
-  f.triangles = pool.upload("triangles", s.tris);
-  f.triangleCount = int(s.tris.size());
   f.depth = pool.upload("depth", m.depth);
   f.mapIds = pool.upload("map ids", m.ids);
-  f.vis = pool.upload("vis", s.vis);
-  std::vector<cl_uchar> mask(s.lights.size(), 1);
-  if (maskLight2) mask[2] = 0;
   {
     const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(tiles ? "on" : "off"));
-    detail::contactFromMaps(f, pool.upload("mask", mask));
+    detail::contactFromMaps(f, pool.upload("mask", lightMask(s, maskLight2)));
   }
   const std::vector<float> got = ctx().download<float>(f.vis, s.vis.size(), "vis");
   std::vector<float> want;
   std::vector<char> close;
   mapReference(m, texels, maskLight2, want, close);
-  KernelRun r;
-  const std::size_t np = std::size_t(w) * h;
-  r.entries = int(got.size());
-  for (std::size_t i = 0; i < got.size(); ++i) {
-    r.close += close[i];
-    if (!close[i] && got[i] != want[i]) ++r.mismatches;
-    const bool z = got[i] == 0 && s.vis[i] != 0;
-    r.zeroed += z;
-    r.zeroedLight2 += z && i / np == 2;
-  }
-  return r;
+  return tally(s, got, want, close);
 }
 
 }  // namespace
