@@ -524,21 +524,25 @@ ContactRegions contactScene(ShadowTechnique t, bool contact, float depthBias) {
 // foot is lit (measured max V: 1 for both; the negative control), with them it is dark
 // (measured 0 and 0). Contact shadows never lighten a pixel, and on the open ground, where the
 // truth is lit, they change nothing: the same bits.
+// The contact's umbra lit without (the negative control) and dark with; the open ground the same
+// bits; no pixel lighter.
+void expectContactClosed(const ContactRegions& off, const ContactRegions& on, int minUmbra,
+                         int minLit, ShadowTechnique t) {
+  ASSERT_GE(on.umbra, minUmbra) << toString(t);
+  ASSERT_GT(on.lit, minLit) << toString(t);
+  EXPECT_GT(off.umbraMax, 0.5) << toString(t);
+  EXPECT_LE(on.umbraMax, 0.05) << toString(t);
+  EXPECT_EQ(on.litMean, off.litMean) << toString(t);
+  ASSERT_EQ(on.visibility.size(), off.visibility.size());
+  int lighter = 0;
+  for (std::size_t i = 0; i < on.visibility.size(); ++i)
+    lighter += on.visibility[i] > off.visibility[i];
+  EXPECT_EQ(lighter, 0) << toString(t);
+}
+
 TEST(ContactShadows, CloseTheLeakAtAContact) {
-  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4}) {
-    const ContactRegions off = contactScene(t, false, 0.05f);
-    const ContactRegions on = contactScene(t, true, 0.05f);
-    ASSERT_GE(on.umbra, 20) << toString(t);
-    ASSERT_GT(on.lit, 10000) << toString(t);
-    EXPECT_GT(off.umbraMax, 0.5) << toString(t);
-    EXPECT_LE(on.umbraMax, 0.05) << toString(t);
-    EXPECT_EQ(on.litMean, off.litMean) << toString(t);
-    ASSERT_EQ(on.visibility.size(), off.visibility.size());
-    int lighter = 0;
-    for (std::size_t i = 0; i < on.visibility.size(); ++i)
-      lighter += on.visibility[i] > off.visibility[i];
-    EXPECT_EQ(lighter, 0) << toString(t);
-  }
+  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4})
+    expectContactClosed(contactScene(t, false, 0.05f), contactScene(t, true, 0.05f), 20, 10000, t);
 }
 
 namespace {
@@ -548,13 +552,7 @@ namespace {
 // the ground at its foot, in its umbra, is the top rows of the image. With the depth bias of 0.05
 // the maps leak there, and the camera sees no triangle within 2 pixels that could block: only the
 // lights' maps, which see the wall, can close it.
-struct OffScreenRegions {
-  double umbraMax = 0, litMean = 0;
-  int umbra = 0, lit = 0;
-  std::vector<float> visibility;
-};
-
-OffScreenRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
+ContactRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
   PlanarPenumbra s;
   s.blockers.clear();
   Mesh m;
@@ -579,7 +577,7 @@ OffScreenRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
   ro.shadow.depthBias = 0.05f;
   ro.shadow.contactFromMaps = fromMaps;
   PlanarFrame f = renderPlanar(s, ro);
-  OffScreenRegions r;
+  ContactRegions r;
   for (const ReceiverPixel& p : f.receivers) {
     if (p.x < 0.5) ADD_FAILURE() << "the ground behind the wall is on screen: x " << p.x;
     if (p.x > 0.505 && p.x < 0.53 && std::fabs(p.z) < 0.15) {
@@ -604,20 +602,8 @@ OffScreenRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
 // control: the screen-space rays find nothing), with them it is dark; nothing gets lighter, and
 // the open ground keeps its bits.
 TEST(ContactShadows, MapsFindOccludersOffScreen) {
-  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4}) {
-    const OffScreenRegions off = offScreenWall(t, false);
-    const OffScreenRegions on = offScreenWall(t, true);
-    ASSERT_GE(on.umbra, 100) << toString(t);
-    ASSERT_GT(on.lit, 1000) << toString(t);
-    EXPECT_GT(off.umbraMax, 0.5) << toString(t);
-    EXPECT_LE(on.umbraMax, 0.05) << toString(t);
-    EXPECT_EQ(on.litMean, off.litMean) << toString(t);
-    ASSERT_EQ(on.visibility.size(), off.visibility.size());
-    int lighter = 0;
-    for (std::size_t i = 0; i < on.visibility.size(); ++i)
-      lighter += on.visibility[i] > off.visibility[i];
-    EXPECT_EQ(lighter, 0) << toString(t);
-  }
+  for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4})
+    expectContactClosed(offScreenWall(t, false), offScreenWall(t, true), 100, 1000, t);
 }
 
 // Which lights get them: every light of a technique that reads depth maps with a bias (the
