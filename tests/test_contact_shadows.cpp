@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -472,6 +473,25 @@ struct ContactRegions {
   std::vector<float> visibility;
 };
 
+// The umbra's largest visibility and the open ground's mean over the receiver pixels whose ground
+// point (x, z) each predicate takes (the umbra's first).
+ContactRegions regions(const PlanarFrame& f, const std::function<bool(double, double)>& umbra,
+                       const std::function<bool(double, double)>& lit) {
+  ContactRegions r;
+  for (const ReceiverPixel& p : f.receivers) {
+    if (umbra(p.x, p.z)) {
+      r.umbraMax = std::max(r.umbraMax, p.vis);
+      ++r.umbra;
+    } else if (lit(p.x, p.z)) {
+      r.litMean += p.vis;
+      ++r.lit;
+    }
+  }
+  r.litMean /= std::max(r.lit, 1);
+  r.visibility = f.visibility;
+  return r;
+}
+
 Mesh wall() {
   Mesh m;
   m.name = "wall";
@@ -498,19 +518,10 @@ ContactRegions contactScene(ShadowTechnique t, bool contact, float depthBias) {
   ro.shadows = t;
   ro.shadow.depthBias = depthBias;
   ro.shadow.contactShadows = contact;
-  PlanarFrame f = renderPlanar(s, ro);
-  ContactRegions r;
-  for (const ReceiverPixel& p : f.receivers) {
-    if (p.x > 0.505 && p.x < 0.53 && std::fabs(p.z) < 0.3) {
-      r.umbraMax = std::max(r.umbraMax, p.vis);
-      ++r.umbra;
-    } else if (std::fabs(p.z) > 1.15 || p.x < 0.4 || p.x > 2.75) {
-      r.litMean += p.vis;
-      ++r.lit;
-    }
-  }
-  r.litMean /= std::max(r.lit, 1);
-  r.visibility = f.visibility;
+  const ContactRegions r = regions(
+      renderPlanar(s, ro),
+      [](double x, double z) { return x > 0.505 && x < 0.53 && std::fabs(z) < 0.3; },
+      [](double x, double z) { return std::fabs(z) > 1.15 || x < 0.4 || x > 2.75; });
   std::printf("[ penumbra ] %s, bias %g, contact %s: umbra at the contact max V %.4f over %d "
               "pixels; open ground mean V %.4f over %d\n",
               toString(t), depthBias, contact ? "on" : "off", r.umbraMax, r.umbra, r.litMean,
@@ -576,20 +587,13 @@ ContactRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
   ro.shadows = t;
   ro.shadow.depthBias = 0.05f;
   ro.shadow.contactFromMaps = fromMaps;
-  PlanarFrame f = renderPlanar(s, ro);
-  ContactRegions r;
-  for (const ReceiverPixel& p : f.receivers) {
+  const PlanarFrame f = renderPlanar(s, ro);
+  for (const ReceiverPixel& p : f.receivers)
     if (p.x < 0.5) ADD_FAILURE() << "the ground behind the wall is on screen: x " << p.x;
-    if (p.x > 0.505 && p.x < 0.53 && std::fabs(p.z) < 0.15) {
-      r.umbraMax = std::max(r.umbraMax, p.vis);
-      ++r.umbra;
-    } else if (p.x > 1.05 || std::fabs(p.z) > 0.6) {  // beyond the shadow and its penumbra
-      r.litMean += p.vis;
-      ++r.lit;
-    }
-  }
-  r.litMean /= std::max(r.lit, 1);
-  r.visibility = f.visibility;
+  const ContactRegions r = regions(
+      f, [](double x, double z) { return x > 0.505 && x < 0.53 && std::fabs(z) < 0.15; },
+      // beyond the shadow and its penumbra
+      [](double x, double z) { return x > 1.05 || std::fabs(z) > 0.6; });
   std::printf("[ penumbra ] off-screen wall, %s, from maps %s: umbra at the contact max V %.4f "
               "over %d pixels; open ground mean V %.4f over %d\n",
               toString(t), fromMaps ? "on" : "off", r.umbraMax, r.umbra, r.litMean, r.lit);
@@ -599,8 +603,9 @@ ContactRegions offScreenWall(ShadowTechnique t, bool fromMaps) {
 }  // namespace
 
 // An occluder the camera does not see: without the lights' maps the contact is lit (the negative
-// control: the screen-space rays find nothing), with them it is dark; nothing gets lighter, and
-// the open ground keeps its bits.
+// control: the screen-space rays find nothing; measured max V 1 with hard shadows and MSSM4), with
+// them it is dark (measured 0 and 0 over 350 pixels); nothing gets lighter, and the open ground
+// keeps its bits.
 TEST(ContactShadows, MapsFindOccludersOffScreen) {
   for (ShadowTechnique t : {ShadowTechnique::Hard, ShadowTechnique::MSSM4})
     expectContactClosed(offScreenWall(t, false), offScreenWall(t, true), 100, 1000, t);
