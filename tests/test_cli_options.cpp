@@ -331,6 +331,10 @@ TEST_F(CliRenderOptions, NoContactMapsTurnsThemOff) {
   EXPECT_EQ(off.report["shadow"]["contact_maps"].get<bool>(), false);
   EXPECT_EQ(off.report["shadow"]["contact_shadows"].get<bool>(), true);
   EXPECT_EQ(mssm4().report["shadow"]["contact_maps"].get<bool>(), true);
+  // front/back maps hold no one surface a texel's id could name: none there, and the report says so
+  const Rendered fb = render("frontbackmaps", {"--shadows", "mssm4", "--front-back"});
+  EXPECT_EQ(fb.report["shadow"]["contact_maps"].get<bool>(), false);
+  EXPECT_EQ(fb.report["shadow"]["contact_shadows"].get<bool>(), true);
   const double d = rel(off.image, mssm4().image);
   RecordProperty("contact_maps_change", std::to_string(d));
   std::printf("[ penumbra ] --no-contact-maps changes the frame by %g\n", d);

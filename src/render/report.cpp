@@ -74,11 +74,14 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     return false;
   };
   // Whether contact shadows, lights on the horizon and the ground's occlusion ran on this frame
-  // (the visibility stage's "contact/lights", "horizon/lights" and "ground/lights" count the
-  // lights they covered): none for the bitmask techniques, no contact shadows without triangles
-  // (GL interop), no ground step without a ground or a light that reaches below the horizontal.
-  double contactLights = 0, horizonLights = 0, groundLights = 0;
+  // (the visibility stage's "contact/lights", "contact/map_lights", "horizon/lights" and
+  // "ground/lights" count the lights they covered): none for the bitmask techniques, no contact
+  // shadows without triangles (GL interop), none from the lights' maps where the frame drew none
+  // with ids (a technique with maps of its own, front/back maps), no ground step without a
+  // ground or a light that reaches below the horizontal.
+  double contactLights = 0, contactMapLights = 0, horizonLights = 0, groundLights = 0;
   for (const auto& [name, v] : f.stats) {
+    if (name == "contact/map_lights") contactMapLights = v;
     if (name == "ground/lights") groundLights = v;
     if (name == "contact/lights") contactLights = v;
     if (name == "horizon/lights") horizonLights = v;
@@ -89,7 +92,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
                  {"min_filter_texels", shortestDecimal(opt.shadow.minFilterTexels)},
                  {"contact_shadows", opt.shadow.contactShadows && contactLights > 0},
                  {"contact_maps", opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
-                                      !opt.frontBackFaces && contactLights > 0},
+                                      contactMapLights > 0},
                  {"contact_texels", shortestDecimal(opt.shadow.contactTexels)},
                  {"horizon_visibility", opt.shadow.horizonVisibility && horizonLights > 0},
                  {"ground_visibility", opt.shadow.groundVisibility && groundLights > 0}};

@@ -41,6 +41,7 @@ void Visibility::compute(ShadowFrame& f) {
       std::vector<cl_uchar> mask(std::size_t(lights_), 0);
       int groundLights = 0;
       int n = 0;
+      bool contactMaps = false;
       for (int l = 0; l < lights_; ++l) n += mask[std::size_t(l)] = pass_->lightFromShadowMap(l);
       if (n > 0) {
         // Uploaded only when it changes (a blocking write would wait for the pass every frame).
@@ -50,7 +51,12 @@ void Visibility::compute(ShadowFrame& f) {
         }
         if (contact) {
           contactShadows(f, mapMaskBuffer_);
-          if (f.opt.shadow.contactFromMaps) contactFromMaps(f, mapMaskBuffer_);
+          // only where the frame's maps were drawn with ids (not for brute force's or
+          // area-approx's own maps, nor front/back maps)
+          if (f.opt.shadow.contactFromMaps && f.mapIds()) {
+            contactFromMaps(f, mapMaskBuffer_);
+            contactMaps = true;
+          }
         }
         // after contact shadows, so that the sources it reads are final
         if (horizon) horizon_.run(f, mapMaskBuffer_);
@@ -59,6 +65,7 @@ void Visibility::compute(ShadowFrame& f) {
       }
       if (horizon) stats_.emplace_back("horizon/lights", double(n));
       if (contact) stats_.emplace_back("contact/lights", double(n));
+      if (contactMaps) stats_.emplace_back("contact/map_lights", double(n));
       if (ground) stats_.emplace_back("ground/lights", double(groundLights));
     }
   } else if (lights_ > 0) {
