@@ -186,7 +186,8 @@ RS void rcross3(float ax, float ay, float az, float bx, float by, float bz, floa
 
 // Pixels xs..xe of row y of orthographic view v: depth[row + x] = min(t) over the triangle
 // (a, b, c), as the per-pixel loop of raster_triangles writes it. owned: this work-item is the
-// view's only writer (raster_views), so a plain load and store keep the minimum.
+// view's only writer (raster_views), so a plain load and store keep the minimum; idrow (owned
+// only, else null): pass 2, the triangle's index `tri` kept where its depth is the nearer.
 RS void raster_row_ortho(const pb_view* v, float3 a, float3 b, float3 c, int y, int xs, int xe,
                          volatile global uint* row, volatile global uint* idrow, uint tri,
                          bool owned) {
@@ -351,6 +352,8 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
 // locked compare-and-swap loop on a CPU (about 30% of that kernel's time on the default frame's
 // 32 maps). The minimum of the same depths, so the same bits. Launched one work-item per
 // work-group, so that the views spread over the cores.
+// keep_ids: pass 2 instead (depth and ids at once, into `ids`: the shadow maps' triangle ids of
+// contact shadows from the lights' side, kernels/render/contact.cl).
 kernel void raster_views(global const float4* pos, global const int4* tris, int ntris,
                          global const pb_view* views, int nviews, volatile global uint* depth,
                          int cull, volatile global uint* ids, int keep_ids) {

@@ -51,8 +51,8 @@ void Visibility::compute(ShadowFrame& f) {
         }
         if (contact) {
           contactShadows(f, mapMaskBuffer_);
-          // only where the frame's maps were drawn with ids (not for brute force's or
-          // area-approx's own maps, nor front/back maps)
+          // where the frame's maps were drawn with ids (none for a technique that reads no
+          // frame maps, nor with front/back maps)
           if (f.opt.shadow.contactFromMaps && f.mapIds()) {
             contactFromMaps(f, mapMaskBuffer_);
             contactMaps = true;
