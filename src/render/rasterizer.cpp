@@ -47,20 +47,22 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
   }
 }
 
-void Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
+bool Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
                         cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
   const int ntris = scene_->triangleCount();
   if (views_() && pass == 0 && nviews > 1 && nviews >= cores_) {
     // ids apart from depth: raster_views keeps each texel's id with its depth (raster.cl's pass 2)
+    const bool withIds = &ids != &depth;
     ctx_.launchWith(stage, views_, cl::NDRange(nviews), cl::NDRange(1), scene_->positionBuffer(),
                     scene_->triangleBuffer(), cl_int(ntris), views, cl_int(nviews), depth,
-                    cl_int(cull), ids, cl_int(&ids != &depth));
-    return;
+                    cl_int(cull), ids, cl_int(withIds));
+    return withIds;
   }
   const int stripes = useCpuBatching(ctx_) ? kCpuStripes : kGpuStripes;
   ctx_.launchWith(stage, raster_, cl::NDRange(ntris, stripes, nviews), cl::NullRange,
                   scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), views,
                   cl_int(stripes), cl_int(pass), depth, ids, cl_int(cull));
+  return false;
 }
 
 DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H, float shadowOffset) {
@@ -104,29 +106,31 @@ void Rasterizer::depthMapsWithIds(const std::vector<pb_view>& views, cl::Buffer&
                                   cl::Buffer& ids, const std::string& prefix) {
   if (frontBack_)
     throw Error(ErrorKind::Internal, prefix + ": depth maps with ids and front/back maps at once");
-  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
-  cl::Buffer& vb = pool_.upload("views " + prefix, views);
-  const std::size_t texels = views.size() * std::size_t(mapSize_) * mapSize_;
-  ctx_.fill(out, &emptyDepth, 4, texels * 4, prefix + "/raster");
-  ctx_.fill(ids, &emptyId, 4, texels * 4, prefix + "/ids");
-  const int nviews = int(views.size());
-  if (views_() && nviews > 1 && nviews >= cores_) {
-    raster(vb, nviews, 0, Cull::None, out, ids, prefix + "/raster");  // depth and ids at once
-    return;
-  }
-  raster(vb, nviews, 0, Cull::None, out, out, prefix + "/raster");
-  raster(vb, nviews, 1, Cull::None, out, ids, prefix + "/ids");
+  depthMapsOf(views, out, &ids, prefix);
 }
 
 void Rasterizer::depthMaps(const std::vector<pb_view>& views, cl::Buffer& out,
                            const std::string& prefix) {
-  const cl_uint emptyDepth = PB_DEPTH_EMPTY;
+  depthMapsOf(views, out, nullptr, prefix);
+}
+
+void Rasterizer::depthMapsOf(const std::vector<pb_view>& views, cl::Buffer& out, cl::Buffer* ids,
+                             const std::string& prefix) {
+  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
   cl::Buffer& vb = pool_.upload("views " + prefix, views);
   const std::size_t texels = views.size() * std::size_t(mapSize_) * mapSize_;
+  const int nviews = int(views.size());
   auto one = [&](Cull cull, cl::Buffer& dst, const std::string& stage) {
     ctx_.fill(dst, &emptyDepth, 4, texels * 4, stage);
-    raster(vb, int(views.size()), 0, cull, dst, dst, stage);
+    return raster(vb, nviews, 0, cull, dst, ids ? *ids : dst, stage);
   };
+  if (ids) {
+    ctx_.fill(*ids, &emptyId, 4, texels * 4, prefix + "/ids");
+    // the ids with the depth where raster_views runs, else in raster_triangles' id pass
+    if (!one(Cull::None, out, prefix + "/raster"))
+      raster(vb, nviews, 1, Cull::None, out, *ids, prefix + "/ids");
+    return;
+  }
   if (!frontBack_) {
     one(Cull::None, out, prefix + "/raster");
     return;

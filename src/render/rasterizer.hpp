@@ -51,8 +51,12 @@ class Rasterizer : public DepthRasterizer {
   // One raster_triangles launch over `nviews` views: pass 0 writes depth, pass 1 the ids of the
   // triangles that won it (pass 0 over several views on a CPU: raster_views, which writes the
   // ids too when `ids` is not `depth`).
-  void raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
+  // Returns whether it wrote the ids too.
+  bool raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
               cl::Buffer& ids, const std::string& stage);
+  // depthMaps' and depthMapsWithIds' work: with ids (never with front/back maps) or without.
+  void depthMapsOf(const std::vector<pb_view>& views, cl::Buffer& out, cl::Buffer* ids,
+                   const std::string& prefix);
 
   Context& ctx_;
   BufferPool& pool_;

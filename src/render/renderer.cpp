@@ -27,6 +27,13 @@ namespace {
 
 std::string mib(std::uint64_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20); }
 
+// Whether a frame's shadow maps (when its technique reads them) are drawn with triangle ids: for
+// contact shadows from the lights' side (kernels/render/contact.cl, contact_map); front/back maps
+// hold no one surface a texel's id could name.
+bool mapsWithIds(const RenderOptions& opt) {
+  return opt.shadow.contactShadows && opt.shadow.contactFromMaps && !opt.frontBackFaces;
+}
+
 // Refuses, before any device work, a frame whose own buffers cannot fit the device: camera depth
 // and triangle ids (4 + 4 bytes a pixel), the four G-buffer planes and the shaded frame (16 each),
 // the visibility buffer (4 bytes a pixel per light) and, for a technique that reads them, one
@@ -43,8 +50,7 @@ void checkFrameFits(const Context& ctx, const RenderOptions& opt, int lights) {
   const bool readsMaps = pass && pass->usesShadowMaps();
   const std::uint64_t maps = readsMaps ? texels * std::uint64_t(lights) * 4 : 0;
   // and, for contact shadows from the lights' side, the maps' triangle ids (as large)
-  const std::uint64_t mapIds = opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
-                                       !opt.frontBackFaces ? maps : 0;
+  const std::uint64_t mapIds = mapsWithIds(opt) ? maps : 0;
   const std::uint64_t largest = std::max({px * 16, vis, maps});
   const char* largestRole =
       largest == maps ? "shadow maps" : largest == vis ? "visibility buffer" : "frame plane";
@@ -119,10 +125,7 @@ struct Renderer::Impl {
       // Techniques with their own light-space structures (the bitmask's lists) never read them.
       const bool maps = visibility.readsShadowMaps();
       sf.depth = pool.buffer("shadow maps", maps ? std::size_t(S) * S * nl * 4 : 4);
-      // contact.cl also tests the triangle each light's map sees around a pixel
-      const bool ids = maps && opt.shadow.contactShadows && opt.shadow.contactFromMaps &&
-                       !opt.frontBackFaces;
-      if (ids) {
+      if (maps && mapsWithIds(opt)) {
         sf.mapIds = pool.buffer("shadow-map ids", std::size_t(S) * S * nl * 4);
         raster.depthMapsWithIds(lf.views, sf.depth, sf.mapIds, "shadow-maps");
       } else if (maps) {
