@@ -18,6 +18,7 @@
 using namespace penumbra;
 using namespace penumbra::test;
 using detail::AutoLight;
+using detail::CasterSample;
 using detail::chooseShadowTechniques;
 
 namespace {
@@ -87,6 +88,29 @@ TEST(AutoRule, FilteredByTheFilterWidthInTexels) {
   EXPECT_EQ(t[3], ShadowTechnique::PCSS);
   t = chooseShadowTechniques(lights, 0.001, o, 21.0f);
   EXPECT_EQ(t[3], ShadowTechnique::MSSM4);
+}
+
+// PCSS's blocker search meets the receiver's own surface where the light grazes it; such lights
+// (their median receiver under pcssMinElevationDeg) keep MSSM4 whatever their filter width.
+TEST(AutoRule, GrazingLightsKeepMSSM4) {
+  AutoOptions o;
+  o.exactShare = 0;  // these lights are large shares on small caps: that rule is PeakLights's
+  o.pcssTexels = 16;
+  EXPECT_EQ(o.pcssMinElevationDeg, 8.0f);  // the default
+  std::vector<AutoLight> lights(4, lightWithPenumbra(1, 6));
+  lights[0].receiverSin = 1;  // straight above its receivers (and the value when none face it)
+  lights[1].receiverSin = std::sin(8.1 * M_PI / 180);
+  lights[2].receiverSin = std::sin(7.9 * M_PI / 180);
+  lights[3].receiverSin = 0.01;
+  using T = std::vector<ShadowTechnique>;
+  constexpr ShadowTechnique M = ShadowTechnique::MSSM4, P = ShadowTechnique::PCSS;
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{P, P, M, M}));
+  o.pcssMinElevationDeg = 0;  // off: the width alone decides
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{P, P, P, P}));
+  o.pcssMinElevationDeg = 90;  // only a light straight above its receivers
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{P, M, M, M}));
+  o.pcssTexels = 0;  // no PCSS at all, as before the cut
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{M, M, M, M}));
 }
 
 TEST(AutoRule, ExactGoesToTheBrightestWithinBudget) {
@@ -173,6 +197,13 @@ TEST(AutoRule, BadOptionsNameTheField) {
     v.push_back({o, "RenderOptions.autoChoice.filteredLights"});
     o.filteredLights = 4097;
     v.push_back({o, "RenderOptions.autoChoice.filteredLights"});
+    o = AutoOptions{};
+    o.pcssMinElevationDeg = -1;
+    v.push_back({o, "RenderOptions.autoChoice.pcssMinElevationDeg"});
+    o.pcssMinElevationDeg = std::nanf("");
+    v.push_back({o, "RenderOptions.autoChoice.pcssMinElevationDeg"});
+    o.pcssMinElevationDeg = 90.5f;
+    v.push_back({o, "RenderOptions.autoChoice.pcssMinElevationDeg"});
     return v;
   }();
   for (const auto& [o, field] : bad) {
@@ -235,9 +266,34 @@ TEST(AutoInputs, CasterDistanceAndPixelFootprint) {
   EXPECT_EQ(detail::casterDistance(L, map.data(), S, samples, 0.002f, scratch),
             detail::casterDistance(L, map.data(), S, gpos, gnrm, 0.002f, 3));
   gpos[9].s[3] = 1;
-  // facing away from the light: nothing is lit, so nothing is shadowed
+  // the receivers' height: the median n.w over the samples facing the light. The light is along
+  // +y; tilt the normals of a third of the samples away by 80 degrees (n.w = cos 80), turn three
+  // away from it (left out), keep the rest up (n.w = 1)
+  std::vector<CasterSample> tilted = samples;
+  const float c80 = float(std::cos(80 * M_PI / 180)), s80 = float(std::sin(80 * M_PI / 180));
+  for (std::size_t i = 0; i < tilted.size(); ++i) {
+    float* n = tilted[i].normal;
+    if (i % 3 == 0) n[0] = s80, n[1] = c80, n[2] = 0;
+    if (i == 1 || i == 2 || i == 4) n[0] = 0, n[1] = -1, n[2] = 0;
+  }
+  std::vector<double> sines;
+  // 10 facing: 5 tilted (0, 3, 6, 9, 12), 5 up; the upper median is 1
+  detail::CasterStats cs = detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, &sines);
+  EXPECT_FLOAT_EQ(float(cs.receiverSin), 1.0f);
+  tilted[5].normal[0] = s80, tilted[5].normal[1] = c80;  // 6 tilted of 10: the median tilts
+  cs = detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, &sines);
+  EXPECT_NEAR(cs.receiverSin, c80, 1e-6);
+  // not asked for: 1, the distance the same
+  EXPECT_EQ(detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, nullptr).receiverSin,
+            1.0);
+  EXPECT_EQ(cs.distance, detail::casterDistance(L, map.data(), S, tilted, 0.002f, scratch));
+  // facing away from the light: nothing is lit, so nothing is shadowed, and no receiver faces it
   std::vector<cl_float4> down(gnrm.size(), {{0, -1, 0, 0}});
   EXPECT_EQ(detail::casterDistance(L, map.data(), S, gpos, down, 0.002f), 0.0);
+  for (CasterSample& t : tilted) t.normal[1] = -1, t.normal[0] = 0;
+  cs = detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, &sines);
+  EXPECT_EQ(cs.receiverSin, 1.0);
+  EXPECT_EQ(cs.distance, 0.0);
   EXPECT_NEAR(detail::pixelFootprint(gpos, W, H), 0.25, 1e-5);
   // no geometry: footprint unknown
   for (auto& p : gpos) p.s[3] = 0;
@@ -264,6 +320,9 @@ TEST(AutoFrame, ComposedRowsEqualEachTechniqueAlone) {
   ro.shadows = ShadowTechnique::Auto;
   ro.autoChoice.exactLights = 1;
   ro.autoChoice.pcssTexels = 20;  // narrow penumbrae PCSS, wide ones MSSM4
+  // the lights narrow enough for PCSS here graze their receivers (the median under 8 degrees),
+  // which the elevation cut gives MSSM4 (AutoRule.GrazingLightsKeepMSSM4): off here, for a mix
+  ro.autoChoice.pcssMinElevationDeg = 0;
   // Lights on the horizon take other lights' visibility at a pixel by design (README, "Lights on
   // the horizon"; tests/test_horizon.cpp), so a row there depends on the other rows' techniques:
   // off here, where each row is compared with its technique alone.

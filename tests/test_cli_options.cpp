@@ -606,8 +606,9 @@ TEST_F(CliRenderOptions, AreaApproxOptions) {
 
 // Auto: the report lists each light's technique, and holds the "auto" block and those of the
 // techniques it picked. --auto-exact 0 gives no light exact (bitmask) visibility;
-// --auto-pcss-texels large sends every filtered light to PCSS; --auto-filtered 1 leaves one light
-// filtered and gives the others that would have been hard shadows.
+// --auto-pcss-texels large sends every filtered light to PCSS that is not grazing its receivers
+// (--auto-pcss-elevation, 90: only a light straight above them); --auto-filtered 1 leaves one
+// light filtered and gives the others that would have been hard shadows.
 TEST_F(CliRenderOptions, AutoChoices) {
   auto countOf = [](const json& report, const std::string& t) {
     int n = 0;
@@ -630,7 +631,21 @@ TEST_F(CliRenderOptions, AutoChoices) {
   const Rendered one =
       render("one", {"--shadows", "auto", "--auto-exact", "0", "--auto-exact-share", "0",
                      "--auto-filtered", "1"});
-  ASSERT_FALSE(base.image.empty() || none.image.empty() || pcss.image.empty() || one.image.empty());
+  const Rendered steep = render("steep", {"--shadows", "auto", "--auto-exact", "1",
+                                          "--auto-pcss-texels", "1000", "--auto-pcss-elevation",
+                                          "90"});
+  ASSERT_FALSE(base.image.empty() || none.image.empty() || pcss.image.empty() || one.image.empty() ||
+               steep.image.empty());
+  EXPECT_FLOAT_EQ(dflt.report["auto"]["pcss_min_elevation_deg"].get<float>(), 8.0f);
+  EXPECT_FLOAT_EQ(steep.report["auto"]["pcss_min_elevation_deg"].get<float>(), 90.0f);
+  // the same lights filtered, fewer of them PCSS: only a light straight above its receivers (the
+  // zenith light over the ground, n.w rounding to 1) keeps PCSS, the others go to MSSM4
+  EXPECT_LT(countOf(steep.report, "pcss"), countOf(pcss.report, "pcss"))
+      << steep.report.dump() << pcss.report.dump();
+  EXPECT_EQ(countOf(steep.report, "mssm4") + countOf(steep.report, "pcss"),
+            countOf(pcss.report, "pcss"))
+      << steep.report.dump() << pcss.report.dump();
+  EXPECT_FALSE(samePixels(steep.image, pcss.image));
   EXPECT_EQ(none.report["auto"]["filtered_lights"], kDefaults.autoChoice.filteredLights);
   EXPECT_EQ(kDefaults.autoChoice.filteredLights, 24);
   EXPECT_EQ(one.report["auto"]["filtered_lights"], 1);
@@ -651,7 +666,7 @@ TEST_F(CliRenderOptions, AutoChoices) {
   EXPECT_EQ(countOf(base.report, "mssm4") + countOf(base.report, "pcss"),
             countOf(pcss.report, "pcss"))
       << base.report.dump() << pcss.report.dump();
-  for (const Rendered* r : {&base, &none, &pcss, &one}) {
+  for (const Rendered* r : {&base, &none, &pcss, &one, &steep}) {
     std::vector<std::string> blocks = {"auto"};
     if (countOf(r->report, "mssm4") > 0) blocks.push_back("mssm");
     if (countOf(r->report, "pcss") > 0) blocks.push_back("pcss");

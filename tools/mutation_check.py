@@ -135,6 +135,11 @@ FAULTS = [
           "  return t <= 0.0031308f ? 12.92f * t : 1.055f * std::pow(t, 1.0f / 2.2f) - 0.055f;",
           gtest="CliCompare.Png*:CliCompare.RenderPng*",
           pytest=["bindings/python/tests/test_images.py"]),
+    Fault("auto-grazing-cut-ignored", "auto gives PCSS to lights grazing their receivers (the elevation cut dropped)",
+          "src/shadows/auto.cpp",
+          "        lights[i].receiverSin >= sinPcss)",
+          "        lights[i].receiverSin >= -1.0)",
+          gtest="AutoRule.*:CliRenderOptions.AutoChoices"),
     # ---- command line ----------------------------------------------------------------------------
     Fault("cli-depth-bias-field", "--depth-bias sets the MSSM slope bias",
           "apps/cli/render_options.cpp",

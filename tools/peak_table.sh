@@ -5,7 +5,8 @@
 # 13's four scene/map pairs and four held-out ones, against --spp truths (seed 11) cached in
 # OUT/truths. Writes OUT/PAIR.CONFIG.json (penumbra evaluate --json) and OUT/table.md.
 # Usage: tools/peak_table.sh PENUMBRA DATA_DIR OUT [SPP] [NEW_OPTIONS] [OLD_OPTIONS]
-# (NEW_OPTIONS default: none, today's defaults; OLD_OPTIONS: both turned off. Committed:
+# (NEW_OPTIONS default: none, today's defaults; OLD_OPTIONS, when not given: both turned off, and
+# "" is today's defaults. Committed:
 # bench/results/accuracy/peaks, SPP 8192.) Another comparison names its two settings in
 # OLD_LABEL and NEW_LABEL (the table's column heads; defaults: the bright sources'), e.g.
 # OLD_LABEL="contact maps off" NEW_LABEL="contact maps on" tools/peak_table.sh P D OUT 8192 ""
@@ -13,7 +14,7 @@
 set -euo pipefail
 P=$1; D=$2; OUT=$3; SPP=${4:-8192}
 NEW=${5:-}
-OLD=${6:---peak-ratio 0 --auto-exact-share 0}
+OLD=${6---peak-ratio 0 --auto-exact-share 0}
 mkdir -p "$OUT/truths"
 . "$(dirname "$0")/evaluate_cached.sh"
 scene_pairs "$D"

@@ -116,6 +116,10 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.real(app, "--auto-pcss-texels", "auto: PCSS for filtered lights whose filter is at most "
            "this many texels wide, MSSM4 beyond", any, num(R.autoChoice.pcssTexels), A,
            {"RenderOptions.autoChoice.pcssTexels"});
+  reg.real(app, "--auto-pcss-elevation", "auto: PCSS only for lights at least this many degrees "
+           "above the receivers facing them (their median), MSSM4 nearer",
+           {0, 90, false, false}, num(R.autoChoice.pcssMinElevationDeg), A,
+           {"RenderOptions.autoChoice.pcssMinElevationDeg"});
   reg.integer(app, "--area-samples", "area-approx: samples per polygon edge besides its "
               "vertices", 0, 15, num(R.areaApprox.edgeSamples), A,
               {"RenderOptions.areaApprox.edgeSamples"});
@@ -157,6 +161,8 @@ RenderOptions parseRenderOptions(const Args& a) {
   }
   if (a.has("auto-exact")) ro.autoChoice.exactLights = int(a.integer("auto-exact"));
   if (a.has("auto-pcss-texels")) ro.autoChoice.pcssTexels = float(a.real("auto-pcss-texels"));
+  if (a.has("auto-pcss-elevation"))
+    ro.autoChoice.pcssMinElevationDeg = float(a.real("auto-pcss-elevation"));
   if (a.has("auto-filtered")) ro.autoChoice.filteredLights = int(a.integer("auto-filtered"));
   if (a.has("auto-exact-share")) ro.autoChoice.exactShare = float(a.real("auto-exact-share"));
   if (a.has("auto-exact-angle"))

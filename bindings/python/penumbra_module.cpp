@@ -1292,6 +1292,10 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_readwrite("pcss_texels", &AutoOptions::pcssTexels,
                      withDefault("PCSS up to this filter width (texels), MSSM4 beyond.",
                                  R.autoChoice.pcssTexels).c_str())
+      .def_readwrite("pcss_min_elevation_deg", &AutoOptions::pcssMinElevationDeg,
+                     withDefault("PCSS only for lights at least this many degrees above the "
+                                 "receivers facing them (their median), 0..90.",
+                                 R.autoChoice.pcssMinElevationDeg).c_str())
       .def_readwrite("filtered_lights", &AutoOptions::filteredLights,
                      withDefault("The most lights given a filtered technique, the brightest "
                                  "first, the others hard; -1: no limit, -1..4096.",

@@ -275,7 +275,14 @@ struct AutoOptions {
                                 ///< than PCSS since MSSM's eq. 19 by tilt (bench/results/accuracy.md:
                                 ///< auto 3.19/4.38/3.06/7.48% with MSSM4, 3.65/4.42/3.20/8.88% with
                                 ///< PCSS); PCSS costs about as much at the default clamp (2-core CPU).
-                                ///< Finite, >= 0
+                                ///< With every light filtered (filteredLights -1), 12 texels and
+                                ///< the elevation cut below measure best (README, "Within 1.15x of
+                                ///< the floor"). Finite, >= 0
+  float pcssMinElevationDeg = 8.0f;  ///< PCSS only for a light at least this many degrees above
+                                ///< the receivers on screen that face it (the median of n.w over
+                                ///< them): nearer their planes PCSS's search finds the receiver's
+                                ///< own texels and darkens it, and the light goes to MSSM4 (whose
+                                ///< eq. 19 by tilt handles grazing receivers). In [0, 90]; default 8
   /// A compact bright source gets exact visibility too, past exactLights: a light carrying at least
   /// exactShare of all the lights' power whose cap is at most exactHalfAngleDeg wide. Such a light
   /// (a sun, which MedianCutOptions::peakRatio makes one light) casts the frame's strongest shadow,

@@ -135,6 +135,7 @@ std::string renderReportJson(const std::string& device, const LightSet& lights,
     o["auto"] = {{"exact_lights", opt.autoChoice.exactLights},
                  {"hard_pixels", shortestDecimal(opt.autoChoice.hardPixels)},
                  {"pcss_texels", shortestDecimal(opt.autoChoice.pcssTexels)},
+                 {"pcss_min_elevation_deg", shortestDecimal(opt.autoChoice.pcssMinElevationDeg)},
                  {"filtered_lights", opt.autoChoice.filteredLights},
                  {"exact_share", shortestDecimal(opt.autoChoice.exactShare)},
                  {"exact_half_angle_deg", shortestDecimal(opt.autoChoice.exactHalfAngleDeg)}};

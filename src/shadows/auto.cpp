@@ -20,7 +20,12 @@
 //     ShadowOptions::maxFilterTexels as the kernel clamps it) is at most pcssTexels wide (its
 //     explicit filter reads every texel of the box: a cost growing with the width squared),
 //     MSSM4 beyond (a constant reconstruction per pixel after a prefilter whose cost does not
-//     depend on the width).
+//     depend on the width). A light that grazes its receivers (the median of n.w over the pixels
+//     facing it under sin AutoOptions::pcssMinElevationDeg) stays with MSSM4 whatever its width:
+//     PCSS's search then finds the receiver's own texels in front of its depth and darkens lit
+//     ground, where MSSM4's eq. 19 by tilt keeps it lit (measured per light against exact
+//     visibility, courtyard + Wuson, each light's squared error: PCSS's 4-23x MSSM4's for the
+//     lights 1-4 degrees above the ground, 0.3-1.0x for those at most 8 degrees wide higher up).
 //  4. past AutoOptions::filteredLights filtered lights (counted brightest first), the rest get hard
 //     shadows: a light's error share grows with its power, and a hard shadow costs a fraction of
 //     a filtered one, so a frame's time is better spent on more lights than on filtering dim ones
@@ -52,6 +57,9 @@ void validate(const AutoOptions& o) {
   checkRange("RenderOptions.autoChoice.filteredLights", o.filteredLights, -1, 4096);
   if (!(o.exactShare >= 0 && o.exactShare <= 1))
     badOption("RenderOptions.autoChoice.exactShare", "be in [0, 1]", o.exactShare);
+  if (!(o.pcssMinElevationDeg >= 0 && o.pcssMinElevationDeg <= 90))
+    badOption("RenderOptions.autoChoice.pcssMinElevationDeg", "be in [0, 90]",
+              o.pcssMinElevationDeg);
   if (!(o.exactHalfAngleDeg >= 0 && o.exactHalfAngleDeg <= 90))
     badOption("RenderOptions.autoChoice.exactHalfAngleDeg", "be in [0, 90]", o.exactHalfAngleDeg);
 }
@@ -101,16 +109,19 @@ void casterSamples(const std::vector<cl_float4>& gpos, const std::vector<cl_floa
   }
 }
 
-double casterDistance(const pb_light& L, const cl_uint* map, int size,
-                      const std::vector<CasterSample>& samples, float depthBias,
-                      std::vector<double>& gaps) {
+CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
+                        const std::vector<CasterSample>& samples, float depthBias,
+                        std::vector<double>& gaps, std::vector<double>* sines) {
   // the map's projection, as kernels/shadows/pcss.cl's map_point_of
   const double hx = L.ex[3], hy = L.ey[3], range = L.origin[3];
   const double texel = 2.0 * std::max(hx, hy) / std::max(size, 1);
   gaps.clear();
+  if (sines) sines->clear();
   for (const CasterSample& s : samples) {
     const float* n = s.normal;
-    if (n[0] * L.dir[0] + n[1] * L.dir[1] + n[2] * L.dir[2] <= 0) continue;  // unlit side
+    const float nw = n[0] * L.dir[0] + n[1] * L.dir[1] + n[2] * L.dir[2];
+    if (nw <= 0) continue;  // unlit side
+    if (sines) sines->push_back(nw);
     double r[3], x = 0, y = 0, d = 0;
     for (int k = 0; k < 3; ++k) r[k] = double(s.position[k]) - L.origin[k];
     for (int k = 0; k < 3; ++k) {
@@ -125,7 +136,16 @@ double casterDistance(const pb_light& L, const cl_uint* map, int size,
     const double gap = d - double(z);
     if (gap > depthBias * range + 2 * texel) gaps.push_back(gap);
   }
-  return median(gaps);
+  CasterStats st;
+  st.distance = median(gaps);
+  if (sines && !sines->empty()) st.receiverSin = median(*sines);
+  return st;
+}
+
+double casterDistance(const pb_light& L, const cl_uint* map, int size,
+                      const std::vector<CasterSample>& samples, float depthBias,
+                      std::vector<double>& gaps) {
+  return casterStats(L, map, size, samples, depthBias, gaps, nullptr).distance;
 }
 
 double casterDistance(const pb_light& L, const cl_uint* map, int size,
@@ -175,6 +195,7 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
   }
   // in the same order, so that the filtered budget goes to the brightest
   std::size_t filtered = 0;
+  const double sinPcss = std::sin(double(o.pcssMinElevationDeg) * M_PI / 180.0);
   for (std::size_t i : order) {
     if (out[i] == ShadowTechnique::Bitmask) continue;
     const double width = autoPenumbraWidth(lights[i]);
@@ -191,7 +212,9 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
     }
     ++filtered;
     // 3. filtered, by the filter's cost
-    if (std::min(texels, double(maxFilterTexels)) <= o.pcssTexels) out[i] = ShadowTechnique::PCSS;
+    if (std::min(texels, double(maxFilterTexels)) <= o.pcssTexels &&
+        lights[i].receiverSin >= sinPcss)
+      out[i] = ShadowTechnique::PCSS;
   }
   return out;
 }
@@ -253,19 +276,25 @@ class AutoPass : public ShadowPass {
     const unsigned threads =
         std::max(1u, std::min(std::thread::hardware_concurrency(), unsigned(nl)));
     gaps_.resize(threads);
-    std::vector<double> distance(nl);
+    sines_.resize(threads);
+    // the receivers' height only where the rule reads it (some light could get PCSS)
+    const AutoOptions& ao = f.opt.autoChoice;
+    const bool heights = ao.pcssTexels > 0 && ao.pcssMinElevationDeg > 0;
+    std::vector<CasterStats> stats(nl);
     auto lights = [&](unsigned t) {
       for (int l = int(t); l < nl; l += int(threads))
-        distance[l] = casterDistance(f.lights[l], maps + std::size_t(S) * S * l, S,
-                                     samples_, f.opt.shadow.depthBias, gaps_[t]);
+        stats[l] = casterStats(f.lights[l], maps + std::size_t(S) * S * l, S, samples_,
+                               f.opt.shadow.depthBias, gaps_[t], heights ? &sines_[t] : nullptr);
     };
     std::vector<std::thread> pool;
     for (unsigned t = 1; t < threads; ++t) pool.emplace_back(lights, t);
     lights(0);
     for (std::thread& t : pool) t.join();
     mapView = Context::ReadView();  // unmapped before the techniques' kernels read the maps
-    for (int l = 0; l < nl; ++l)
-      info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, distance[l]);
+    for (int l = 0; l < nl; ++l) {
+      info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, stats[l].distance);
+      info[l].receiverSin = stats[l].receiverSin;
+    }
     // The bitmask technique needs the scene's triangles; a frame without them (the GL interop)
     // gets no exact lights.
     choice_ = chooseShadowTechniques(info, pixel, f.opt.autoChoice, f.opt.shadow.maxFilterTexels,
@@ -357,7 +386,7 @@ class AutoPass : public ShadowPass {
 
   std::vector<cl_float4> gpos_, gnrm_;  // the last frame's read-backs, their storage reused
   std::vector<CasterSample> samples_;     // casterDistance's pixels, storage reused
-  std::vector<std::vector<double>> gaps_;  // its scratch, one per thread
+  std::vector<std::vector<double>> gaps_, sines_;  // its scratch, one per thread
   // A technique's subset, kept between frames: the frame holds references to these.
   struct Sub {
     std::vector<pb_light> lights;

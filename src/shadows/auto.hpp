@@ -17,6 +17,8 @@ struct AutoLight {
   double distance = 0;  // typical caster-receiver distance of its shadows on screen, world units
                         // (casterDistance); 0: it shadows nothing the camera sees
   double texel = 0;     // world size of one of its shadow-map texels
+  double receiverSin = 1;  // sine of its height above the receivers on screen that face it: the
+                           // median of n.w over them (casterStats); 1 when none face it
 };
 
 // A light as the rule sees it: its frame (ShadowFrame::lights), the light itself when known (its
@@ -47,6 +49,17 @@ void casterSamples(const std::vector<cl_float4>& gpos, const std::vector<cl_floa
 double casterDistance(const pb_light& L, const cl_uint* map, int size,
                       const std::vector<CasterSample>& samples, float depthBias,
                       std::vector<double>& gaps);
+
+// casterDistance and, from the same pixels, the light's height above the receivers that face it:
+// the median of n.w (the sine of the light's elevation above their tangent planes) over the
+// samples whose normal n faces the light's direction w, 1 when none does or when `sines` (its
+// scratch storage) is null.
+struct CasterStats {
+  double distance = 0, receiverSin = 1;
+};
+CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
+                        const std::vector<CasterSample>& samples, float depthBias,
+                        std::vector<double>& gaps, std::vector<double>* sines);
 
 // The estimated penumbra width, world units: the cap's diameter 2 tan(alpha) at the caster
 // distance.

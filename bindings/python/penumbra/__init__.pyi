@@ -442,11 +442,13 @@ class AutoOptions:
     exact_lights: int
     hard_pixels: float
     pcss_texels: float
+    pcss_min_elevation_deg: float
     filtered_lights: int
     exact_share: float
     exact_half_angle_deg: float
     def __init__(self, *, exact_lights: int = ..., hard_pixels: float = ...,
-                 pcss_texels: float = ..., filtered_lights: int = ..., exact_share: float = ...,
+                 pcss_texels: float = ..., pcss_min_elevation_deg: float = ...,
+                 filtered_lights: int = ..., exact_share: float = ...,
                  exact_half_angle_deg: float = ...) -> None: ...
 
 class RenderOptions:

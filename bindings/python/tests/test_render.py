@@ -79,6 +79,7 @@ def test_options():
     assert penumbra.parse_shadow_technique("auto") == penumbra.ShadowTechnique.AUTO
     o.auto_choice.exact_lights = 0
     assert o.auto_choice.exact_lights == 0 and penumbra.AutoOptions().pcss_texels == 0
+    assert penumbra.AutoOptions().pcss_min_elevation_deg == 8
     assert penumbra.AutoOptions().filtered_lights == 24  # the default frame's budget
     for f in ("slope_bias", "blocker_epsilon", "delta1", "delta2", "upper_bound_tilt"):
         assert getattr(m, f) >= 0
@@ -134,6 +135,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     opt.cssm.order, opt.cssm.sharpen_a, opt.cssm.sharpen_b = 7, 11, 13
     opt.pcss.blocker_taps, opt.pcss.filter_taps, opt.brute.samples = 9, 25, 3
     opt.auto_choice.exact_lights, opt.auto_choice.pcss_texels = 2, 6.5
+    opt.auto_choice.pcss_min_elevation_deg = 12.5
     opt.auto_choice.filtered_lights = 16
     opt.auto_choice.exact_share, opt.auto_choice.exact_half_angle_deg = 0.25, 7.5
     # The report holds the shared "shadow" block and only the block of the technique used.
@@ -166,6 +168,7 @@ def test_last_visibility_and_report(ctx, scene, camera, lights, env, renderer):
     # the mssm block (the seven sky lights)
     r = report_for("auto")
     assert (r["auto"]["exact_lights"], r["auto"]["pcss_texels"]) == (2, 6.5)
+    assert r["auto"]["pcss_min_elevation_deg"] == 12.5
     assert r["auto"]["filtered_lights"] == 16
     assert (r["auto"]["exact_share"], r["auto"]["exact_half_angle_deg"]) == (0.25, 7.5)
     assert blocks & set(r) == {"auto", "mssm", "bitmask"}
