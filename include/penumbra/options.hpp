@@ -280,9 +280,10 @@ struct AutoOptions {
                                 ///< the floor"). Finite, >= 0
   float pcssMinElevationDeg = 8.0f;  ///< PCSS only for a light at least this many degrees above
                                 ///< the receivers on screen that face it (the median of n.w over
-                                ///< them): nearer their planes PCSS's search finds the receiver's
-                                ///< own texels and darkens it, and the light goes to MSSM4 (whose
-                                ///< eq. 19 by tilt handles grazing receivers). In [0, 90]; default 8
+                                ///< them): nearer their planes PCSS's clamped receiver plane
+                                ///< (slope tan 84 deg) leaves the receiver shadowing itself, and
+                                ///< the light goes to MSSM4 (whose eq. 19 by tilt handles grazing
+                                ///< receivers). In [0, 90]; default 8
   /// A compact bright source gets exact visibility too, past exactLights: a light carrying at least
   /// exactShare of all the lights' power whose cap is at most exactHalfAngleDeg wide. Such a light
   /// (a sun, which MedianCutOptions::peakRatio makes one light) casts the frame's strongest shadow,

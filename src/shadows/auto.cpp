@@ -22,10 +22,12 @@
 //     MSSM4 beyond (a constant reconstruction per pixel after a prefilter whose cost does not
 //     depend on the width). A light that grazes its receivers (the median of n.w over the pixels
 //     facing it under sin AutoOptions::pcssMinElevationDeg) stays with MSSM4 whatever its width:
-//     PCSS's search then finds the receiver's own texels in front of its depth and darkens lit
-//     ground, where MSSM4's eq. 19 by tilt keeps it lit (measured per light against exact
+//     PCSS's receiver plane is clamped at a slope of tan 84 degrees (PB_MAX_RECEIVER_SLOPE), so
+//     such a receiver keeps about half its box in front of the plane and shadows itself, where
+//     MSSM4's eq. 19 by tilt keeps it lit (measured per light against exact
 //     visibility, courtyard + Wuson, each light's squared error: PCSS's 4-23x MSSM4's for the
-//     lights 1-4 degrees above the ground, 0.3-1.0x for those at most 8 degrees wide higher up).
+//     lights 1-4 degrees above the ground, 0.3-1.0x for those of half-angle at most 8 degrees
+//     higher up).
 //  4. past AutoOptions::filteredLights filtered lights (counted brightest first), the rest get hard
 //     shadows: a light's error share grows with its power, and a hard shadow costs a fraction of
 //     a filtered one, so a frame's time is better spent on more lights than on filtering dim ones
