@@ -53,7 +53,7 @@ static area_point area_point_of(const pb_light* L, float3 p, float3 g, int size)
   m.d = dot(r, -w) / m.range;
   m.tx = 2.0f * L->ex[3] / size;
   m.ty = 2.0f * L->ey[3] / size;
-  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range);
+  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range, PB_MAX_RECEIVER_SLOPE);
   m.du = slope.x;
   m.dv = slope.y;
   return m;

@@ -24,8 +24,8 @@ typedef struct {
 
 // Texel coordinates and depth exactly as kernels/shadows/moments.cl's mssm4_visibility computes
 // them (the orthographic view of raster.cl), plus the receiver plane of geometric normal g (0: no
-// plane).
-static map_point map_point_of(const pb_light* L, float3 p, float3 g, int size) {
+// plane), its slope clamped to max_slope (filter.clh, receiver_slope).
+static map_point map_point_of(const pb_light* L, float3 p, float3 g, int size, float max_slope) {
   float3 w = (float3)(L->dir[0], L->dir[1], L->dir[2]);
   float3 ex = (float3)(L->ex[0], L->ex[1], L->ex[2]), ey = (float3)(L->ey[0], L->ey[1], L->ey[2]);
   float3 org = (float3)(L->origin[0], L->origin[1], L->origin[2]);
@@ -38,7 +38,7 @@ static map_point map_point_of(const pb_light* L, float3 p, float3 g, int size) {
   m.d = dot(r, -w) / m.range;
   m.tx = 2.0f * hx / size;
   m.ty = 2.0f * hy / size;
-  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range);
+  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range, max_slope);
   m.du = slope.x;
   m.dv = slope.y;
   return m;
@@ -73,7 +73,7 @@ kernel void hard_visibility(global const float4* gpos, global const float4* gnrm
   if (p4.w == 0.0f) { vis[out] = 1.0f; return; }
   pb_light L = lights[l];
   if (light_below_horizon(gnrm[px].xyz, &L)) { vis[out] = 1.0f; return; }
-  map_point m = map_point_of(&L, p4.xyz, ggeo[px].xyz, size);
+  map_point m = map_point_of(&L, p4.xyz, ggeo[px].xyz, size, PB_MAX_RECEIVER_SLOPE);
   vis[out] = hard_test(depth + (size_t)l * size * size, size, &m, depth_bias);
 }
 
@@ -251,7 +251,7 @@ kernel void pcss_visibility(global const float4* gpos, global const float4* gnrm
   pb_light L = lights[l];
   if (light_below_horizon(gnrm[px].xyz, &L)) { vis[out] = 1.0f; return; }
   float3 g = P.receiver_plane ? ggeo[px].xyz : (float3)(0.0f);
-  map_point m = map_point_of(&L, p4.xyz, g, size);
+  map_point m = map_point_of(&L, p4.xyz, g, size, PB_UNCLAMPED_SLOPE);
   global const uint* map = depth + (size_t)l * size * size;
   float texel = fmin(m.tx, m.ty);
   float cos_a = L.dir[3];
@@ -340,7 +340,7 @@ kernel void brute_visibility(global const float4* gpos, global const float4* gnr
     pb_light S = samples[k];
     float c = dot(n, (float3)(S.dir[0], S.dir[1], S.dir[2]));
     if (c <= 0.0f) continue;
-    map_point m = map_point_of(&S, p4.xyz, g, size);
+    map_point m = map_point_of(&S, p4.xyz, g, size, PB_MAX_RECEIVER_SLOPE);
     lit += c * S.radiance[3] * hard_test(maps + (size_t)(k - first) * size * size, size, &m, depth_bias);
   }
   float share = lit / total;

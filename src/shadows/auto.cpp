@@ -21,13 +21,14 @@
 //     explicit filter reads every texel of the box: a cost growing with the width squared),
 //     MSSM4 beyond (a constant reconstruction per pixel after a prefilter whose cost does not
 //     depend on the width). A light that grazes its receivers (the median of n.w over the pixels
-//     facing it under sin AutoOptions::pcssMinElevationDeg) stays with MSSM4 whatever its width:
-//     PCSS's receiver plane is clamped at a slope of tan 84 degrees (PB_MAX_RECEIVER_SLOPE), so
-//     such a receiver keeps about half its box in front of the plane and shadows itself, where
-//     MSSM4's eq. 19 by tilt keeps it lit (measured per light against exact
-//     visibility, courtyard + Wuson, each light's squared error: PCSS's 4-23x MSSM4's for the
-//     lights 1-4 degrees above the ground, 0.3-1.0x for those of half-angle at most 8 degrees
-//     higher up).
+//     facing it under sin AutoOptions::pcssMinElevationDeg) stays with MSSM4 whatever its width.
+//     Found when PCSS's receiver plane was still clamped at a slope of tan 84 degrees (lit ground
+//     shadowed itself under lights 1-4 degrees high: PCSS's squared error 4-23x MSSM4's there,
+//     courtyard + Wuson, per light against exact visibility). With the plane unclamped (stop 44)
+//     what is left is a light whose cap crosses the receivers' plane (studio + Wuson's 2.6-degree
+//     light 1.6 degrees high: 0.227 against MSSM4's 0.061), and the cut still pays there: every
+//     light filtered, PCSS up to 12 texels, studio 2.570% with the cut, 2.601% without
+//     (bench/results/accuracy.md, "PCSS under grazing light").
 //  4. past AutoOptions::filteredLights filtered lights (counted brightest first), the rest get hard
 //     shadows: a light's error share grows with its power, and a hard shadow costs a fraction of
 //     a filtered one, so a frame's time is better spent on more lights than on filtering dim ones
