@@ -90,8 +90,9 @@ TEST(AutoRule, FilteredByTheFilterWidthInTexels) {
   EXPECT_EQ(t[3], ShadowTechnique::MSSM4);
 }
 
-// PCSS's blocker search meets the receiver's own surface where the light grazes it; such lights
-// (their median receiver under pcssMinElevationDeg) keep MSSM4 whatever their filter width.
+// Lights that graze their receivers (the median receiver under pcssMinElevationDeg) keep MSSM4
+// whatever their filter width: a light whose cap crosses the receivers' plane does worse with
+// PCSS (bench/results/accuracy.md, "PCSS under grazing light").
 TEST(AutoRule, GrazingLightsKeepMSSM4) {
   AutoOptions o;
   o.exactShare = 0;  // these lights are large shares on small caps: that rule is PeakLights's
