@@ -181,6 +181,35 @@ TEST(AutoRule, FilteredBudgetGoesToTheBrightestTheRestHard) {
   EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, H, H, H, H}));
 }
 
+// Both budgets go to the lights that bring the most irradiance to the surfaces on screen (power
+// times the mean of max(0, n.w) over the camera's pixels), not the most power: a bright light
+// under the ground's horizon, which lights only what faces it, ranks after dimmer ones above.
+TEST(AutoRule, BudgetsGoToTheBrightestOnScreen) {
+  using T = std::vector<ShadowTechnique>;
+  constexpr ShadowTechnique H = ShadowTechnique::Hard, M = ShadowTechnique::MSSM4,
+                            X = ShadowTechnique::Bitmask;
+  // powers 3, 1, 2; on screen 3 x 0.05 = 0.15, 1 x 0.6 = 0.6, 2 x 0.5 = 1
+  std::vector<AutoLight> lights = {lightWithPenumbra(3, 10), lightWithPenumbra(1, 10),
+                                   lightWithPenumbra(2, 10)};
+  lights[0].screenCos = 0.05;
+  lights[1].screenCos = 0.6;
+  lights[2].screenCos = 0.5;
+  EXPECT_DOUBLE_EQ(detail::autoScreenIrradiance(lights[0]), 0.15);
+  AutoOptions o;
+  o.exactShare = 0;
+  o.filteredLights = 1;
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, H, M}));
+  o.filteredLights = 2;
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, M, M}));
+  // one exact and one filtered: the first on screen exact, the second filtered
+  o.exactLights = 1;
+  o.filteredLights = 1;
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{H, M, X}));
+  // unknown shares (1, the default): power alone, the brightest first
+  for (AutoLight& l : lights) l.screenCos = 1;
+  EXPECT_EQ(chooseShadowTechniques(lights, 0.001, o), (T{X, H, M}));
+}
+
 TEST(AutoRule, BadOptionsNameTheField) {
   const std::vector<std::pair<AutoOptions, std::string>> bad = [] {
     std::vector<std::pair<AutoOptions, std::string>> v;
@@ -284,6 +313,11 @@ TEST(AutoInputs, CasterDistanceAndPixelFootprint) {
   tilted[5].normal[0] = s80, tilted[5].normal[1] = c80;  // 6 tilted of 10: the median tilts
   cs = detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, &sines);
   EXPECT_NEAR(cs.receiverSin, c80, 1e-6);
+  // the light's share on screen: the mean of max(0, n.w) over all 13 samples, those facing away
+  // counted as 0 (6 tilted, 4 up, 3 away), whether or not the sines are asked for
+  EXPECT_NEAR(cs.screenCos, (6 * c80 + 4) / 13.0, 1e-6);
+  EXPECT_EQ(detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, nullptr).screenCos,
+            cs.screenCos);
   // not asked for: 1, the distance the same
   EXPECT_EQ(detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, nullptr).receiverSin,
             1.0);
@@ -295,10 +329,44 @@ TEST(AutoInputs, CasterDistanceAndPixelFootprint) {
   cs = detail::casterStats(L, map.data(), S, tilted, 0.002f, scratch, &sines);
   EXPECT_EQ(cs.receiverSin, 1.0);
   EXPECT_EQ(cs.distance, 0.0);
+  EXPECT_EQ(cs.screenCos, 0.0);
+  // no samples (nothing on screen): unknown, 1, so the rule ranks by power alone
+  EXPECT_EQ(detail::casterStats(L, map.data(), S, {}, 0.002f, scratch, &sines).screenCos, 1.0);
   EXPECT_NEAR(detail::pixelFootprint(gpos, W, H), 0.25, 1e-5);
   // no geometry: footprint unknown
   for (auto& p : gpos) p.s[3] = 0;
   EXPECT_EQ(detail::pixelFootprint(gpos, W, H), 0.0);
+}
+
+// The pass measures each light's share on screen (AutoInputs.CasterDistanceAndPixelFootprint) and
+// the rule ranks by it: on the built-in scene, a light 2 degrees above the ground with three times
+// the power of one 45 degrees up brings the ground little (n.w = sin 2 degrees there), so a
+// budget of one filtered light goes to the high one and the grazing one gets hard shadows (ranked
+// by power alone, the other way round).
+TEST(AutoFrame, FilteredBudgetGoesToTheLightBrightestOnScreen) {
+  Scene scene = builtinScene();
+  Environment env = builtinEnvironment(16);
+  LightSet set;
+  for (float elev : {2.0f, 45.0f}) {
+    AreaLight light;
+    const float e = elev * float(M_PI) / 180;
+    light.direction = {0.6f * std::cos(e), std::sin(e), 0.8f * std::cos(e)};
+    light.cosAlpha = float(std::cos(10 * M_PI / 180));
+    const float rad = elev < 10 ? 3.0f : 1.0f;
+    light.radiance = {rad, rad, rad};
+    set.lights.push_back(light);
+  }
+  RenderOptions ro;
+  ro.width = 96;
+  ro.height = 54;
+  ro.shadowMapSize = 128;
+  ro.shadows = ShadowTechnique::Auto;
+  ro.autoChoice.exactShare = 0;
+  ro.autoChoice.filteredLights = 1;
+  Renderer r(ctx());
+  Frame f = r.render(scene, frameCamera(scene, float(ro.width) / ro.height), set, env, ro);
+  EXPECT_EQ(choices(f, 2), (std::vector<ShadowTechnique>{ShadowTechnique::Hard,
+                                                         ShadowTechnique::MSSM4}));
 }
 
 // The composed visibility: each light's row equals that light's row from its chosen technique run

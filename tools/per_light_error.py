@@ -14,6 +14,9 @@ Used for `auto`'s elevation cut (src/shadows/auto.cpp; README, "Within 1.15x of 
   PYTHONPATH=build/bindings/python /usr/bin/python3 tools/per_light_error.py \
       --env DATA/envmaps/courtyard.exr --scene DATA/meshes/good/WusonOBJ.obj --techniques mssm4,pcss
 The light set is `penumbra lights -l N` of the map (median cut, the render command's default).
+`--env builtin --scene builtin` measures the built-in scene; `--auto-filtered N` sets auto's filtered
+budget (used for auto's ranking by irradiance on screen, bench/results/accuracy.md, "The filtered
+budget by irradiance on screen").
 """
 import argparse
 import math
@@ -29,19 +32,23 @@ import penumbra as pb
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--env", required=True, help="environment map")
-    ap.add_argument("--scene", required=True, help="mesh file (a ground plane is added)")
+    ap.add_argument("--env", required=True, help="environment map, or 'builtin'")
+    ap.add_argument("--scene", required=True,
+                    help="mesh file (a ground plane is added), or 'builtin'")
     ap.add_argument("--lights", type=int, default=64, help="median-cut lights (default 64)")
     ap.add_argument("--techniques", default="mssm4,pcss", help="comma-separated (default mssm4,pcss)")
     ap.add_argument("--size", default="320x180", help="WxH (default 320x180)")
     ap.add_argument("--cli", default="build/penumbra", help="the penumbra CLI (light extraction)")
+    ap.add_argument("--auto-filtered", type=int, default=None,
+                    help="auto's filtered budget (AutoOptions.filtered_lights; default its own)")
     a = ap.parse_args()
     W, H = (int(v) for v in a.size.split("x"))
     techs = a.techniques.split(",")
 
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "lights.json")
-        subprocess.run([a.cli, "lights", "--env", a.env, "-l", str(a.lights), "-o", path],
+        envarg = [] if a.env == "builtin" else ["--env", a.env]
+        subprocess.run([a.cli, "lights", *envarg, "-l", str(a.lights), "-o", path],
                        check=True, stderr=subprocess.DEVNULL)
         lights = pb.load_light_set(path)
         singles = []
@@ -51,12 +58,15 @@ def main():
             s.has_ambient = False
             singles.append(s)
 
-    env, scene = pb.load_environment(a.env), pb.load_scene(a.scene)
+    env = pb.builtin_environment() if a.env == "builtin" else pb.load_environment(a.env)
+    scene = pb.builtin_scene() if a.scene == "builtin" else pb.load_scene(a.scene)
     camera = pb.frame_camera(scene, W / H)
     renderer = pb.Renderer(pb.Context())
 
     def render(light_set, technique):
         o = pb.RenderOptions(width=W, height=H, technique=technique)
+        if a.auto_filtered is not None:
+            o.auto_choice.filtered_lights = a.auto_filtered
         o.environment_background = False
         frame = renderer.render(scene, camera, light_set, env, o)
         return np.asarray(renderer.last_visibility(W, H)), np.asarray(frame.image)[..., :3]

@@ -101,7 +101,7 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
   reg.integer(app, "--accumulate", "bitmask: average N frames with rotated light samples", 1,
               4096, "1", A);
   reg.integer(app, "--auto-exact", "auto: the most lights given exact (bitmask) visibility, the "
-              "brightest and softest first; 0: none", 0, 4096, num(R.autoChoice.exactLights), A,
+              "brightest on screen first; 0: none", 0, 4096, num(R.autoChoice.exactLights), A,
               {"RenderOptions.autoChoice.exactLights"});
   reg.real(app, "--auto-exact-share", "auto: exact (bitmask) visibility also for every light "
            "carrying at least this share of the lights' power on a cap no wider than the exact "
@@ -111,7 +111,7 @@ void addRenderOptions(CLI::App& app, Registry& reg) {
            "the exact share applies to", {0, 90, false, false},
            num(R.autoChoice.exactHalfAngleDeg), A, {"RenderOptions.autoChoice.exactHalfAngleDeg"});
   reg.integer(app, "--auto-filtered", "auto: the most lights given a filtered technique, the "
-              "brightest first, the others hard; -1: no limit", -1, 4096,
+              "brightest on screen first, the others hard; -1: no limit", -1, 4096,
               num(R.autoChoice.filteredLights), A, {"RenderOptions.autoChoice.filteredLights"});
   reg.real(app, "--auto-pcss-texels", "auto: PCSS for filtered lights whose filter is at most "
            "this many texels wide, MSSM4 beyond", any, num(R.autoChoice.pcssTexels), A,

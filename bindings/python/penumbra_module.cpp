@@ -1298,7 +1298,7 @@ PYBIND11_MODULE(_penumbra, m) {
                                  R.autoChoice.pcssMinElevationDeg).c_str())
       .def_readwrite("filtered_lights", &AutoOptions::filteredLights,
                      withDefault("The most lights given a filtered technique, the brightest "
-                                 "first, the others hard; -1: no limit, -1..4096.",
+                                 "on screen first, the others hard; -1: no limit, -1..4096.",
                                  R.autoChoice.filteredLights).c_str())
       .def_readwrite("exact_share", &AutoOptions::exactShare,
                      withDefault("Exact visibility also for a light with at least this share of "

@@ -3,14 +3,17 @@
 //
 // The rule, and why. Approximate techniques err inside penumbrae (PCSS's and MSSM's single planar
 // blocker, the filter's limit on wide penumbrae; hard shadows everywhere there), so a light's
-// share of the image's error grows with the irradiance it brings (its power) times the screen
-// area its penumbrae cover (their width). Exact sampled visibility (the bitmask technique, seed
-// 001 §4) removes that error at a cost that also grows with the penumbra: each caster triangle
-// walks the list texels of its influence region, which widens with the light's angular size. Gain
-// per cost is then about the power alone, so:
-//  1. the brightest lights get exact visibility, at most AutoOptions::exactLights of them (a
-//     count: the technique costs one to several default frames per light on a 2-core CPU), and
-//     so does every compact bright source (a share of the power of at least
+// share of the image's error grows with the irradiance it brings times the screen area its
+// penumbrae cover (their width). Exact sampled visibility (the bitmask technique, Sintorn,
+// Eisemann & Assarsson 2008 §4) removes that error at a cost that also grows with the penumbra:
+// each caster triangle walks the list texels of its influence region, which widens with the
+// light's angular size. Gain per cost is then about the irradiance alone: not the light's power
+// but what of it reaches the surfaces on screen, power times the mean of max(0, n.w) over the
+// camera's pixels (a light below the ground's horizon lights only what faces it; one grazing the
+// ground brings it little). The lights are ranked by that ("brightest on screen"), so:
+//  1. the brightest lights on screen get exact visibility, at most AutoOptions::exactLights of
+//     them (a count: the technique costs one to several default frames per light on a 2-core
+//     CPU), and so does every compact bright source (a share of the power of at least
 //     AutoOptions::exactShare from a cap at most exactHalfAngleDeg wide): the cost grows with the
 //     light's size, and a small cap's is a fraction of a frame;
 //  2. a light whose penumbra is narrower than a camera pixel or a shadow-map texel, whichever is
@@ -29,14 +32,19 @@
 //     light 1.6 degrees high: 0.227 against MSSM4's 0.061), and the cut still pays there: every
 //     light filtered, PCSS up to 12 texels, studio 2.570% with the cut, 2.601% without
 //     (bench/results/accuracy.md, "PCSS under grazing light").
-//  4. past AutoOptions::filteredLights filtered lights (counted brightest first), the rest get hard
-//     shadows: a light's error share grows with its power, and a hard shadow costs a fraction of
-//     a filtered one, so a frame's time is better spent on more lights than on filtering dim ones
-//     (bench/results/accuracy.md, "Light count against technique").
+//  4. past AutoOptions::filteredLights filtered lights (counted brightest on screen first), the
+//     rest get hard shadows: a light's error share grows with the irradiance it brings, and a hard
+//     shadow costs a fraction of a filtered one, so a frame's time is better spent on more lights
+//     than on filtering dim ones (bench/results/accuracy.md, "Light count against technique").
+//     Ranked by power alone, as it was until stop 45, the budget went to lights under the
+//     ground's horizon and left wide high ones hard: per light against exact visibility, the
+//     technique error of the default frame fell from 0.73 / 1.54 / 0.72 / 1.19% to 0.69 / 1.39 /
+//     0.58 / 1.17% with the same 24 filtered lights (accuracy.md, "The filtered budget by
+//     irradiance on screen").
 // The penumbra width is 2 tan(alpha) times the median caster-receiver distance of the light's
 // shadowed pixels (casterDistance). The rule reads light properties (power, cap size, that
-// distance, the map's texel) and the camera's pixel footprint, never a technique's measured
-// error, so it holds as the techniques improve.
+// distance, the map's texel, the receivers' cosines) and the camera's pixel footprint, never a
+// technique's measured error, so it holds as the techniques improve.
 #include "shadows/auto.hpp"
 
 #include <algorithm>
@@ -120,10 +128,12 @@ CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
   const double texel = 2.0 * std::max(hx, hy) / std::max(size, 1);
   gaps.clear();
   if (sines) sines->clear();
+  double cosSum = 0;
   for (const CasterSample& s : samples) {
     const float* n = s.normal;
     const float nw = n[0] * L.dir[0] + n[1] * L.dir[1] + n[2] * L.dir[2];
     if (nw <= 0) continue;  // unlit side
+    cosSum += nw;
     if (sines) sines->push_back(nw);
     double r[3], x = 0, y = 0, d = 0;
     for (int k = 0; k < 3; ++k) r[k] = double(s.position[k]) - L.origin[k];
@@ -142,6 +152,7 @@ CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
   CasterStats st;
   st.distance = median(gaps);
   if (sines && !sines->empty()) st.receiverSin = median(*sines);
+  if (!samples.empty()) st.screenCos = cosSum / double(samples.size());
   return st;
 }
 
@@ -159,6 +170,8 @@ double casterDistance(const pb_light& L, const cl_uint* map, int size,
 }
 
 double autoPenumbraWidth(const AutoLight& l) { return 2 * l.tanAlpha * l.distance; }
+
+double autoScreenIrradiance(const AutoLight& l) { return l.power * l.screenCos; }
 
 double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height) {
   std::vector<double> d;
@@ -178,11 +191,11 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
                                                     float maxFilterTexels, bool exactAllowed) {
   validate(o);
   const std::size_t n = lights.size();
-  // 1. exact: the brightest first; ties keep the lights' order
+  // 1. exact: the brightest on screen first; ties keep the lights' order
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return lights[a].power > lights[b].power;
+    return autoScreenIrradiance(lights[a]) > autoScreenIrradiance(lights[b]);
   });
   std::vector<ShadowTechnique> out(n, ShadowTechnique::MSSM4);
   const std::size_t budget = exactAllowed ? std::size_t(o.exactLights) : 0;
@@ -196,7 +209,7 @@ std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>
       if (lights[i].power >= double(o.exactShare) * total && lights[i].tanAlpha <= tanMax)
         out[i] = ShadowTechnique::Bitmask;
   }
-  // in the same order, so that the filtered budget goes to the brightest
+  // in the same order, so that the filtered budget goes to the brightest on screen
   std::size_t filtered = 0;
   const double sinPcss = std::sin(double(o.pcssMinElevationDeg) * M_PI / 180.0);
   for (std::size_t i : order) {
@@ -297,6 +310,7 @@ class AutoPass : public ShadowPass {
     for (int l = 0; l < nl; ++l) {
       info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, stats[l].distance);
       info[l].receiverSin = stats[l].receiverSin;
+      info[l].screenCos = stats[l].screenCos;
     }
     // The bitmask technique needs the scene's triangles; a frame without them (the GL interop)
     // gets no exact lights.

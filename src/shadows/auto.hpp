@@ -19,6 +19,8 @@ struct AutoLight {
   double texel = 0;     // world size of one of its shadow-map texels
   double receiverSin = 1;  // sine of its height above the receivers on screen that face it: the
                            // median of n.w over them (casterStats); 1 when none face it
+  double screenCos = 1;    // mean of max(0, n.w) over the camera's pixels (casterStats): the share
+                           // of its power that reaches the surfaces on screen; 1 when not known
 };
 
 // A light as the rule sees it: its frame (ShadowFrame::lights), the light itself when known (its
@@ -53,9 +55,10 @@ double casterDistance(const pb_light& L, const cl_uint* map, int size,
 // casterDistance and, from the same pixels, the light's height above the receivers that face it:
 // the median of n.w (the sine of the light's elevation above their tangent planes) over the
 // samples whose normal n faces the light's direction w, 1 when none does or when `sines` (its
-// scratch storage) is null.
+// scratch storage) is null; and the mean of max(0, n.w) over all the samples (AutoLight::
+// screenCos; 1 when there are none).
 struct CasterStats {
-  double distance = 0, receiverSin = 1;
+  double distance = 0, receiverSin = 1, screenCos = 1;
 };
 CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
                         const std::vector<CasterSample>& samples, float depthBias,
@@ -64,6 +67,10 @@ CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
 // The estimated penumbra width, world units: the cap's diameter 2 tan(alpha) at the caster
 // distance.
 double autoPenumbraWidth(const AutoLight& l);
+
+// The light's mean irradiance on the surfaces the camera sees, relative: power times screenCos.
+// The budgets of the rule (exact, then filtered) go to the lights with the most, first.
+double autoScreenIrradiance(const AutoLight& l);
 
 // A camera pixel's footprint on the scene, world units: the median distance between the
 // positions of horizontally adjacent pixels that both see geometry (gpos: float4 per pixel, w = 1
