@@ -1,9 +1,9 @@
 // Area approximation for polygonal lights (Ying et al. 2002, Ying, Tang, Dong: "Soft Shadow Maps
-// for Area
-// Light by Area Approximation", §2). The light's boundary is sampled at its vertices and along its
-// edges; each sample direction has its own orthographic depth map (src/shadows/area.cpp). Per
-// receiver:
-//   1. point visibility V_p(P_k) of every boundary sample: one depth test in its map (§2);
+// for Area Light by Area Approximation", §2). The light's boundary is sampled at its vertices and
+// along its edges; each sample direction has its own orthographic depth map (src/shadows/area.cpp).
+// Per receiver:
+//   1. point visibility V_p(P_k) of every boundary sample: one depth test in its map (§2); a
+//      sample under the receiver's horizon counts as lit, its light clipped away in step 3;
 //   2. on every boundary segment whose two ends disagree, the linear-light visibility V_s (the
 //      lit share of the segment, after Heidrich et al. 2000, the paper's ref. [1]), which places
 //      the shadow boundary's crossing point on that segment;
@@ -53,7 +53,7 @@ static area_point area_point_of(const pb_light* L, float3 p, float3 g, int size)
   m.d = dot(r, -w) / m.range;
   m.tx = 2.0f * L->ex[3] / size;
   m.ty = 2.0f * L->ey[3] / size;
-  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range, PB_MAX_RECEIVER_SLOPE);
+  float2 slope = receiver_slope(g, ex, ey, w, m.tx, m.ty, m.range, PB_UNCLAMPED_SLOPE);
   m.du = slope.x;
   m.dv = slope.y;
   return m;
@@ -224,8 +224,24 @@ kernel void area_visibility(global const float4* gpos, global const float4* gnrm
   }
   float3 g = ggeo[px].xyz;
   area_range r = ranges[l];
-  ulong lit = 0;
+  float3 n = gnrm[px].xyz;  // the shading normal, whose irradiance the shading scales
+  float3 nl = (float3)(dot(n, (float3)(L.ex[0], L.ex[1], L.ex[2])),
+                       dot(n, (float3)(L.ey[0], L.ey[1], L.ey[2])),
+                       dot(n, (float3)(L.dir[0], L.dir[1], L.dir[2])));
+  global const float2* ql = q + r.first;
+  // Samples under the receiver's horizon send it nothing (step 3 clips them away), but their
+  // depth tests look along the receiver's own plane, or from behind it, and may read it as a
+  // blocker: a lit run broken there is closed by a chord that cuts off light above the horizon
+  // (a lone plane under a light 2 degrees above it read 0.96). They count as lit, and a segment
+  // from one of them to a blocked sample crosses at the horizon (step 2), so that what lies
+  // under it stays out of the estimate whatever its depth tests say.
+  ulong lit = 0, under = 0;
   for (int k = 0; k < r.count; ++k) {  // step 1: V_p of every sample
+    if (!(dot(nl, dir_of(ql[k])) > 0.0f)) {
+      lit |= (ulong)1 << k;
+      under |= (ulong)1 << k;
+      continue;
+    }
     pb_light S = samples[r.first + k];
     area_point m = area_point_of(&S, p4.xyz, g, size);
     int i = min((int)m.u, size - 1), j = min((int)m.v, size - 1);
@@ -240,15 +256,16 @@ kernel void area_visibility(global const float4* gpos, global const float4* gnrm
     seg[k] = 0.5f;
     if (a == b) continue;
     int blocked = a ? k1 : k, open = a ? k : k1;
+    if ((under >> open) & 1) {  // the share of the segment under the horizon, next to `open`
+      float hb = dot(nl, dir_of(ql[blocked])), ho = dot(nl, dir_of(ql[open]));
+      seg[k] = clamp(-ho / (hb - ho), 0.0f, 1.0f);
+      continue;
+    }
     pb_light Sj = samples[r.first + blocked], Si = samples[r.first + open];
     seg[k] = segment_lit(&Sj, &Si, maps + (size_t)(r.first + blocked - base) * size * size, size,
                          p4.xyz, g, depth_bias, taps);
   }
-  float3 n = gnrm[px].xyz;  // the shading normal, whose irradiance the shading scales
-  float3 nl = (float3)(dot(n, (float3)(L.ex[0], L.ex[1], L.ex[2])),
-                       dot(n, (float3)(L.ey[0], L.ey[1], L.ey[2])),
-                       dot(n, (float3)(L.dir[0], L.dir[1], L.dir[2])));
-  vis[out] = area_ratio(q + r.first, r.count, lit, seg, nl);  // step 3
+  vis[out] = area_ratio(ql, r.count, lit, seg, nl);  // step 3
 }
 
 // The area estimate alone, for tests: visibility of `n`-sample boundaries from given point
