@@ -607,19 +607,87 @@ M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
 }
 
 // Steps 2 and 4 below: the mean moments of each batch pixel's box (texel coordinates u, v,
-// half-width h, the light's texel sizes in `light`) into m0..m3, in a scalar loop, so that each
-// lattice value is one long4 load. A pixel whose h equals keep[k] keeps the moments m0..m3
-// already hold for it (keep null: every box is read).
+// half-width h, the light's texel sizes in `light`) into m0..m3. A pixel whose h equals keep[k]
+// keeps the moments m0..m3 already hold for it (keep null: every box is read). Two loops:
+// box_mean's set-up (the box's edges, its texel runs, the lattice rows and columns, the nine
+// weights and the divisor) for every pixel at once in a SIMD loop, then its 16 lattice loads and
+// exact sums in a scalar loop, so that each lattice value is one long4 load. Each step is
+// box_mean's own operation on the same operands, so the moments have its bits
+// (tests/test_mssm.cpp); on the set-up's SIMD loop the scalar loop went from about 200 to 120
+// instructions a box (bench/results/cpu_speed.md).
+typedef struct {
+  int row[4][VIS_BATCH];     // element offset of lattice row j (clamped) in the table
+  int col[4][VIS_BATCH];     // lattice column a (clamped)
+  int first_row[VIS_BATCH];  // 1 where lattice row 0 is inside the table (else it reads as 0)
+  int first_col[VIS_BATCH];
+  float w[9][VIS_BATCH];     // sub-rectangle (a, b)'s weight, at 3 b + a
+  float div[VIS_BATCH];      // area * PB_MOMENT_SCALE
+} box_plan;
+
 M4S void batch_box_moments(global const long4* sat, int size, const mssm_pixel* light,
                            const float* u, const float* v, const float* h, const float* keep,
-                           float* m0, float* m1, float* m2, float* m3) {
+                           box_plan* bp, float* m0, float* m1, float* m2, float* m3) {
+PB_SIMD_LOOP(VIS_BATCH)
+  for (int k = 0; k < VIS_BATCH; ++k) {
+    // mssm_box's edges, then box_mean's runs (filter.clh)
+    const float x0 = fmax(u[k] - h[k] * light->texel / light->texel_x, 0.0f),
+                y0 = fmax(v[k] - h[k] * light->texel / light->texel_y, 0.0f),
+                x1 = fmin(u[k] + h[k] * light->texel / light->texel_x, (float)size),
+                y1 = fmin(v[k] + h[k] * light->texel / light->texel_y, (float)size);
+    box_run X = box_runs(x0, x1, size), Y = box_runs(y0, y1, size);
+    bp->col[0][k] = clamp(X.i0 - 1, 0, size - 1);
+    bp->col[1][k] = clamp(X.i1 - 1, 0, size - 1);
+    bp->col[2][k] = clamp(X.i2 - 1, 0, size - 1);
+    bp->col[3][k] = clamp(X.i3 - 1, 0, size - 1);
+    bp->row[0][k] = clamp(Y.i0 - 1, 0, size - 1) * size;
+    bp->row[1][k] = clamp(Y.i1 - 1, 0, size - 1) * size;
+    bp->row[2][k] = clamp(Y.i2 - 1, 0, size - 1) * size;
+    bp->row[3][k] = clamp(Y.i3 - 1, 0, size - 1) * size;
+    bp->first_col[k] = X.i0 > 0;
+    bp->first_row[k] = Y.i0 > 0;
+    bp->w[0][k] = X.w0 * Y.w0;
+    bp->w[1][k] = X.w1 * Y.w0;
+    bp->w[2][k] = X.w2 * Y.w0;
+    bp->w[3][k] = X.w0 * Y.w1;
+    bp->w[4][k] = X.w1 * Y.w1;
+    bp->w[5][k] = X.w2 * Y.w1;
+    bp->w[6][k] = X.w0 * Y.w2;
+    bp->w[7][k] = X.w1 * Y.w2;
+    bp->w[8][k] = X.w2 * Y.w2;
+    bp->div[k] = (x1 - x0) * (y1 - y0) * (float)PB_MOMENT_SCALE;
+  }
 PB_SCALAR_LOOP
   for (int k = 0; k < VIS_BATCH; ++k) {
     if (keep && h[k] == keep[k]) continue;
-    mssm_pixel q = *light;
-    q.u = u[k];
-    q.v = v[k];
-    float4 m = mssm_box(sat, size, &q, h[k]);
+    const long4 first_column = (long4)(-(long)bp->first_col[k]),
+                first_row = (long4)(-(long)bp->first_row[k]), all = (long4)(-1);
+    const int c0 = bp->col[0][k], c1 = bp->col[1][k], c2 = bp->col[2][k], c3 = bp->col[3][k];
+#define PB_ROW(j, M)                                                                   \
+  global const long4* row##j = sat + bp->row[j][k];                                    \
+  long4 p##j##0 = row##j[c0] & first_column & (M), p##j##1 = row##j[c1] & (M),        \
+        p##j##2 = row##j[c2] & (M), p##j##3 = row##j[c3] & (M);
+    PB_ROW(0, first_row)
+    PB_ROW(1, all)
+    PB_ROW(2, all)
+    PB_ROW(3, all)
+#undef PB_ROW
+    float4 acc = (float4)(0.0f);
+#define PB_RECT(a, b, a1, b1)                              \
+  {                                                        \
+    long4 s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a;   \
+    acc += bp->w[3 * b + a][k] * convert_float4(s);        \
+  }
+    PB_RECT(0, 0, 1, 1)
+    PB_RECT(1, 0, 2, 1)
+    PB_RECT(2, 0, 3, 1)
+    PB_RECT(0, 1, 1, 2)
+    PB_RECT(1, 1, 2, 2)
+    PB_RECT(2, 1, 3, 2)
+    PB_RECT(0, 2, 1, 3)
+    PB_RECT(1, 2, 2, 3)
+    PB_RECT(2, 2, 3, 3)
+#undef PB_RECT
+    float4 m = acc / bp->div[k];
     m0[k] = m.x;
     m1[k] = m.y;
     m2[k] = m.z;
@@ -664,6 +732,7 @@ kernel void mssm4_visibility_batch(global const float* gpos, global const float*
   float u[VIS_BATCH], v[VIS_BATCH], d[VIS_BATCH], slope[VIS_BATCH], h[VIS_BATCH], zr[VIS_BATCH];
   float search_h[VIS_BATCH];  // the search box's half-width, once h holds the filter's
   float m0[VIS_BATCH], m1[VIS_BATCH], m2[VIS_BATCH], m3[VIS_BATCH];
+  box_plan plan;
   for (int b = 0; b < n; b += VIS_BATCH) {
     // 1. mssm_pixel_setup's per-pixel part, and the blocker search's box
 PB_SIMD_LOOP(VIS_BATCH)
@@ -689,7 +758,7 @@ PB_SIMD_LOOP(VIS_BATCH)
       zr[k] = mssm_receiver(&q, &P, hs);
     }
     // 2. the search box's moments
-    batch_box_moments(sat, size, &light, u, v, h, 0, m0, m1, m2, m3);
+    batch_box_moments(sat, size, &light, u, v, h, 0, &plan, m0, m1, m2, m3);
     // 3. blockers, and the filter's box
 PB_SIMD_LOOP(VIS_BATCH)
     for (int k = 0; k < VIS_BATCH; ++k) {
@@ -727,7 +796,7 @@ PB_SIMD_LOOP(VIS_BATCH)
     //    it is the same box, and its moments are already in m0..m3: the same bits, and on 640x360
     //    frames the visibility stage went from about 139 to 121 ms (one alternated measurement;
     //    bench/results/cpu_speed.md has the idle-machine figures for the whole change).
-    batch_box_moments(sat, size, &light, u, v, h, search_h, m0, m1, m2, m3);
+    batch_box_moments(sat, size, &light, u, v, h, search_h, &plan, m0, m1, m2, m3);
     // 5. filtered visibility
 PB_SIMD_LOOP(VIS_BATCH)
     for (int k = 0; k < VIS_BATCH; ++k) {
