@@ -10,7 +10,11 @@
 namespace penumbra::detail {
 
 namespace {
-constexpr int kShadeGroup = 64;
+// Pixels per work-item of shade_batch. Each work-item reads its pixels' row of the visibility
+// buffer for every light (lights x pixels floats, one row a light): 256 pixels make 1 KiB runs,
+// which the prefetcher follows, where 64 made 256-byte ones that mostly missed (the 32-light frame's
+// `shade` stage 17 -> 14 ms; 1024 measured the same as 256; bench/results/cpu_speed.md).
+constexpr int kShadeGroup = 256;
 }  // namespace
 
 cl::Buffer shade(Context& ctx, BufferPool& pool, const ShadeInputs& in, const LightSet& lightSet,
