@@ -113,36 +113,75 @@ static bool outline_bounds(const pb_view* v, const float2* P, int n, int* x0, in
   return *x0 <= *x1 && *y0 <= *y1;
 }
 
-// The pixels of row y whose centres the outline (a convex polygon of n points) can cover: the
-// outline's extent in x over the row's band [y, y + 1] (its points inside the band and its edges'
-// crossings of the band's two lines), widened by a pixel as outline_bounds widens the box, and
-// cut to [*xs, *xe]. Every centre (x + 1/2, y + 1/2) the ray test can hit lies in that extent:
-// the test's tolerance (RASTER_EPS in barycentrics) and the projection's rounding move an edge by
-// far less than the pixel of margin. An empty span leaves *xs > *xe.
-static void outline_row_span(const float2* P, int n, int y, int* xs, int* xe) {
-  const float lo = (float)y, hi = (float)(y + 1);
-  float minx = INFINITY, maxx = -INFINITY;
+// The outline's edges as outline_row_span reads them, set up once a triangle: edge i runs from
+// y = ylo[i] to yhi[i] (ylo <= yhi), along x = x0[i] + (y - ylo[i]) * slope[i] with x0 its x at
+// ylo; a horizontal edge (ylo = yhi) spans x0[i] to x1[i].
+typedef struct {
+  float ylo[4], yhi[4], x0[4], x1[4], slope[4];
+  int n;
+} outline_edges;
+
+static void outline_edges_of(const float2* P, int n, outline_edges* e) {
+  e->n = n;
   for (int i = 0; i < n; ++i) {
     float2 p = P[i], q = P[i + 1 < n ? i + 1 : 0];
-    if (p.y >= lo && p.y <= hi) {
-      minx = fmin(minx, p.x);
-      maxx = fmax(maxx, p.x);
+    if (q.y < p.y) {
+      float2 t = p;
+      p = q;
+      q = t;
     }
-    for (int k = 0; k < 2; ++k) {
-      float line = k ? hi : lo;
-      if ((p.y < line) != (q.y < line)) {
-        float x = p.x + (line - p.y) / (q.y - p.y) * (q.x - p.x);
-        minx = fmin(minx, x);
-        maxx = fmax(maxx, x);
-      }
+    e->ylo[i] = p.y;
+    e->yhi[i] = q.y;
+    e->x0[i] = p.x;
+    e->x1[i] = q.x;
+    e->slope[i] = q.y > p.y ? (q.x - p.x) / (q.y - p.y) : 0.0f;
+  }
+}
+
+// floor(v) - 1 and ceil(v) + 1 as ints for the span's ends, without the library's floor and ceil
+// (a call and two branches each on CPU drivers). v is clamped to +-2^30 first, which keeps the
+// conversion defined and changes nothing: the span is then cut to the view's [0, width - 1].
+static int span_floor_minus1(float v) {
+  v = clamp(v, -1073741824.0f, 1073741824.0f);
+  int i = (int)v;
+  return i - ((float)i > v) - 1;
+}
+static int span_ceil_plus1(float v) {
+  v = clamp(v, -1073741824.0f, 1073741824.0f);
+  int i = (int)v;
+  return i + ((float)i < v) + 1;
+}
+
+// The pixels of row y whose centres the outline (a convex polygon) can cover: the outline's
+// extent in x over the row's band [y, y + 1] (each edge's part inside the band, whose ends are
+// its crossings of the band's lines or its vertices inside the band), widened by a pixel as
+// outline_bounds widens the box, and cut to [*xs, *xe]. Every centre (x + 1/2, y + 1/2) the ray
+// test can hit lies in that extent: the test's tolerance (RASTER_EPS in barycentrics) and the
+// projection's rounding move an edge by far less than the pixel of margin, as does the rounding
+// of the edge's line (tests/test_raster.cpp, Raster.RowSpansChangeNoPixel). An empty span leaves
+// *xs > *xe.
+static void outline_row_span(const outline_edges* e, int y, int* xs, int* xe) {
+  const float lo = (float)y, hi = (float)(y + 1);
+  float minx = INFINITY, maxx = -INFINITY;
+  for (int i = 0; i < e->n; ++i) {
+    if (!(e->yhi[i] >= lo && e->ylo[i] <= hi)) continue;
+    float xa, xb;
+    if (e->yhi[i] > e->ylo[i]) {
+      xa = e->x0[i] + (fmax(lo, e->ylo[i]) - e->ylo[i]) * e->slope[i];
+      xb = e->x0[i] + (fmin(hi, e->yhi[i]) - e->ylo[i]) * e->slope[i];
+    } else {
+      xa = e->x0[i];
+      xb = e->x1[i];
     }
+    minx = fmin(minx, fmin(xa, xb));
+    maxx = fmax(maxx, fmax(xa, xb));
   }
   if (!(minx <= maxx)) {
     *xs = *xe + 1;
     return;
   }
-  *xs = max(*xs, (int)floor(minx - 0.5f) - 1);
-  *xe = min(*xe, (int)ceil(maxx - 0.5f) + 1);
+  *xs = max(*xs, span_floor_minus1(minx - 0.5f));
+  *xe = min(*xe, span_ceil_plus1(maxx - 0.5f));
 }
 
 // ---- CPU form of an orthographic view's rows (-DRASTER_ROW_SIMD) ----
@@ -291,13 +330,17 @@ static inline __attribute__((always_inline)) void raster_triangle(
   size_t base = (size_t)vi * v.width * v.height;
   y0 = max(y0, ylo);
   y1 = min(y1, yhi);
+#ifndef RASTER_FULL_BOX
+  outline_edges edges;
+  if (!clipped) outline_edges_of(outline, n, &edges);
+#endif
   for (int y = y0 + stripe; y <= y1; y += stripes) {
     // Only the row's span of the outline is tested, not the whole box (a triangle covers half of
     // its box at most). A triangle clipped at the near plane keeps the box: its sliver between
     // the eye and the plane is not in the outline.
     int xs = x0, xe = x1;
 #ifndef RASTER_FULL_BOX
-    if (!clipped) outline_row_span(outline, n, y, &xs, &xe);
+    if (!clipped) outline_row_span(&edges, y, &xs, &xe);
 #endif
 #ifdef RASTER_ROW_SIMD
     if (v.ortho && (pass == 0 || (pass == 2 && owned))) {
