@@ -613,8 +613,9 @@ M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
 // weights and the divisor) for every pixel at once in a SIMD loop, then its 16 lattice loads and
 // exact sums in a scalar loop, so that each lattice value is one long4 load. Each step is
 // box_mean's own operation on the same operands, so the moments have its bits
-// (tests/test_mssm.cpp); on the set-up's SIMD loop the scalar loop went from about 200 to 120
-// instructions a box (bench/results/cpu_speed.md).
+// (tests/test_mssm.cpp). With the set-up in the SIMD loop, the scalar loop's body went from about
+// 200 instructions a box to about 85 (`perf annotate`), and the 32-light frame's visibility stage
+// from 109 to 64 ms (bench/results/cpu_speed.md, stop 46).
 typedef struct {
   int row[4][VIS_BATCH];     // element offset of lattice row j (clamped) in the table
   int col[4][VIS_BATCH];     // lattice column a (clamped)
@@ -623,6 +624,41 @@ typedef struct {
   float w[9][VIS_BATCH];     // sub-rectangle (a, b)'s weight, at 3 b + a
   float div[VIS_BATCH];      // area * PB_MOMENT_SCALE
 } box_plan;
+
+// box_mean's exact sums of pixel k's box from its plan: the nine sub-rectangles of 16 lattice
+// values, each converted to float and weighted, in box_mean's order. first_column and first_row
+// zero lattice column and row 0 where they lie outside the table (all ones inside).
+M4S float4 batch_box_sum(global const long4* sat, const box_plan* bp, int k, long4 first_column,
+                         long4 first_row) {
+  const long4 all = (long4)(-1);
+  const int c0 = bp->col[0][k], c1 = bp->col[1][k], c2 = bp->col[2][k], c3 = bp->col[3][k];
+#define PB_ROW(j, M)                                                                   \
+  global const long4* row##j = sat + bp->row[j][k];                                    \
+  long4 p##j##0 = row##j[c0] & first_column & (M), p##j##1 = row##j[c1] & (M),        \
+        p##j##2 = row##j[c2] & (M), p##j##3 = row##j[c3] & (M);
+  PB_ROW(0, first_row)
+  PB_ROW(1, all)
+  PB_ROW(2, all)
+  PB_ROW(3, all)
+#undef PB_ROW
+  float4 acc = (float4)(0.0f);
+#define PB_RECT(a, b, a1, b1)                              \
+  {                                                        \
+    long4 s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a;   \
+    acc += bp->w[3 * b + a][k] * convert_float4(s);        \
+  }
+  PB_RECT(0, 0, 1, 1)
+  PB_RECT(1, 0, 2, 1)
+  PB_RECT(2, 0, 3, 1)
+  PB_RECT(0, 1, 1, 2)
+  PB_RECT(1, 1, 2, 2)
+  PB_RECT(2, 1, 3, 2)
+  PB_RECT(0, 2, 1, 3)
+  PB_RECT(1, 2, 2, 3)
+  PB_RECT(2, 2, 3, 3)
+#undef PB_RECT
+  return acc;
+}
 
 M4S void batch_box_moments(global const long4* sat, int size, const mssm_pixel* light,
                            const float* u, const float* v, const float* h, const float* keep,
@@ -659,34 +695,11 @@ PB_SIMD_LOOP(VIS_BATCH)
 PB_SCALAR_LOOP
   for (int k = 0; k < VIS_BATCH; ++k) {
     if (keep && h[k] == keep[k]) continue;
-    const long4 first_column = (long4)(-(long)bp->first_col[k]),
-                first_row = (long4)(-(long)bp->first_row[k]), all = (long4)(-1);
-    const int c0 = bp->col[0][k], c1 = bp->col[1][k], c2 = bp->col[2][k], c3 = bp->col[3][k];
-#define PB_ROW(j, M)                                                                   \
-  global const long4* row##j = sat + bp->row[j][k];                                    \
-  long4 p##j##0 = row##j[c0] & first_column & (M), p##j##1 = row##j[c1] & (M),        \
-        p##j##2 = row##j[c2] & (M), p##j##3 = row##j[c3] & (M);
-    PB_ROW(0, first_row)
-    PB_ROW(1, all)
-    PB_ROW(2, all)
-    PB_ROW(3, all)
-#undef PB_ROW
-    float4 acc = (float4)(0.0f);
-#define PB_RECT(a, b, a1, b1)                              \
-  {                                                        \
-    long4 s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a;   \
-    acc += bp->w[3 * b + a][k] * convert_float4(s);        \
-  }
-    PB_RECT(0, 0, 1, 1)
-    PB_RECT(1, 0, 2, 1)
-    PB_RECT(2, 0, 3, 1)
-    PB_RECT(0, 1, 1, 2)
-    PB_RECT(1, 1, 2, 2)
-    PB_RECT(2, 1, 3, 2)
-    PB_RECT(0, 2, 1, 3)
-    PB_RECT(1, 2, 2, 3)
-    PB_RECT(2, 2, 3, 3)
-#undef PB_RECT
+    // Most boxes are inside the table's first row and column: that path has no masks.
+    const float4 acc = bp->first_col[k] & bp->first_row[k]
+                           ? batch_box_sum(sat, bp, k, (long4)(-1), (long4)(-1))
+                           : batch_box_sum(sat, bp, k, (long4)(-(long)bp->first_col[k]),
+                                           (long4)(-(long)bp->first_row[k]));
     float4 m = acc / bp->div[k];
     m0[k] = m.x;
     m1[k] = m.y;
