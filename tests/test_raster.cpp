@@ -346,18 +346,22 @@ namespace {
 
 // Depth of `nv` views (vb, n texels in all) by raster_views, the CPU form with one work-item per
 // view, with face culling `cull`; with `ids`, the triangle ids kept with the depth too (the
-// shadow maps of contact shadows from the lights' side).
+// shadow maps of contact shadows from the lights' side). clear: the kernel empties the maps
+// itself (as the renderer runs it), on buffers filled with a pattern that no map holds;
+// otherwise they are filled empty first.
 std::vector<cl_uint> rasterViews(const detail::DeviceScene& ds, const cl::Buffer& vb, int nv,
-                                 std::size_t n, int cull, std::vector<cl_uint>* ids = nullptr) {
+                                 std::size_t n, int cull, std::vector<cl_uint>* ids = nullptr,
+                                 bool clear = false) {
   cl::Kernel k = ctx().kernel("raster.cl", "raster_views",
                               "-DRASTER_ROW_SIMD" + detail::simdLoopOption(ctx()));
   cl::Buffer d = ctx().buffer(n * 4, "test depth"), id = ctx().buffer(n * 4, "test ids");
-  const cl_uint emptyDepth = PB_DEPTH_EMPTY, emptyId = PB_ID_EMPTY;
+  const cl_uint junk = 0x00000007u;  // a tiny positive depth and a small id: nearer than any hit
+  const cl_uint emptyDepth = clear ? junk : PB_DEPTH_EMPTY, emptyId = clear ? junk : PB_ID_EMPTY;
   ctx().fill(d, &emptyDepth, 4, n * 4, "test depth");
   ctx().fill(id, &emptyId, 4, n * 4, "test ids");
   ctx().launchWith("test/raster", k, cl::NDRange(nv), cl::NDRange(1), ds.positionBuffer(),
                    ds.triangleBuffer(), cl_int(ds.triangleCount()), vb, cl_int(nv), d,
-                   cl_int(cull), id, cl_int(ids ? 1 : 0));
+                   cl_int(cull), id, cl_int(ids ? 1 : 0), cl_int(clear ? 1 : 0));
   if (ids) *ids = ctx().download<cl_uint>(id, n, "test ids");
   return ctx().download<cl_uint>(d, n, "test depth");
 }
@@ -431,8 +435,13 @@ TEST(Raster, RowSpansChangeNoPixel) {
       // raster_views keeping ids with the depth (one pass, SIMD rows for orthographic views):
       // the same depths, and the ids of the two-pass kernels (the least index at the nearest
       // depth) wherever its depth is theirs to the bit
-      std::vector<cl_uint> ownedIds;
+      std::vector<cl_uint> ownedIds, clearedIds;
       EXPECT_EQ(rasterViews(ds, vb, 1, n, 0, &ownedIds), depth[2]) << "raster_views with ids";
+      // the same, with the kernel emptying the maps it draws (the renderer's way)
+      EXPECT_EQ(rasterViews(ds, vb, 1, n, 0, nullptr, true), depth[2]) << "raster_views, clear";
+      EXPECT_EQ(rasterViews(ds, vb, 1, n, 0, &clearedIds, true), depth[2])
+          << "raster_views with ids, clear";
+      EXPECT_EQ(clearedIds, ownedIds) << "raster_views with ids, clear";
       std::size_t idMismatch = 0, idCompared = 0;
       for (std::size_t i = 0; i < n; ++i)
         if (owned[i] == depth[1][i]) {
@@ -498,7 +507,7 @@ void expectViewsKernelMatches(const Scene& scene, const std::vector<View>& views
                      cl_int(0), d, d, cl_int(cull));
     out[0] = ctx().download<cl_uint>(d, n, "test depth");
   }
-  out[1] = rasterViews(ds, vb, nv, n, cull);
+  out[1] = rasterViews(ds, vb, nv, n, cull, nullptr, true);
   std::size_t covered = 0, differ = 0;
   for (std::size_t i = 0; i < n; ++i) {
     covered += out[0][i] != PB_DEPTH_EMPTY;

@@ -397,12 +397,27 @@ kernel void raster_triangles(global const float4* pos, global const int4* tris, 
 // work-group, so that the views spread over the cores.
 // keep_ids: pass 2 instead (depth and ids at once, into `ids`: the shadow maps' triangle ids of
 // contact shadows from the lights' side, kernels/render/contact.cl).
+// clear: the work-item first empties its view (PB_DEPTH_EMPTY, and PB_ID_EMPTY in the ids with
+// keep_ids), where the host would otherwise fill the buffers: a fill is one thread's memset of
+// every map before the launch (2.9 ms of the 32-light frame's 19 MiB of depth and 19 MiB of
+// ids), here each core clears the views it draws, which then start in its cache.
 kernel void raster_views(global const float4* pos, global const int4* tris, int ntris,
                          global const pb_view* views, int nviews, volatile global uint* depth,
-                         int cull, volatile global uint* ids, int keep_ids) {
+                         int cull, volatile global uint* ids, int keep_ids, int clear) {
   const int vi = get_global_id(0);
   if (vi >= nviews) return;
   pb_view v = views[vi];
+  if (clear) {
+    const size_t texels = (size_t)v.width * v.height, base = (size_t)vi * texels;
+    global uint* d = (global uint*)depth + base;
+PB_SIMD_LOOP(16)
+    for (size_t i = 0; i < texels; ++i) d[i] = PB_DEPTH_EMPTY;
+    if (keep_ids) {
+      global uint* id = (global uint*)ids + base;
+PB_SIMD_LOOP(16)
+      for (size_t i = 0; i < texels; ++i) id[i] = PB_ID_EMPTY;
+    }
+  }
   for (int tri = 0; tri < ntris; ++tri)
     raster_triangle(pos, tris, tri, &v, vi, 0, 1, 0, INT_MAX, keep_ids ? 2 : 0, depth,
                     keep_ids ? ids : depth, cull, true);

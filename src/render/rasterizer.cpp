@@ -47,17 +47,24 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
   }
 }
 
+bool Rasterizer::viewsRun(int nviews, int pass) const {
+  return views_() && pass == 0 && nviews > 1 && nviews >= cores_;
+}
+
 bool Rasterizer::raster(const cl::Buffer& views, int nviews, int pass, Cull cull,
-                        cl::Buffer& depth, cl::Buffer& ids, const std::string& stage) {
+                        cl::Buffer& depth, cl::Buffer& ids, const std::string& stage,
+                        bool clear) {
   const int ntris = scene_->triangleCount();
-  if (views_() && pass == 0 && nviews > 1 && nviews >= cores_) {
+  if (viewsRun(nviews, pass)) {
     // ids apart from depth: raster_views keeps each texel's id with its depth (raster.cl's pass 2)
     const bool withIds = &ids != &depth;
     ctx_.launchWith(stage, views_, cl::NDRange(nviews), cl::NDRange(1), scene_->positionBuffer(),
                     scene_->triangleBuffer(), cl_int(ntris), views, cl_int(nviews), depth,
-                    cl_int(cull), ids, cl_int(withIds));
+                    cl_int(cull), ids, cl_int(withIds), cl_int(clear));
     return withIds;
   }
+  if (clear)
+    throw Error(ErrorKind::Internal, stage + ": only raster_views empties its maps itself");
   const int stripes = useCpuBatching(ctx_) ? kCpuStripes : kGpuStripes;
   ctx_.launchWith(stage, raster_, cl::NDRange(ntris, stripes, nviews), cl::NullRange,
                   scene_->positionBuffer(), scene_->triangleBuffer(), cl_int(ntris), views,
@@ -120,12 +127,15 @@ void Rasterizer::depthMapsOf(const std::vector<pb_view>& views, cl::Buffer& out,
   cl::Buffer& vb = pool_.upload("views " + prefix, views);
   const std::size_t texels = views.size() * std::size_t(mapSize_) * mapSize_;
   const int nviews = int(views.size());
+  // Where raster_views draws the maps, it empties them itself (depth, and ids when it keeps
+  // them); elsewhere the buffers are filled first.
+  const bool inKernel = viewsRun(nviews, 0);
   auto one = [&](Cull cull, cl::Buffer& dst, const std::string& stage) {
-    ctx_.fill(dst, &emptyDepth, 4, texels * 4, stage);
-    return raster(vb, nviews, 0, cull, dst, ids ? *ids : dst, stage);
+    if (!inKernel) ctx_.fill(dst, &emptyDepth, 4, texels * 4, stage);
+    return raster(vb, nviews, 0, cull, dst, ids ? *ids : dst, stage, inKernel);
   };
   if (ids) {
-    ctx_.fill(*ids, &emptyId, 4, texels * 4, prefix + "/ids");
+    if (!inKernel) ctx_.fill(*ids, &emptyId, 4, texels * 4, prefix + "/ids");
     // the ids with the depth where raster_views runs, else in raster_triangles' id pass
     if (!one(Cull::None, out, prefix + "/raster"))
       raster(vb, nviews, 1, Cull::None, out, *ids, prefix + "/ids");

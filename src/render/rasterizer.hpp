@@ -51,9 +51,12 @@ class Rasterizer : public DepthRasterizer {
   // One raster_triangles launch over `nviews` views: pass 0 writes depth, pass 1 the ids of the
   // triangles that won it (pass 0 over several views on a CPU: raster_views, which writes the
   // ids too when `ids` is not `depth`).
-  // Returns whether it wrote the ids too.
+  // Returns whether it wrote the ids too. clear (raster_views only): the kernel empties the maps
+  // (and the ids it keeps) before drawing, instead of a fill before the launch.
   bool raster(const cl::Buffer& views, int nviews, int pass, Cull cull, cl::Buffer& depth,
-              cl::Buffer& ids, const std::string& stage);
+              cl::Buffer& ids, const std::string& stage, bool clear = false);
+  // Whether raster() runs raster_views for these views and pass.
+  bool viewsRun(int nviews, int pass) const;
   // depthMaps' and depthMapsWithIds' work: with ids (never with front/back maps) or without.
   void depthMapsOf(const std::vector<pb_view>& views, cl::Buffer& out, cl::Buffer* ids,
                    const std::string& prefix);
