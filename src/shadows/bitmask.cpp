@@ -262,8 +262,9 @@ class BitmaskPass : public ShadowPass {
     cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
     for (int l0 = 0; l0 < nl; l0 += batch) {
       const int count = std::min(batch, nl - l0);
+      // hard masks pack 32 pixels a word, so they are emptied here; soft ones by bitmask_self
       const cl_uint z = 0;
-      ctx.fill(masks, &z, 4, maskWords * 4, "bitmask masks");
+      if (hard_) ctx.fill(masks, &z, 4, maskWords * 4, "bitmask masks");
       ctx.launchWith("bitmask/self", sk, cl::NDRange(npx, count), cl::NullRange, f.positions,
                      f.triangles, orient, f.gids, f.ggeo, f.lightBuffer, grids, cl_int(l0), slot,
                      diskBuf_, cl_int(npx), masks, frameBuf);
