@@ -332,8 +332,9 @@ namespace {
 // its powers as float products, each times 2^32 rounded to nearest, ties to even. The depths
 // include empty texels, 0, depths past the range, and tiny ones whose scaled moment sits on a
 // half (2.5, 1.5, 0.5 times 2^-32 of the range: ties, where rounding half away from zero or
-// truncating would differ).
-void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
+// truncating would differ). sat: the CPU form that also sums them into the summed-area table
+// (depth_to_moments_sat), checked against the reference moments' 2D inclusive sums in int64.
+void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed, bool sat = false) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.25f);
   const float ties[] = {2.5f, 1.5f, 0.5f, 3.5f};
@@ -360,7 +361,11 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
   cl::Buffer out = ctx().buffer(stride * nl * 32, "test moments");
   const cl_long poison = -7;
   ctx().fill(out, &poison, 8, stride * nl * 32, "test moments");
-  if (rows) {
+  if (sat) {
+    cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments_sat", detail::simdLoopOption(ctx()));
+    ctx().launchWith("test/moments", k, cl::NDRange(nl), cl::NDRange(1), dB, lB, cl_int(S),
+                     cl_ulong(stride), out);
+  } else if (rows) {
     cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments_rows", detail::simdLoopOption(ctx()));
     ctx().launchWith("test/moments", k, cl::NDRange(S, nl), cl::NullRange, dB, lB, cl_int(S),
                      cl_ulong(stride), out);
@@ -371,6 +376,7 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
   }
   const std::vector<cl_long> got = ctx().download<cl_long>(out, stride * nl * 4, "test moments");
   int wrong = 0, ties_seen = 0;
+  std::vector<cl_long> table(std::size_t(S) * S * 4);  // sat: the reference table of one map
   for (int l = 0; l < nl; ++l)
     for (int t = 0; t < S * S; ++t) {
       const std::uint32_t bits = depth[std::size_t(l) * S * S + t];
@@ -383,11 +389,20 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed) {
       const float z2 = z * z, scale = float(PB_MOMENT_SCALE);
       const float m[4] = {z * scale, z2 * scale, (z2 * z) * scale, (z2 * z2) * scale};
       ties_seen += m[0] != std::floor(m[0]) && m[0] - std::floor(m[0]) == 0.5f;
+      const int x = t % S, y = t / S;
       for (int c = 0; c < 4; ++c) {
-        const cl_long want = std::llrint(m[c]), have = got[(std::size_t(l) * stride + t) * 4 + c];
+        cl_long want = std::llrint(m[c]);
+        if (sat) {  // texels in row order: left, above and above-left are already sums
+          const auto at = [&](int xx, int yy) { return table[(std::size_t(yy) * S + xx) * 4 + c]; };
+          want += (x > 0 ? at(x - 1, y) : 0) + (y > 0 ? at(x, y - 1) : 0) -
+                  (x > 0 && y > 0 ? at(x - 1, y - 1) : 0);
+          table[std::size_t(t) * 4 + c] = want;
+        }
+        const cl_long have = got[(std::size_t(l) * stride + t) * 4 + c];
         if (have != want && wrong++ < 5)
-          ADD_FAILURE() << (rows ? "rows" : "per texel") << " map " << S << " light " << l
-                        << " texel " << t << " moment " << c << ": " << have << " want " << want;
+          ADD_FAILURE() << (sat ? "moments+sat" : rows ? "rows" : "per texel") << " map " << S
+                        << " light " << l << " texel " << t << " moment " << c << ": " << have
+                        << " want " << want;
       }
     }
   EXPECT_EQ(wrong, 0);
@@ -408,8 +423,15 @@ TEST(MSSM4, MomentKernelsMatchTheReference) {
     for (bool rows : {false, true}) expectMomentsMatchReference(S, 3, rows, unsigned(S * 7 + rows));
 }
 
+// depth_to_moments_sat (CPUs: the moments and their table in one sweep a map) gives the exact
+// table of the reference's moments, on the same awkward sizes.
+TEST(MSSM4, MomentTableKernelMatchesTheReference) {
+  for (int S : {1, 7, 37, 65}) expectMomentsMatchReference(S, 3, true, unsigned(S * 5 + 3), true);
+}
+
 TEST(OclgrindMSSM4, MomentKernels) {
   for (bool rows : {false, true}) expectMomentsMatchReference(9, 2, rows, 5);
+  expectMomentsMatchReference(9, 2, true, 6, true);
 }
 
 // Every kernel of a frame on tiny inputs: env resampling (gather and splat), SATs, median cut,

@@ -53,6 +53,59 @@ PB_SIMD_LOOP(16)
   }
 }
 
+// depth_to_moments_rows and the summed-area table in one sweep down each map (CPU devices, SAT
+// prefilter): one work-item per light takes its rows in order, writes a row's moments as
+// depth_to_moments_rows does, then turns the row into the table's row in place while it is in
+// cache, S(x, y) = sum_{x' <= x} m(x', y) + S(x, y - 1), as kernels/common/scan.cl's banded sweep
+// with one band an image. The sums are exact 64-bit integer sums, so the table is the one the two
+// kernels give, bit for bit (tests/test_mssm.cpp); the moments never make a round trip through
+// memory (they were 113 MiB written, read and written again on the 32-light frame).
+// Global size (lights).
+kernel void depth_to_moments_sat(global const uint* depth, global const pb_light* lights,
+                                 int size, ulong stride, global long* moments) {
+  const int l = get_global_id(0);
+  const float range = lights[l].origin[3], scale = (float)PB_MOMENT_SCALE;
+  global long* img = moments + 4 * (l * stride);
+  for (int y = 0; y < size; ++y) {
+    global const uint* in = depth + ((size_t)l * size + y) * size;
+    global long* out = img + 4 * (size_t)y * size;
+PB_SIMD_LOOP(16)
+    for (int x = 0; x < size; ++x) {
+      const float z = map_depth(in[x], range);
+      const float z2 = z * z;
+      out[4 * x] = (long)rint(z * scale);
+      out[4 * x + 1] = (long)rint(z2 * scale);
+      out[4 * x + 2] = (long)rint((z2 * z) * scale);
+      out[4 * x + 3] = (long)rint((z2 * z2) * scale);
+    }
+    long a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+    if (y == 0) {
+      for (int x = 0; x < size; ++x) {
+        a0 += out[4 * x];
+        a1 += out[4 * x + 1];
+        a2 += out[4 * x + 2];
+        a3 += out[4 * x + 3];
+        out[4 * x] = a0;
+        out[4 * x + 1] = a1;
+        out[4 * x + 2] = a2;
+        out[4 * x + 3] = a3;
+      }
+    } else {
+      global const long* prev = out - 4 * (size_t)size;
+      for (int x = 0; x < size; ++x) {
+        a0 += out[4 * x];
+        a1 += out[4 * x + 1];
+        a2 += out[4 * x + 2];
+        a3 += out[4 * x + 3];
+        out[4 * x] = a0 + prev[4 * x];
+        out[4 * x + 1] = a1 + prev[4 * x + 1];
+        out[4 * x + 2] = a2 + prev[4 * x + 2];
+        out[4 * x + 3] = a3 + prev[4 * x + 3];
+      }
+    }
+  }
+}
+
 // Scalar helpers: written without vector types, so that the batched CPU kernel below
 // (mssm4_visibility_batch) vectorizes, and used by the per-pixel kernels too. mix_s and dot3_s
 // (filter.clh) round as PoCL's library mix() and dot() do (products rounded before the sums: no

@@ -61,8 +61,15 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
   const int S = f.mapSize, nl = int(f.lights.size()), n = images(nl);
   const std::size_t stride = prefilterStride(f.opt.prefilter, S);
   cl::Buffer& maps = f.pool.buffer(technique_ + " moments", stride * n * sizeof(cl_long4));
-  moments(f, maps, stride, technique_ + "/moments");
-  prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
+  if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT && useCpuBatching(ctx)) {
+    // CPUs: the moments and their table in one sweep a map (moments.cl, depth_to_moments_sat)
+    cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments_sat", simdLoopOption(ctx));
+    ctx.launchWith(technique_ + "/moments+sat", k, cl::NDRange(nl), cl::NDRange(1), f.depth,
+                   f.lightBuffer, cl_int(S), cl_ulong(stride), maps);
+  } else {
+    moments(f, maps, stride, technique_ + "/moments");
+    prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
+  }
   if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT) {
     mssm4Visibility(ctx, mssm4PrefersBatched(ctx), f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S,
                     stride, f.pixels, nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis,
