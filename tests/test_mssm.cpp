@@ -192,19 +192,29 @@ VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
   return in;
 }
 
-// Both MSSM4 visibility kernels on the same inputs; the bits of each.
+// Both MSSM4 visibility kernels on the same inputs; the bits of each. The batched one writes light
+// l's visibility into row nl - 1 - l (its rows argument, as auto's subsets give it the frame's
+// rows), read back into row l here.
 std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>> bothVisibilityKernels(
     int pixels, int nl, int S, unsigned seed) {
   VisibilityInputs in = visibilityInputs(pixels, nl, S, seed);
   const mssm_params P = detail::mssmParams(MSSMOptions{}, ShadowOptions{});
   std::vector<std::uint32_t> bits[2];
+  std::vector<cl_int> reversed(static_cast<std::size_t>(nl));
+  for (int l = 0; l < nl; ++l) reversed[std::size_t(l)] = nl - 1 - l;
+  cl::Buffer rows = ctx().upload(reversed, "test rows");
   for (int batched : {0, 1}) {
     cl::Buffer vis = ctx().buffer(std::size_t(pixels) * nl * 4, "test vis");
     const float nan = std::nanf("");
     ctx().fill(vis, &nan, 4, std::size_t(pixels) * nl * 4, "test vis");
     detail::mssm4Visibility(ctx(), batched != 0, in.gpos, in.gnrm, in.ggeo, in.lights, in.sats, S,
-                            in.stride, pixels, nl, P, vis, "test/visibility");
-    bits[batched] = ctx().download<std::uint32_t>(vis, std::size_t(pixels) * nl, "test vis");
+                            in.stride, pixels, nl, P, vis, "test/visibility",
+                            batched ? &rows : nullptr);
+    const auto raw = ctx().download<std::uint32_t>(vis, std::size_t(pixels) * nl, "test vis");
+    bits[batched].resize(raw.size());
+    for (int l = 0; l < nl; ++l)
+      std::copy_n(raw.begin() + std::ptrdiff_t(batched ? nl - 1 - l : l) * pixels, pixels,
+                  bits[batched].begin() + std::ptrdiff_t(l) * pixels);
   }
   return {bits[0], bits[1]};
 }
@@ -361,10 +371,17 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed, bool s
   cl::Buffer out = ctx().buffer(stride * nl * 32, "test moments");
   const cl_long poison = -7;
   ctx().fill(out, &poison, 8, stride * nl * 32, "test moments");
+  // sat: table l is built from map src[l], the maps in reverse order (the kernel reads map rows[l]
+  // of the buffer, as auto's subsets of a frame's lights do), with that map's light
+  std::vector<int> src(static_cast<std::size_t>(nl));
+  for (int l = 0; l < nl; ++l) src[std::size_t(l)] = sat ? nl - 1 - l : l;
   if (sat) {
+    std::vector<pb_light> byTable(static_cast<std::size_t>(nl));
+    for (int l = 0; l < nl; ++l) byTable[std::size_t(l)] = lights[std::size_t(src[std::size_t(l)])];
+    cl::Buffer tB = ctx().upload(byTable, "test lights"), rB = ctx().upload(src, "test rows");
     cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments_sat", detail::simdLoopOption(ctx()));
-    ctx().launchWith("test/moments", k, cl::NDRange(nl), cl::NDRange(1), dB, lB, cl_int(S),
-                     cl_ulong(stride), out);
+    ctx().launchWith("test/moments", k, cl::NDRange(nl), cl::NDRange(1), dB, tB, cl_int(S),
+                     cl_ulong(stride), out, rB);
   } else if (rows) {
     cl::Kernel k = ctx().kernel("moments.cl", "depth_to_moments_rows", detail::simdLoopOption(ctx()));
     ctx().launchWith("test/moments", k, cl::NDRange(S, nl), cl::NullRange, dB, lB, cl_int(S),
@@ -379,12 +396,13 @@ void expectMomentsMatchReference(int S, int nl, bool rows, unsigned seed, bool s
   std::vector<cl_long> table(std::size_t(S) * S * 4);  // sat: the reference table of one map
   for (int l = 0; l < nl; ++l)
     for (int t = 0; t < S * S; ++t) {
-      const std::uint32_t bits = depth[std::size_t(l) * S * S + t];
+      const std::size_t m0 = std::size_t(src[std::size_t(l)]);  // the map image l is made from
+      const std::uint32_t bits = depth[m0 * S * S + t];
       float z = 1.0f;
       if (bits != PB_DEPTH_EMPTY) {
         float d;
         std::memcpy(&d, &bits, 4);
-        z = std::min(std::max(d / lights[l].origin[3], 0.0f), 1.0f);
+        z = std::min(std::max(d / lights[m0].origin[3], 0.0f), 1.0f);
       }
       const float z2 = z * z, scale = float(PB_MOMENT_SCALE);
       const float m[4] = {z * scale, z2 * scale, (z2 * z) * scale, (z2 * z2) * scale};

@@ -60,14 +60,16 @@ PB_SIMD_LOOP(16)
 // with one band an image. The sums are exact 64-bit integer sums, so the table is the one the two
 // kernels give, bit for bit (tests/test_mssm.cpp); the moments never make a round trip through
 // memory (they were 113 MiB written, read and written again on the 32-light frame).
+// Light l's depth map is map rows[l] of `depth` (auto's subsets read the frame's own maps).
 // Global size (lights).
 kernel void depth_to_moments_sat(global const uint* depth, global const pb_light* lights,
-                                 int size, ulong stride, global long* moments) {
+                                 int size, ulong stride, global long* moments,
+                                 global const int* rows) {
   const int l = get_global_id(0);
   const float range = lights[l].origin[3], scale = (float)PB_MOMENT_SCALE;
   global long* img = moments + 4 * (l * stride);
   for (int y = 0; y < size; ++y) {
-    global const uint* in = depth + ((size_t)l * size + y) * size;
+    global const uint* in = depth + ((size_t)rows[l] * size + y) * size;
     global long* out = img + 4 * (size_t)y * size;
 PB_SIMD_LOOP(16)
     for (int x = 0; x < size; ++x) {
@@ -764,17 +766,18 @@ PB_SCALAR_LOOP
 // Global size (ceil(npixels / VIS_GROUP), lights): each work-item takes VIS_GROUP consecutive
 // pixels of one light, writes 1 where the light is not needed, lists the others, and runs the
 // list VIS_BATCH pixels at a time (only the last batch has idle lanes, which repeat the last
-// listed pixel and write nothing). Pixels are the float4 G-buffers read as floats.
+// listed pixel and write nothing). Pixels are the float4 G-buffers read as floats. Light l's
+// visibility is row rows[l] of `vis` (auto's subsets write the frame's own buffer).
 #ifndef VIS_GROUP
 #define VIS_GROUP 64
 #endif
 kernel void mssm4_visibility_batch(global const float* gpos, global const float* gnrm,
                                    global const float* ggeo, global const pb_light* lights,
                                    global const long4* sats, int size, ulong stride, int npixels,
-                                   mssm_params P, global float* vis) {
+                                   mssm_params P, global float* vis, global const int* rows) {
   const int l = get_global_id(1), px0 = get_global_id(0) * VIS_GROUP;
   global const pb_light* L = lights + l;
-  global float* out = vis + (size_t)l * npixels;
+  global float* out = vis + (size_t)rows[l] * npixels;
   int list[VIS_GROUP];
   int n = 0;
   for (int k = 0; k < VIS_GROUP && px0 + k < npixels; ++k) {

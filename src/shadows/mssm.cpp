@@ -3,6 +3,7 @@
 #include "shadows/mssm.hpp"
 
 #include <cmath>
+#include <numeric>
 
 #include "core/device_kind.hpp"
 #include "shadows/shadow_options.hpp"
@@ -39,20 +40,32 @@ bool mssm4PrefersBatched(Context& ctx) { return useCpuBatching(ctx); }
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
                      int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
-                     cl::Buffer& vis, const std::string& stage) {
+                     cl::Buffer& vis, const std::string& stage, const cl::Buffer* rows) {
   const std::string sat = prefilterOption(Prefilter::SAT);
   if (batched) {
     cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility_batch",
                               sat + " -DVIS_GROUP=" + std::to_string(kMssm4Group) +
                                   simdLoopOption(ctx));
     const std::size_t groups = (std::size_t(pixels) + kMssm4Group - 1) / kMssm4Group;
+    cl::Buffer identity;
+    if (!rows) {  // light l writes row l
+      std::vector<cl_int> id(std::size_t(std::max(nlights, 1)));
+      std::iota(id.begin(), id.end(), 0);
+      identity = ctx.upload(id, stage + " rows");
+    }
     ctx.launchWith(stage, k, cl::NDRange(groups, nlights), cl::NullRange, gpos, gnrm, ggeo,
-                   lights, sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);
+                   lights, sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis,
+                   rows ? *rows : identity);
     return;
   }
+  if (rows) throw Error(ErrorKind::Internal, stage + ": only the batched kernel takes light rows");
   cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility", sat);
   ctx.launchWith(stage, k, cl::NDRange(pixels, nlights), cl::NullRange, gpos, gnrm, ggeo, lights,
                  sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);
+}
+
+bool MomentPass::readsFrameRows(Context& ctx, const RenderOptions& opt) const {
+  return technique_ == "mssm4" && opt.prefilter == Prefilter::SAT && useCpuBatching(ctx);
 }
 
 void MomentPass::computeVisibility(ShadowFrame& f) {
@@ -61,11 +74,22 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
   const int S = f.mapSize, nl = int(f.lights.size()), n = images(nl);
   const std::size_t stride = prefilterStride(f.opt.prefilter, S);
   cl::Buffer& maps = f.pool.buffer(technique_ + " moments", stride * n * sizeof(cl_long4));
-  if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT && useCpuBatching(ctx)) {
-    // CPUs: the moments and their table in one sweep a map (moments.cl, depth_to_moments_sat)
+  if (readsFrameRows(ctx, f.opt)) {
+    // CPUs: the moments and their table in one sweep a map (moments.cl, depth_to_moments_sat),
+    // then the batched visibility; light l's map and visibility row are rows[l] (l without them)
+    cl::Buffer rows = f.rows;
+    if (!rows()) {
+      std::vector<cl_int> id(std::size_t(std::max(nl, 1)));
+      std::iota(id.begin(), id.end(), 0);
+      rows = f.pool.upload(technique_ + " rows", id);
+    }
     cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments_sat", simdLoopOption(ctx));
     ctx.launchWith(technique_ + "/moments+sat", k, cl::NDRange(nl), cl::NDRange(1), f.depth,
-                   f.lightBuffer, cl_int(S), cl_ulong(stride), maps);
+                   f.lightBuffer, cl_int(S), cl_ulong(stride), maps, rows);
+    mssm4Visibility(ctx, true, f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S, stride, f.pixels,
+                    nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, technique_ + "/visibility",
+                    &rows);
+    return;
   } else {
     moments(f, maps, stride, technique_ + "/moments");
     prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);

@@ -25,7 +25,7 @@ bool mssm4PrefersBatched(Context& ctx);
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
                      int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
-                     cl::Buffer& vis, const std::string& stage);
+                     cl::Buffer& vis, const std::string& stage, const cl::Buffer* rows = nullptr);
 
 // Moment soft shadow mapping (Kneiphof 2017): the lights' moments from their depth maps,
 // prefiltered
@@ -36,6 +36,8 @@ class MomentPass : public ShadowPass {
  public:
   explicit MomentPass(std::string technique) : technique_(std::move(technique)) {}
   void computeVisibility(ShadowFrame& f) override;
+  // MSSM4's CPU form with the SAT prefilter (depth_to_moments_sat, mssm4_visibility_batch).
+  bool readsFrameRows(Context& ctx, const RenderOptions& opt) const override;
 
  protected:
   // Filterable long4 images the moments of `lights` lights take.

@@ -71,8 +71,8 @@ struct ShadowFrame {
   ShadowFrame(Context& c, BufferPool& p, const RenderOptions& o, const std::vector<pb_light>& l)
       : ctx(c), pool(p), opt(o), lights(l) {}
   // Frame f for other lights `l` (a subset of f's, src/shadows/auto.cpp): every field but those
-  // that depend on the lights, which the caller sets (lightBuffer, depth, vis, areaLights). Kept
-  // beside the fields so that a new one is copied too.
+  // that depend on the lights, which the caller sets (lightBuffer, depth, vis, rows,
+  // areaLights). Kept beside the fields so that a new one is copied too.
   ShadowFrame(const ShadowFrame& f, const std::vector<pb_light>& l)
       : ShadowFrame(f.ctx, f.pool, f.opt, l) {
     width = f.width;
@@ -107,6 +107,10 @@ struct ShadowFrame {
                                           // maps were drawn without (contact.cl reads them)
   cl::Buffer vis;                         // out: float [light][pixel], 1 = unshadowed (set by
                                           // the visibility stage, src/render/visibility.hpp)
+  cl::Buffer rows;                        // int per light: its map in `depth` and its row in
+                                          // `vis`, for a subset of a frame's lights that reads
+                                          // and writes the frame's own buffers (auto.cpp, for a
+                                          // pass whose readsFrameRows()); null: light l is row l
   DepthRasterizer* rasterizer = nullptr;  // more depth maps of the scene (rasterizeDepth)
   cl::Buffer gids;                        // camera triangle id per pixel (PB_ID_EMPTY: none)
   cl::Buffer positions, triangles;        // the scene as rasterized: float4 vertices, int4
@@ -138,6 +142,12 @@ class ShadowPass {
   virtual std::size_t bytesPerTexel(const RenderOptions& opt) const = 0;
   // Whether the technique reads ShadowFrame::depth (the renderer skips rasterizing it if not).
   virtual bool usesShadowMaps() const { return true; }
+  // Whether it honours ShadowFrame::rows for these options on this device: then `auto` hands it
+  // a subset of the lights with the frame's own maps and visibility buffer, where it otherwise
+  // copies the subset's maps out and its visibility rows back.
+  virtual bool readsFrameRows(Context& /*ctx*/, const RenderOptions& /*opt*/) const {
+    return false;
+  }
   // Whether the last frame's light l came from depth maps read with a bias (the frame's maps or
   // the technique's own, as brute force's and area-approx's), and so gets contact shadows
   // (src/render/contact.hpp); lights whose visibility tests triangles (the bitmask's) do not.
