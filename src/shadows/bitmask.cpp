@@ -113,6 +113,78 @@ class BitmaskPass : public ShadowPass {
     const std::size_t texels = std::size_t(S) * S * nl, pairs = std::size_t(npx) * nl;
     Context& ctx = f.ctx;
 
+    // Host work first (the samples, their tables, each light's frame and sample weights, the
+    // meshes' orientation): the first upload below waits for the device's queue, so what the
+    // host computes before it overlaps the previous technique's kernels.
+    // --- light samples and their tables (tables of the unrotated set; a jittered frame rotates
+    // the samples, and the kernels look the tables up at the rotated angle)
+    const double rot = hard_ ? 0.0 : bitmaskJitterAngle(bo.jitter);
+    if (tableSamples_ != N) {
+      std::vector<cl_uint> lut{0u};
+      if (!hard_) buildTables(bitmaskDiskSamples(N), lut);
+      lut_ = ctx.upload(lut, "bitmask tables");
+      tableSamples_ = N;
+      diskRot_ = -1;
+    }
+    if (diskRot_ != rot || disk_.size() != std::size_t(N)) {
+      disk_ = hard_ ? std::vector<std::array<float, 2>>{{0.0f, 0.0f}} : bitmaskDiskSamples(N, rot);
+      std::vector<cl_float2> d(disk_.size());
+      for (std::size_t i = 0; i < d.size(); ++i) d[i] = {{disk_[i][0], disk_[i][1]}};
+      diskBuf_ = ctx.upload(d, "bitmask light samples");
+      diskRot_ = rot;
+    }
+
+    // Each light's sampling frame (bitmaskFrame) and the weight of each of its samples
+    // (kernels/shadows/bitmask.cl's resolve): a polygon's disk samples outside it weigh 0 (those
+    // whose direction is not behind every edge's great-circle plane; lights.hpp's counter-clockwise
+    // order), a textured light's weigh the texture's luminance (AreaLight::sampleWeight), all
+    // others 1. An ellipse's samples are all inside it: its frame maps the disk onto it.
+    std::vector<BitmaskFrame> frames(std::max(nl, 1));
+    std::vector<cl_float> weights(std::size_t(std::max(nl, 1)) * N, 1.0f);
+    for (int l = 0; l < nl; ++l) {
+      const AreaLight* al = f.areaLights && std::size_t(l) < f.areaLights->size() && !hard_
+                                ? &(*f.areaLights)[l] : nullptr;
+      const pb_light& L = f.lights[l];
+      frames[l] = bitmaskFrame(L, al);
+      if (!al) continue;
+      const bool polygon = al->shape == LightShape::Polygon && al->outline != AreaLight::Outline::Ellipse;
+      if (!polygon && al->texture.empty()) continue;
+      const float c = L.dir[3];
+      const float ta = std::sqrt(std::max(1.0f - c * c, 0.0f)) / std::max(c, 1e-6f);
+      std::vector<std::array<float, 3>> dirs(N);
+      for (int k = 0; k < N; ++k)
+        dirs[k] = bitmaskSampleDirection(L, ta, frames[l], disk_[k][0], disk_[k][1]);
+      const std::vector<float> tw = lightSampleWeights(*al, dirs);
+      const std::size_t nv = al->vertices.size();
+      double kept = 0;  // the weight left to the light's samples
+      for (int k = 0; k < N; ++k) {
+        const auto& d = dirs[k];
+        bool in = true;
+        for (std::size_t v = 0; polygon && v < nv && in; ++v) {
+          const auto& a = al->vertices[v];
+          const auto& b = al->vertices[(v + 1) % nv];
+          const float e[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                              a[0] * b[1] - a[1] * b[0]};
+          in = e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= 0.0f;
+        }
+        weights[std::size_t(l) * N + k] = in ? tw[k] : 0.0f;
+        kept += in ? tw[k] : 0.0f;
+      }
+      // Every weight 0 would leave the light unshadowed (the resolve's empty sum reads as lit).
+      if (!(kept > 0))
+        badInput("light " + std::to_string(l) + ": none of its " + std::to_string(N) +
+                 " bitmask light samples falls inside " +
+                 (polygon ? "the polygon" : "a lit texel of its texture") +
+                 " (a light too thin for them); raise RenderOptions.bitmask.lightSamples");
+    }
+    std::vector<cl_float4> frameData(frames.size() * 2);
+    for (std::size_t l = 0; l < frames.size(); ++l)
+      for (int c = 0; c < 4; ++c) {
+        frameData[2 * l].s[c] = frames[l].e1[c];
+        frameData[2 * l + 1].s[c] = frames[l].e2[c];
+      }
+    const std::vector<cl_int> orientHost = orientation(f);
+
     // --- view samples and lists (Sintorn et al. 2008 §3.1, §4.3)
     std::vector<cl_int> init(std::size_t(nl) * 8);
     for (int l = 0; l < nl; ++l) {
@@ -166,27 +238,11 @@ class BitmaskPass : public ShadowPass {
                      f.lightBuffer, grids, cl_int(npx), counts, ends, slot, lists);
     }
 
-    // --- light samples and their tables (tables of the unrotated set; a jittered frame rotates
-    // the samples, and the kernels look the tables up at the rotated angle)
-    const double rot = hard_ ? 0.0 : bitmaskJitterAngle(bo.jitter);
-    if (tableSamples_ != N) {
-      std::vector<cl_uint> lut{0u};
-      if (!hard_) buildTables(bitmaskDiskSamples(N), lut);
-      lut_ = ctx.upload(lut, "bitmask tables");
-      tableSamples_ = N;
-      diskRot_ = -1;
-    }
-    if (diskRot_ != rot || disk_.size() != std::size_t(N)) {
-      disk_ = hard_ ? std::vector<std::array<float, 2>>{{0.0f, 0.0f}} : bitmaskDiskSamples(N, rot);
-      std::vector<cl_float2> d(disk_.size());
-      for (std::size_t i = 0; i < d.size(); ++i) d[i] = {{disk_[i][0], disk_[i][1]}};
-      diskBuf_ = ctx.upload(d, "bitmask light samples");
-      diskRot_ = rot;
-    }
-
     BitmaskCapture* cap = gCapture;
-    collect(f, counts, grids, slot, nl, S, W, cap);
-    cl::Buffer& orient = f.pool.upload("bitmask mesh orientation", orientation(f));
+    // The lists' statistics read the lengths back, which waits for the device: after the
+    // triangles are queued, unless a capture reads the lists in the batch loop below.
+    if (cap) collect(f, counts, grids, slot, nl, S, W, cap);
+    cl::Buffer& orient = f.pool.upload("bitmask mesh orientation", orientHost);
 
     // --- triangles and resolve, a batch of lights at a time
     const std::size_t perLight = hard_ ? (std::size_t(npx) + 31) / 32 * 4 : std::size_t(npx) * W * 4;
@@ -202,55 +258,6 @@ class BitmaskPass : public ShadowPass {
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
                              (hard_ ? " -DHARD" : "");
-    // Each light's sampling frame (bitmaskFrame) and the weight of each of its samples
-    // (kernels/shadows/bitmask.cl's resolve): a polygon's disk samples outside it weigh 0 (those
-    // whose direction is not behind every edge's great-circle plane; lights.hpp's counter-clockwise
-    // order), a textured light's weigh the texture's luminance (AreaLight::sampleWeight), all
-    // others 1. An ellipse's samples are all inside it: its frame maps the disk onto it.
-    std::vector<BitmaskFrame> frames(std::max(nl, 1));
-    std::vector<cl_float> weights(std::size_t(std::max(nl, 1)) * N, 1.0f);
-    for (int l = 0; l < nl; ++l) {
-      const AreaLight* al = f.areaLights && std::size_t(l) < f.areaLights->size() && !hard_
-                                ? &(*f.areaLights)[l] : nullptr;
-      const pb_light& L = f.lights[l];
-      frames[l] = bitmaskFrame(L, al);
-      if (!al) continue;
-      const bool polygon = al->shape == LightShape::Polygon && al->outline != AreaLight::Outline::Ellipse;
-      if (!polygon && al->texture.empty()) continue;
-      const float c = L.dir[3];
-      const float ta = std::sqrt(std::max(1.0f - c * c, 0.0f)) / std::max(c, 1e-6f);
-      std::vector<std::array<float, 3>> dirs(N);
-      for (int k = 0; k < N; ++k)
-        dirs[k] = bitmaskSampleDirection(L, ta, frames[l], disk_[k][0], disk_[k][1]);
-      const std::vector<float> tw = lightSampleWeights(*al, dirs);
-      const std::size_t nv = al->vertices.size();
-      double kept = 0;  // the weight left to the light's samples
-      for (int k = 0; k < N; ++k) {
-        const auto& d = dirs[k];
-        bool in = true;
-        for (std::size_t v = 0; polygon && v < nv && in; ++v) {
-          const auto& a = al->vertices[v];
-          const auto& b = al->vertices[(v + 1) % nv];
-          const float e[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                              a[0] * b[1] - a[1] * b[0]};
-          in = e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= 0.0f;
-        }
-        weights[std::size_t(l) * N + k] = in ? tw[k] : 0.0f;
-        kept += in ? tw[k] : 0.0f;
-      }
-      // Every weight 0 would leave the light unshadowed (the resolve's empty sum reads as lit).
-      if (!(kept > 0))
-        badInput("light " + std::to_string(l) + ": none of its " + std::to_string(N) +
-                 " bitmask light samples falls inside " +
-                 (polygon ? "the polygon" : "a lit texel of its texture") +
-                 " (a light too thin for them); raise RenderOptions.bitmask.lightSamples");
-    }
-    std::vector<cl_float4> frameData(frames.size() * 2);
-    for (std::size_t l = 0; l < frames.size(); ++l)
-      for (int c = 0; c < 4; ++c) {
-        frameData[2 * l].s[c] = frames[l].e1[c];
-        frameData[2 * l + 1].s[c] = frames[l].e2[c];
-      }
     cl::Buffer& frameBuf = f.pool.upload("bitmask light frames", frameData);
     cl::Buffer& weightBuf = f.pool.upload("bitmask sample weights", weights);
     if (cap) {
@@ -291,6 +298,7 @@ class BitmaskPass : public ShadowPass {
             }
       }
     }
+    if (!cap) collect(f, counts, grids, slot, nl, S, W, nullptr);
   }
 
   // List grid (int length + int64 end) plus the masks held at once, per list texel per light.
