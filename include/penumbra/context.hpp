@@ -141,6 +141,8 @@ class Context {
     return b;
   }
   void write(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what);
+  /// The same without waiting: `src` must stay unchanged until the returned event completes.
+  cl::Event writeAsync(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what);
   void read(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what);
   template <class T>
   std::vector<T> download(const cl::Buffer& b, std::size_t count, const std::string& what) {

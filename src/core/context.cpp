@@ -537,6 +537,17 @@ void Context::write(cl::Buffer& b, const void* src, std::size_t bytes, const std
   }
 }
 
+cl::Event Context::writeAsync(cl::Buffer& b, const void* src, std::size_t bytes,
+                              const std::string& what) {
+  cl::Event ev;
+  try {
+    queue_.enqueueWriteBuffer(b, CL_FALSE, 0, bytes, src, nullptr, &ev);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "uploading " + what);
+  }
+  return ev;
+}
+
 void Context::read(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what) {
   try {
     queue_.enqueueReadBuffer(b, CL_TRUE, 0, bytes, dst);

@@ -8,6 +8,7 @@
 // runs it, for the OpenCL renderer and the GL interop alike.
 #pragma once
 #include <array>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <string>
@@ -28,19 +29,48 @@ namespace penumbra::detail {
 class BufferPool {
  public:
   explicit BufferPool(Context& ctx) : ctx_(ctx) {}
+  BufferPool(const BufferPool&) = delete;
+  BufferPool& operator=(const BufferPool&) = delete;
+  ~BufferPool() {
+    for (auto& [role, st] : staged_) waitFor(st);
+  }
   cl::Buffer& buffer(const std::string& role, std::size_t bytes) {
     return ctx_.reuse(pool_, role, bytes);
   }
+  // The data goes to the device behind the work already queued, without waiting for it: a copy
+  // is kept per role until the write is done (the next upload of the role waits for the last
+  // one). A blocking write would drain the queue first, and on PoCL the device's threads then
+  // sleep and wake for the next launch, a fraction of a millisecond each time.
   template <class T>
   cl::Buffer& upload(const std::string& role, const std::vector<T>& data) {
     cl::Buffer& b = buffer(role, std::max<std::size_t>(1, data.size()) * sizeof(T));
-    if (!data.empty()) ctx_.write(b, data.data(), data.size() * sizeof(T), role);
+    if (!data.empty()) {
+      Staged& st = staged_[role];
+      waitFor(st);
+      const std::size_t bytes = data.size() * sizeof(T);
+      st.data.resize(bytes);
+      std::memcpy(st.data.data(), data.data(), bytes);
+      st.done = ctx_.writeAsync(b, st.data.data(), bytes, role);
+    }
     return b;
   }
 
  private:
+  struct Staged {
+    std::vector<unsigned char> data;
+    cl::Event done;
+  };
+  static void waitFor(Staged& st) {
+    if (!st.done()) return;
+    try {
+      st.done.wait();
+    } catch (const cl::Error&) {  // a failed write: the queue reports it at its next use
+    }
+    st.done = cl::Event();
+  }
   Context& ctx_;
   Context::BufferSlots pool_;
+  std::map<std::string, Staged> staged_;
 };
 
 // What a technique asks of the rasterizer stage (src/render/rasterizer.hpp): depth maps of the
