@@ -680,39 +680,13 @@ typedef struct {
   float div[VIS_BATCH];      // area * PB_MOMENT_SCALE
 } box_plan;
 
-// box_mean's exact sums of pixel k's box from its plan: the nine sub-rectangles of 16 lattice
-// values, each converted to float and weighted, in box_mean's order. first_column and first_row
-// zero lattice column and row 0 where they lie outside the table (all ones inside).
+// box_lattice_sum (filter.clh) for pixel k of a plan, with its masks (all ones: inside the table).
 M4S float4 batch_box_sum(global const long4* sat, const box_plan* bp, int k, long4 first_column,
                          long4 first_row) {
-  const long4 all = (long4)(-1);
-  const int c0 = bp->col[0][k], c1 = bp->col[1][k], c2 = bp->col[2][k], c3 = bp->col[3][k];
-#define PB_ROW(j, M)                                                                   \
-  global const long4* row##j = sat + bp->row[j][k];                                    \
-  long4 p##j##0 = row##j[c0] & first_column & (M), p##j##1 = row##j[c1] & (M),        \
-        p##j##2 = row##j[c2] & (M), p##j##3 = row##j[c3] & (M);
-  PB_ROW(0, first_row)
-  PB_ROW(1, all)
-  PB_ROW(2, all)
-  PB_ROW(3, all)
-#undef PB_ROW
-  float4 acc = (float4)(0.0f);
-#define PB_RECT(a, b, a1, b1)                              \
-  {                                                        \
-    long4 s = p##b1##a1 - p##b1##a - p##b##a1 + p##b##a;   \
-    acc += bp->w[3 * b + a][k] * convert_float4(s);        \
-  }
-  PB_RECT(0, 0, 1, 1)
-  PB_RECT(1, 0, 2, 1)
-  PB_RECT(2, 0, 3, 1)
-  PB_RECT(0, 1, 1, 2)
-  PB_RECT(1, 1, 2, 2)
-  PB_RECT(2, 1, 3, 2)
-  PB_RECT(0, 2, 1, 3)
-  PB_RECT(1, 2, 2, 3)
-  PB_RECT(2, 2, 3, 3)
-#undef PB_RECT
-  return acc;
+  return box_lattice_sum(sat, bp->row[0][k], bp->row[1][k], bp->row[2][k], bp->row[3][k],
+                         bp->col[0][k], bp->col[1][k], bp->col[2][k], bp->col[3][k], first_column,
+                         first_row, bp->w[0][k], bp->w[1][k], bp->w[2][k], bp->w[3][k],
+                         bp->w[4][k], bp->w[5][k], bp->w[6][k], bp->w[7][k], bp->w[8][k]);
 }
 
 M4S void batch_box_moments(global const long4* sat, int size, const mssm_pixel* light,

@@ -37,6 +37,15 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
 
 bool mssm4PrefersBatched(Context& ctx) { return useCpuBatching(ctx); }
 
+namespace {
+// Rows 0 .. n-1 (at least one element): light l's map and visibility row are its own.
+std::vector<cl_int> identityRows(int n) {
+  std::vector<cl_int> rows(static_cast<std::size_t>(std::max(n, 1)));
+  std::iota(rows.begin(), rows.end(), 0);
+  return rows;
+}
+}  // namespace
+
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
                      int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
@@ -48,11 +57,7 @@ void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const c
                                   simdLoopOption(ctx));
     const std::size_t groups = (std::size_t(pixels) + kMssm4Group - 1) / kMssm4Group;
     cl::Buffer identity;
-    if (!rows) {  // light l writes row l
-      std::vector<cl_int> id(std::size_t(std::max(nlights, 1)));
-      std::iota(id.begin(), id.end(), 0);
-      identity = ctx.upload(id, stage + " rows");
-    }
+    if (!rows) identity = ctx.upload(identityRows(nlights), stage + " rows");  // light l: row l
     ctx.launchWith(stage, k, cl::NDRange(groups, nlights), cl::NullRange, gpos, gnrm, ggeo,
                    lights, sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis,
                    rows ? *rows : identity);
@@ -78,11 +83,7 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
     // CPUs: the moments and their table in one sweep a map (moments.cl, depth_to_moments_sat),
     // then the batched visibility; light l's map and visibility row are rows[l] (l without them)
     cl::Buffer rows = f.rows;
-    if (!rows()) {
-      std::vector<cl_int> id(std::size_t(std::max(nl, 1)));
-      std::iota(id.begin(), id.end(), 0);
-      rows = f.pool.upload(technique_ + " rows", id);
-    }
+    if (!rows()) rows = f.pool.upload(technique_ + " rows", identityRows(nl));
     cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments_sat", simdLoopOption(ctx));
     ctx.launchWith(technique_ + "/moments+sat", k, cl::NDRange(nl), cl::NDRange(1), f.depth,
                    f.lightBuffer, cl_int(S), cl_ulong(stride), maps, rows);
@@ -90,14 +91,13 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
                     nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, technique_ + "/visibility",
                     &rows);
     return;
-  } else {
-    moments(f, maps, stride, technique_ + "/moments");
-    prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
   }
+  moments(f, maps, stride, technique_ + "/moments");
+  prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
   if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT) {
-    mssm4Visibility(ctx, mssm4PrefersBatched(ctx), f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S,
-                    stride, f.pixels, nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis,
-                    technique_ + "/visibility");
+    // GPUs (the CPU form took the branch above): one pixel per work-item
+    mssm4Visibility(ctx, false, f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S, stride, f.pixels,
+                    nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, technique_ + "/visibility");
     return;
   }
   cl::Kernel k = ctx.kernel("moments.cl", technique_ + "_visibility", prefilterOption(f.opt.prefilter));
