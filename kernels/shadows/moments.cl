@@ -34,14 +34,11 @@ kernel void depth_to_moments(global const uint* depth, global const pb_light* li
 // texel at a time; here a work-item takes one row of one map in a SIMD loop over scalars. The same
 // products, and rint() then a truncating conversion (exact: rint's result is an integer, under
 // 2^33) round as convert_long4_rte does: the same moments, bit for bit (tests/test_mssm.cpp).
-// Global size (size, lights).
-kernel void depth_to_moments_rows(global const uint* depth, global const pb_light* lights,
-                                  int size, ulong stride, global long* moments) {
-  const int y = get_global_id(0), l = get_global_id(1);
-  if (y >= size) return;
-  const float range = lights[l].origin[3], scale = (float)PB_MOMENT_SCALE;
-  global const uint* in = depth + ((size_t)l * size + y) * size;
-  global long* out = moments + 4 * (l * stride + (size_t)y * size);
+// moments_row is that loop for one row (depth_to_moments_sat below runs it too).
+static inline __attribute__((always_inline)) void moments_row(global const uint* in,
+                                                              global long* out, int size,
+                                                              float range) {
+  const float scale = (float)PB_MOMENT_SCALE;
 PB_SIMD_LOOP(16)
   for (int x = 0; x < size; ++x) {
     const float z = map_depth(in[x], range);
@@ -51,6 +48,15 @@ PB_SIMD_LOOP(16)
     out[4 * x + 2] = (long)rint((z2 * z) * scale);
     out[4 * x + 3] = (long)rint((z2 * z2) * scale);
   }
+}
+
+// Global size (size, lights).
+kernel void depth_to_moments_rows(global const uint* depth, global const pb_light* lights,
+                                  int size, ulong stride, global long* moments) {
+  const int y = get_global_id(0), l = get_global_id(1);
+  if (y >= size) return;
+  moments_row(depth + ((size_t)l * size + y) * size, moments + 4 * (l * stride + (size_t)y * size),
+              size, lights[l].origin[3]);
 }
 
 // depth_to_moments_rows and the summed-area table in one sweep down each map (CPU devices, SAT
@@ -66,20 +72,10 @@ kernel void depth_to_moments_sat(global const uint* depth, global const pb_light
                                  int size, ulong stride, global long* moments,
                                  global const int* rows) {
   const int l = get_global_id(0);
-  const float range = lights[l].origin[3], scale = (float)PB_MOMENT_SCALE;
   global long* img = moments + 4 * (l * stride);
   for (int y = 0; y < size; ++y) {
-    global const uint* in = depth + ((size_t)rows[l] * size + y) * size;
     global long* out = img + 4 * (size_t)y * size;
-PB_SIMD_LOOP(16)
-    for (int x = 0; x < size; ++x) {
-      const float z = map_depth(in[x], range);
-      const float z2 = z * z;
-      out[4 * x] = (long)rint(z * scale);
-      out[4 * x + 1] = (long)rint(z2 * scale);
-      out[4 * x + 2] = (long)rint((z2 * z) * scale);
-      out[4 * x + 3] = (long)rint((z2 * z2) * scale);
-    }
+    moments_row(depth + ((size_t)rows[l] * size + y) * size, out, size, lights[l].origin[3]);
     long a0 = 0, a1 = 0, a2 = 0, a3 = 0;
     if (y == 0) {
       for (int x = 0; x < size; ++x) {
