@@ -167,8 +167,16 @@ kernel void horizon_visibility_batch(global const float4* gpos, global const flo
     if (!mask[l]) continue;
     const float wx = lights[l].dir[0], wy = lights[l].dir[1], wz = lights[l].dir[2];
     const float ca = lights[l].dir[3], sa = sqrt(fmax(1.0f - ca * ca, 0.0f));
+    // the pairs below (the light's centre under the pixel's horizon, part of its cap above),
+    // counted: most groups have none for most lights, which then skip the scalar loop
+    int pairs = 0;
 PB_SIMD_LOOP(16)
-    for (int j = 0; j < HZ_GROUP; ++j) cs[j] = nx[j] * wx + ny[j] * wy + nz[j] * wz;
+    for (int j = 0; j < HZ_GROUP; ++j) {
+      const float c = nx[j] * wx + ny[j] * wy + nz[j] * wz;
+      cs[j] = c;
+      pairs += live[j] && c <= 0.0f && c > -sa;
+    }
+    if (pairs == 0) continue;
     int src[HZ_MAX_SOURCES];
     float m[4];
     int ns = -3;  // no run yet
