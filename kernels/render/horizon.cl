@@ -153,7 +153,7 @@ kernel void horizon_visibility_batch(global const float4* gpos, global const flo
   if (p0 >= npixels) return;
   const int cnt = min(HZ_GROUP, npixels - p0);
   float nx[HZ_GROUP], ny[HZ_GROUP], nz[HZ_GROUP], cs[HZ_GROUP];
-  int live[HZ_GROUP];
+  int live[HZ_GROUP], pair[HZ_GROUP];
   global const float* nf = (global const float*)gnrm;
   for (int j = 0; j < HZ_GROUP; ++j) {
     const bool in = j < cnt && gpos[p0 + min(j, cnt - 1)].w != 0.0f;
@@ -168,13 +168,14 @@ kernel void horizon_visibility_batch(global const float4* gpos, global const flo
     const float wx = lights[l].dir[0], wy = lights[l].dir[1], wz = lights[l].dir[2];
     const float ca = lights[l].dir[3], sa = sqrt(fmax(1.0f - ca * ca, 0.0f));
     // the pairs below (the light's centre under the pixel's horizon, part of its cap above),
-    // counted: most groups have none for most lights, which then skip the scalar loop
+    // marked and counted: most groups have none for most lights, which then skip the scalar loop
     int pairs = 0;
 PB_SIMD_LOOP(16)
     for (int j = 0; j < HZ_GROUP; ++j) {
       const float c = nx[j] * wx + ny[j] * wy + nz[j] * wz;
       cs[j] = c;
-      pairs += live[j] && c <= 0.0f && c > -sa;
+      pair[j] = live[j] && c <= 0.0f && c > -sa;
+      pairs += pair[j];
     }
     if (pairs == 0) continue;
     int src[HZ_MAX_SOURCES];
@@ -182,8 +183,8 @@ PB_SIMD_LOOP(16)
     int ns = -3;  // no run yet
     float lx = 0.0f, ly = 0.0f, lz = 0.0f;
     for (int j = 0; j < cnt; ++j) {
+      if (!pair[j]) continue;
       const float c = cs[j];
-      if (!live[j] || !(c <= 0.0f && c > -sa)) continue;
       if (ns == -3 || nx[j] != lx || ny[j] != ly || nz[j] != lz) {
         lx = nx[j];
         ly = ny[j];

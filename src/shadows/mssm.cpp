@@ -37,14 +37,11 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
 
 bool mssm4PrefersBatched(Context& ctx) { return useCpuBatching(ctx); }
 
-namespace {
-// Rows 0 .. n-1 (at least one element): light l's map and visibility row are its own.
 std::vector<cl_int> identityRows(int n) {
   std::vector<cl_int> rows(static_cast<std::size_t>(std::max(n, 1)));
   std::iota(rows.begin(), rows.end(), 0);
   return rows;
 }
-}  // namespace
 
 void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl::Buffer& gnrm,
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
@@ -69,35 +66,18 @@ void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const c
                  sats, cl_int(size), cl_ulong(stride), cl_int(pixels), P, vis);
 }
 
-bool MomentPass::readsFrameRows(Context& ctx, const RenderOptions& opt) const {
-  return technique_ == "mssm4" && opt.prefilter == Prefilter::SAT && useCpuBatching(ctx);
-}
-
 void MomentPass::computeVisibility(ShadowFrame& f) {
   validate(f.opt.mssm);
   Context& ctx = f.ctx;
   const int S = f.mapSize, nl = int(f.lights.size()), n = images(nl);
   const std::size_t stride = prefilterStride(f.opt.prefilter, S);
   cl::Buffer& maps = f.pool.buffer(technique_ + " moments", stride * n * sizeof(cl_long4));
-  if (readsFrameRows(ctx, f.opt)) {
-    // CPUs: the moments and their table in one sweep a map (moments.cl, depth_to_moments_sat),
-    // then the batched visibility; light l's map and visibility row are rows[l] (l without them)
-    cl::Buffer rows = f.rows;
-    if (!rows()) rows = f.pool.upload(technique_ + " rows", identityRows(nl));
-    cl::Kernel k = ctx.kernel("moments.cl", "depth_to_moments_sat", simdLoopOption(ctx));
-    ctx.launchWith(technique_ + "/moments+sat", k, cl::NDRange(nl), cl::NDRange(1), f.depth,
-                   f.lightBuffer, cl_int(S), cl_ulong(stride), maps, rows);
-    mssm4Visibility(ctx, true, f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S, stride, f.pixels,
-                    nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, technique_ + "/visibility",
-                    &rows);
-    return;
-  }
   moments(f, maps, stride, technique_ + "/moments");
   prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
   if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT) {
-    // GPUs (the CPU form took the branch above): one pixel per work-item
-    mssm4Visibility(ctx, false, f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S, stride, f.pixels,
-                    nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, technique_ + "/visibility");
+    mssm4Visibility(ctx, mssm4PrefersBatched(ctx), f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S,
+                    stride, f.pixels, nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis,
+                    technique_ + "/visibility");
     return;
   }
   cl::Kernel k = ctx.kernel("moments.cl", technique_ + "_visibility", prefilterOption(f.opt.prefilter));

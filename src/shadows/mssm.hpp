@@ -26,18 +26,18 @@ void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const c
                      const cl::Buffer& ggeo, const cl::Buffer& lights, const cl::Buffer& sats,
                      int size, std::size_t stride, int pixels, int nlights, const mssm_params& P,
                      cl::Buffer& vis, const std::string& stage, const cl::Buffer* rows = nullptr);
+// Rows 0 .. n-1 (at least one element): each light's map and visibility row are its own.
+std::vector<cl_int> identityRows(int n);
 
 // Moment soft shadow mapping (Kneiphof 2017): the lights' moments from their depth maps,
 // prefiltered
 // (RenderOptions::prefilter), then kernels/shadows/moments.cl's "<technique>_visibility" for every
 // pixel and light. Stages "<technique>/moments", "<technique>/sat" or "/mip",
-// "<technique>/visibility".
+// "<technique>/visibility" (MSSM4's CPU form: "mssm4/moments+sat", src/shadows/mssm4.cpp).
 class MomentPass : public ShadowPass {
  public:
   explicit MomentPass(std::string technique) : technique_(std::move(technique)) {}
   void computeVisibility(ShadowFrame& f) override;
-  // MSSM4's CPU form with the SAT prefilter (depth_to_moments_sat, mssm4_visibility_batch).
-  bool readsFrameRows(Context& ctx, const RenderOptions& opt) const override;
 
  protected:
   // Filterable long4 images the moments of `lights` lights take.
