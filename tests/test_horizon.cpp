@@ -9,12 +9,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "common.hpp"
 #include "render/horizon.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -301,4 +304,48 @@ TEST(Horizon, AnOccluderOfTheLitPartIsFoundThroughTheLightAbove) {
     EXPECT_EQ(differ, 0) << toString(t);
     EXPECT_LT(shadowSum / shadow, 0.1) << toString(t);
   }
+}
+
+// A pass that knows the horizon step follows writes the pairs the step rewrites 0 instead of
+// filtering them (ShadowFrame::horizonRewrites; tests/test_mssm.cpp checks the kernels): the final
+// visibility has the same bits as with PENUMBRA_HORIZON_SKIP=off, which filters them. On the low
+// light's frame above (every ground pixel's pair of it is one the step rewrites) with MSSM4, and
+// on the built-in scene with 16 median-cut lights and the default technique (auto: MSSM4, hard
+// and an exact light; contact shadows between the pass and the step).
+TEST(Horizon, SkippedPairsGiveTheSameVisibility) {
+  std::vector<float> low[2];
+  for (int off : {0, 1}) {
+    const test::ScopedEnv env("PENUMBRA_HORIZON_SKIP",
+                              off ? std::optional<std::string>("off") : std::nullopt);
+    low[off] = horizonFrame(ShadowTechnique::MSSM4, true, true).vis;
+  }
+  ASSERT_FALSE(low[0].empty());
+  EXPECT_TRUE(low[0] == low[1]) << "the low light's frame";
+
+  Scene scene = builtinScene();
+  Environment env = builtinEnvironment(64);
+  MedianCutOptions mc;
+  mc.lights = 16;
+  LightSet lights = extractMedianCut(ctx(), env, mc);
+  RenderOptions ro;
+  ro.width = 160;
+  ro.height = 90;
+  ro.shadowMapSize = 128;
+  const Camera cam = frameCamera(scene, float(ro.width) / ro.height);
+  std::vector<float> vis[2];
+  std::vector<float> image[2];
+  for (int off : {0, 1}) {
+    const test::ScopedEnv skip("PENUMBRA_HORIZON_SKIP",
+                               off ? std::optional<std::string>("off") : std::nullopt);
+    Renderer r(ctx());
+    Frame f = r.render(scene, cam, lights, env, ro);
+    vis[off] = r.lastVisibility();
+    image[off] = f.image.pixels;
+  }
+  ASSERT_EQ(vis[0].size(), std::size_t(16) * ro.width * ro.height);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < vis[0].size(); ++i)
+    differ += std::memcmp(&vis[0][i], &vis[1][i], 4) != 0;
+  EXPECT_EQ(differ, 0u) << "the built-in scene's visibility";
+  EXPECT_TRUE(image[0] == image[1]) << "the built-in scene's image";
 }

@@ -122,6 +122,8 @@ struct VisibilityInputs {
   cl::Buffer gpos, gnrm, ggeo, lights, sats;
   cl::Buffer depth;  // the depth maps the moments come from (ShadowFrame::depth), for hard shadows
   std::size_t stride = 0;
+  std::vector<float> hostPos, hostNrm;  // the G-buffer's positions and shading normals, as uploaded
+  std::vector<pb_light> hostLights;
 };
 
 VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
@@ -181,6 +183,9 @@ VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
         m[(std::size_t(l) * S * S + t) * 4 + c] = std::llround(double(mz[c]) * PB_MOMENT_SCALE);
     }
   VisibilityInputs in;
+  in.hostPos = gpos;
+  in.hostNrm = gnrm;
+  in.hostLights = lights;
   in.gpos = ctx().upload(gpos, "test gpos");
   in.gnrm = ctx().upload(gnrm, "test gnrm");
   in.ggeo = ctx().upload(ggeo, "test ggeo");
@@ -195,10 +200,12 @@ VisibilityInputs visibilityInputs(int pixels, int nl, int S, unsigned seed) {
 // Both MSSM4 visibility kernels on the same inputs; the bits of each. The batched one writes light
 // l's visibility into row nl - 1 - l (its rows argument, as auto's subsets give it the frame's
 // rows), read back into row l here.
+// horizonSkip: mssm_params.horizon_skip (the pairs the horizon step rewrites are written 0).
 std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>> bothVisibilityKernels(
-    int pixels, int nl, int S, unsigned seed) {
+    int pixels, int nl, int S, unsigned seed, bool horizonSkip = false) {
   VisibilityInputs in = visibilityInputs(pixels, nl, S, seed);
-  const mssm_params P = detail::mssmParams(MSSMOptions{}, ShadowOptions{});
+  mssm_params P = detail::mssmParams(MSSMOptions{}, ShadowOptions{});
+  P.horizon_skip = horizonSkip ? 1 : 0;
   std::vector<std::uint32_t> bits[2];
   std::vector<cl_int> reversed(static_cast<std::size_t>(nl));
   for (int l = 0; l < nl; ++l) reversed[std::size_t(l)] = nl - 1 - l;
@@ -222,8 +229,9 @@ std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>> bothVisibility
 // tolerance 0: the same bits. On PoCL that holds: the batched kernel's dot() and mix() round as
 // PoCL's library does. Another driver's library may fuse their products (oclgrind does), and the
 // moment reconstruction turns that rounding into differences of up to `tolerance`.
-void expectSameVisibility(int pixels, int nl, int S, unsigned seed, float tolerance = 0.0f) {
-  auto [one, batched] = bothVisibilityKernels(pixels, nl, S, seed);
+void expectSameVisibility(int pixels, int nl, int S, unsigned seed, float tolerance = 0.0f,
+                          bool horizonSkip = false) {
+  auto [one, batched] = bothVisibilityKernels(pixels, nl, S, seed, horizonSkip);
   std::size_t differ = 0, shadowed = 0, notBitwise = 0;
   float maxDiff = 0.0f;
   for (std::size_t i = 0; i < one.size(); ++i) {
@@ -271,10 +279,12 @@ float batchedTolerance() {
 // light, the box filters in scalar loops) gives the bits of mssm4_visibility (one pixel per
 // work-item): every pixel count around the group of 64 (1, one short, exact, one over, many
 // groups with a ragged end), odd and tiny map sizes, a light count that is not a power of two.
+// With horizon_skip too (the renderer's setting where the horizon step follows).
 TEST(MSSM4, BatchedVisibilityKernelIsBitIdentical) {
-  for (int pixels : {1, 63, 64, 65, 1000, 4097})
-    for (int S : {1, 7, 37, 64})
-      expectSameVisibility(pixels, 3, S, unsigned(pixels * 131 + S), batchedTolerance());
+  for (bool skip : {false, true})
+    for (int pixels : {1, 63, 64, 65, 1000, 4097})
+      for (int S : {1, 7, 37, 64})
+        expectSameVisibility(pixels, 3, S, unsigned(pixels * 131 + S), batchedTolerance(), skip);
 }
 
 // The same on the simulator, small: bounds, races and divergence of both kernels.
@@ -282,6 +292,50 @@ TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
   const float tolerance = batchedTolerance();
   expectSameVisibility(65, 2, 9, 7, tolerance);
   expectSameVisibility(1, 1, 1, 8, tolerance);
+  expectSameVisibility(65, 2, 9, 7, tolerance, true);
+}
+
+// horizon_skip (filter.clh, horizon_rewrites): both kernels write 0, unfiltered, for every pair
+// the horizon step (kernels/render/horizon.cl) will rewrite, i.e. whose light's centre is below
+// the pixel's horizon with part of its cap above, c = n.w in (-sin a, 0], and keep every other
+// pair's bits. Classified here in double; pairs within 1e-4 of a threshold (the kernel's margins
+// are 1e-5 on c and 1e-3 on |n - c w|) are left out of both counts, as float rounding and the
+// margins decide them.
+TEST(MSSM4, PairsTheHorizonStepRewritesAreWrittenZero) {
+  const int pixels = 1000, nl = 5, S = 37;
+  for (int batched : {0, 1}) {
+    const auto filtered = bothVisibilityKernels(pixels, nl, S, 29, false);
+    const auto skipped = bothVisibilityKernels(pixels, nl, S, 29, true);
+    const std::vector<std::uint32_t>& with = batched ? skipped.second : skipped.first;
+    const std::vector<std::uint32_t>& without = batched ? filtered.second : filtered.first;
+    const VisibilityInputs in = visibilityInputs(pixels, nl, S, 29);
+    int band = 0, kept = 0, bandNotZero = 0, keptChanged = 0;
+    for (int l = 0; l < nl; ++l) {
+      const pb_light& L = in.hostLights[std::size_t(l)];
+      const double sinA = std::sqrt(std::max(0.0, 1.0 - double(L.dir[3]) * L.dir[3]));
+      for (int p = 0; p < pixels; ++p) {
+        const float* n = &in.hostNrm[4 * std::size_t(p)];
+        const double c = double(n[0]) * L.dir[0] + double(n[1]) * L.dir[1] + double(n[2]) * L.dir[2];
+        const double ux = n[0] - c * L.dir[0], uy = n[1] - c * L.dir[1], uz = n[2] - c * L.dir[2];
+        const double ul = std::sqrt(ux * ux + uy * uy + uz * uz);
+        const bool background = in.hostPos[4 * std::size_t(p) + 3] == 0.0f;
+        const std::size_t i = std::size_t(l) * pixels + std::size_t(p);
+        if (!background && c <= -1e-4 && c > -sinA + 1e-4 && ul > 2e-3) {
+          ++band;
+          bandNotZero += with[i] != 0u;  // +0.0f
+        } else if (background || c > 1e-4 || c <= -sinA - 1e-4) {
+          ++kept;
+          keptChanged += with[i] != without[i];
+        }
+      }
+    }
+    std::printf("[ penumbra ] %s kernel: %d pairs on the horizon, %d others\n",
+                batched ? "batched" : "per-pixel", band, kept);
+    ASSERT_GT(band, 200);
+    ASSERT_GT(kept, 2000);
+    EXPECT_EQ(bandNotZero, 0) << (batched ? "batched" : "per-pixel");
+    EXPECT_EQ(keptChanged, 0) << (batched ? "batched" : "per-pixel");
+  }
 }
 
 namespace {

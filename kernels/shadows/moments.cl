@@ -598,6 +598,13 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
   pb_light L = lights[l];
   mssm_pixel q;
   if (!mssm_pixel_setup(px, gpos, gnrm, ggeo, &L, size, &P, &q)) { vis[out] = 1.0f; return; }
+  if (P.horizon_skip) {
+    const float4 n = gnrm[px];
+    if (horizon_rewrites(n.x, n.y, n.z, L.dir[0], L.dir[1], L.dir[2], L.dir[3])) {
+      vis[out] = 0.0f;
+      return;
+    }
+  }
   const global long4* sat = sats + l * stride;
   float hs = mssm_half_width(&q, &P, q.d * q.range * q.tan_a);
   float zf = mssm_receiver(&q, &P, hs);
@@ -648,13 +655,14 @@ kernel void mssm4_visibility(global const float4* gpos, global const float4* gnr
 #ifndef VIS_BATCH
 #define VIS_BATCH 16
 #endif
-// Whether pixel px needs light L (mssm_pixel_setup's early outs, negated).
-M4S bool mssm_live_s(global const float* gpos, global const float* gnrm, int px,
-                     global const pb_light* L) {
-  float sin_a = sqrt(fmax(1.0f - L->dir[3] * L->dir[3], 0.0f));
-  return gpos[4 * px + 3] != 0.0f &&
-         !(dot3_s(gnrm[4 * px], gnrm[4 * px + 1], gnrm[4 * px + 2], L->dir[0], L->dir[1],
-                  L->dir[2]) <= -sin_a);
+// What pixel px needs of the light with direction w and cos_a, sin_a = sqrt(max(1 - cos_a^2, 0)):
+// 0 nothing (mssm_pixel_setup's early outs: visibility 1), 1 the filter, 2 nothing either, as the
+// horizon step rewrites the pair (with skip: visibility 0, as mssm4_visibility writes it).
+M4S int mssm_need_s(global const float* gpos, global const float* gnrm, int px, float wx,
+                    float wy, float wz, float cos_a, float sin_a, int skip) {
+  const float nx = gnrm[4 * px], ny = gnrm[4 * px + 1], nz = gnrm[4 * px + 2];
+  if (gpos[4 * px + 3] == 0.0f || dot3_s(nx, ny, nz, wx, wy, wz) <= -sin_a) return 0;
+  return skip && horizon_rewrites(nx, ny, nz, wx, wy, wz, cos_a) ? 2 : 1;
 }
 
 // Steps 2 and 4 below: the mean moments of each batch pixel's box (texel coordinates u, v,
@@ -750,11 +758,15 @@ kernel void mssm4_visibility_batch(global const float* gpos, global const float*
   global float* out = vis + (size_t)rows[l] * npixels;
   int list[VIS_GROUP];
   int n = 0;
+  // the light's values, read once (the loop's stores to `out` could alias them)
+  const float wx = L->dir[0], wy = L->dir[1], wz = L->dir[2], cos_a = L->dir[3];
+  const float sin_a = sqrt(fmax(1.0f - cos_a * cos_a, 0.0f));
   for (int k = 0; k < VIS_GROUP && px0 + k < npixels; ++k) {
-    if (mssm_live_s(gpos, gnrm, px0 + k, L))
+    const int need = mssm_need_s(gpos, gnrm, px0 + k, wx, wy, wz, cos_a, sin_a, P.horizon_skip);
+    if (need == 1)
       list[n++] = px0 + k;
     else
-      out[px0 + k] = 1.0f;
+      out[px0 + k] = need == 0 ? 1.0f : 0.0f;
   }
   global const long4* sat = sats + (size_t)l * stride;
   // mssm_pixel_setup's per-light part
@@ -764,8 +776,7 @@ kernel void mssm4_visibility_batch(global const float* gpos, global const float*
   light.texel_x = 2.0f * hx / size;
   light.texel_y = 2.0f * hy / size;
   light.texel = fmin(light.texel_x, light.texel_y);
-  const float cos_a = L->dir[3];
-  light.tan_a = sqrt(fmax(1.0f - cos_a * cos_a, 0.0f)) / fmax(cos_a, 1e-4f) * P.light_size_scale;
+  light.tan_a = sin_a / fmax(cos_a, 1e-4f) * P.light_size_scale;
   // per pixel of the batch: its texel coordinates, depth and slope; the box's half-width and the
   // receiver depth for it; the box's mean moments
   float u[VIS_BATCH], v[VIS_BATCH], d[VIS_BATCH], slope[VIS_BATCH], h[VIS_BATCH], zr[VIS_BATCH];

@@ -17,7 +17,8 @@ typedef struct {
   float upper_bound_tilt; /* > 0: eq. 19's delta2 scaled by min(1, this * receiver slope); 0: not */
   float leak_reduction;   /* MSSM4: visibility v -> clamp((v - this) / (1 - this)), in [0, 1) */
   int cosine_centroid;    /* MSSM4: 1: the filter box centred on the cosine-weighted light */
-  int pad1, pad2, pad3;
+  int horizon_skip;       /* MSSM4: 1: pairs the horizon step rewrites are written 0, not filtered */
+  int pad2, pad3;
 } mssm_params;
 
 /* CSSM (kernels/shadows/csm.cl): the ringing suppression derived from the order (src/shadows/cssm.cpp),
@@ -62,7 +63,7 @@ static_assert(sizeof(mssm_params) == 64, "mssm_params: 16 four-byte fields");
 PB_PARAM_ROW(mssm_params, 0, moment_bias, depth_bias, slope_bias, light_size_scale);
 PB_PARAM_ROW(mssm_params, 4, max_filter, min_filter, blocker_eps, upper_bound);
 PB_PARAM_ROW(mssm_params, 8, delta1, delta2, upper_bound_tilt, leak_reduction);
-PB_PARAM_ROW(mssm_params, 12, cosine_centroid, pad1, pad2, pad3);
+PB_PARAM_ROW(mssm_params, 12, cosine_centroid, horizon_skip, pad2, pad3);
 static_assert(sizeof(cssm_params) == 64, "cssm_params: 16 four-byte fields");
 PB_PARAM_ROW(cssm_params, 0, scale, shift, tau0, kappa);
 PB_PARAM_ROW(cssm_params, 4, scale_z, shift_z, tau0_z, rise);

@@ -5,6 +5,8 @@
 #include "shadows/shadow_options.hpp"
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
 
 namespace penumbra::detail {
 
@@ -27,6 +29,11 @@ void Visibility::begin(const ShadowOptions& shared, ShadowTechnique t, int pixel
 
 void Visibility::compute(ShadowFrame& f) {
   f.vis = vis_;
+  // The horizon step below runs for every map-shadowed light (the mask's), which are the only
+  // lights a pass filters through a map. PENUMBRA_HORIZON_SKIP=off (exactly) has the pass filter
+  // those pairs anyway: the same images, a check (tests/test_horizon.cpp).
+  const char* skip = std::getenv("PENUMBRA_HORIZON_SKIP");
+  f.horizonRewrites = f.opt.shadow.horizonVisibility && !(skip && std::strcmp(skip, "off") == 0);
   if (runsPass()) {
     pass_->computeVisibility(f);
     bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);

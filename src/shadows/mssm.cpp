@@ -35,6 +35,12 @@ mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared) {
   return P;
 }
 
+mssm_params mssmParams(const ShadowFrame& f) {
+  mssm_params P = mssmParams(f.opt.mssm, f.opt.shadow);
+  P.horizon_skip = f.horizonRewrites ? 1 : 0;
+  return P;
+}
+
 bool mssm4PrefersBatched(Context& ctx) { return useCpuBatching(ctx); }
 
 std::vector<cl_int> identityRows(int n) {
@@ -76,14 +82,13 @@ void MomentPass::computeVisibility(ShadowFrame& f) {
   prefilter(ctx, maps, f.opt.prefilter, S, n, technique_);
   if (technique_ == "mssm4" && f.opt.prefilter == Prefilter::SAT) {
     mssm4Visibility(ctx, mssm4PrefersBatched(ctx), f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S,
-                    stride, f.pixels, nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis,
-                    technique_ + "/visibility");
+                    stride, f.pixels, nl, mssmParams(f), f.vis, technique_ + "/visibility");
     return;
   }
   cl::Kernel k = ctx.kernel("moments.cl", technique_ + "_visibility", prefilterOption(f.opt.prefilter));
   ctx.launchWith(technique_ + "/visibility", k, cl::NDRange(f.pixels, nl), cl::NullRange, f.gpos,
                  f.gnrm, f.ggeo, f.lightBuffer, maps, cl_int(S), cl_ulong(stride),
-                 cl_int(f.pixels), mssmParams(f.opt.mssm, f.opt.shadow), f.vis);
+                 cl_int(f.pixels), mssmParams(f), f.vis);
 }
 
 }  // namespace penumbra::detail

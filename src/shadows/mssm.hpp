@@ -14,6 +14,9 @@ namespace penumbra::detail {
 // reconstruction alone (mssm_reconstruct reads the moment bias, the blocker epsilon and the eq. 19
 // clamps).
 mssm_params mssmParams(const MSSMOptions& mo, const ShadowOptions& shared = ShadowOptions{});
+// The block for frame f's pass: f's options, and horizon_skip where the horizon step follows
+// (ShadowFrame::horizonRewrites).
+mssm_params mssmParams(const ShadowFrame& f);
 
 // MSSM4's visibility kernel on SAT-prefiltered moments: kernels/shadows/moments.cl's
 // mssm4_visibility (one pixel per work-item, for GPUs) or mssm4_visibility_batch (kMssm4Group

@@ -30,7 +30,7 @@ class MSSM4Pass : public MomentPass {
     f.ctx.launchWith("mssm4/moments+sat", k, cl::NDRange(nl), cl::NDRange(1), f.depth,
                      f.lightBuffer, cl_int(S), cl_ulong(stride), maps, rows);
     mssm4Visibility(f.ctx, true, f.gpos, f.gnrm, f.ggeo, f.lightBuffer, maps, S, stride, f.pixels,
-                    nl, mssmParams(f.opt.mssm, f.opt.shadow), f.vis, "mssm4/visibility", &rows);
+                    nl, mssmParams(f), f.vis, "mssm4/visibility", &rows);
   }
   // one long4 image per light: b1..b4 (kernels/shadows/moments.cl, depth_to_moments)
   void moments(ShadowFrame& f, cl::Buffer& maps, std::size_t stride,

@@ -120,6 +120,7 @@ struct ShadowFrame {
     hostPositions = f.hostPositions;
     hostTriangles = f.hostTriangles;
     ground = f.ground;
+    horizonRewrites = f.horizonRewrites;
   }
   Context& ctx;
   BufferPool& pool;
@@ -155,6 +156,11 @@ struct ShadowFrame {
   // The scene's ground, for the ground's occlusion of low lights (src/render/ground.hpp); the GL
   // interop has it from its caller.
   GroundRect ground;
+  // Set by the visibility stage (src/render/visibility.cpp) where the horizon step follows the
+  // pass: it then replaces the visibility of every pair of a map-shadowed light whose centre is
+  // below the pixel's horizon while part of its cap is above (kernels/render/horizon.cl), so a
+  // pass may write those pairs 0 instead of filtering them (filter.clh, horizon_rewrites).
+  bool horizonRewrites = false;
 
   // Depth maps of the scene for `views` through `rasterizer` (DepthRasterizer::depthMaps).
   void rasterizeDepth(const std::vector<pb_view>& views, cl::Buffer& out,
