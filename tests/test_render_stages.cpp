@@ -148,10 +148,10 @@ std::array<std::vector<float>, 2> framesWithAndWithoutCpuForms(Context& c, const
 }  // namespace
 
 // The CPU forms of the kernels (core/device_kind.hpp: banded summed-area tables, MSSM4's batched
-// visibility, batched shading) render the frames the one-pixel-per-work-item kernels render, bit
-// for bit, on every shading path: cap lights with the ambient map and with SH9, polygon lights,
-// bent normals, no background, sizes that are not multiples of the 64-pixel groups (and a 1 x 1
-// frame). Bit for bit on PoCL, whose library rounds dot() and mix() as the CPU forms do; on
+// visibility, batched shading, the bitmask's batched resolve) render the frames the
+// one-pixel-per-work-item kernels render, bit for bit, on every shading path: cap lights with the
+// ambient map and with SH9, polygon lights, bent normals, no background, sizes that are not
+// multiples of the 64-pixel groups (and a 1 x 1 frame). Bit for bit on PoCL, whose library rounds dot() and mix() as the CPU forms do; on
 // another driver (PENUMBRA_CPU_BATCHING=on forces the CPU forms there too) within 1% of the
 // frame's peak, as OclgrindFrame.CpuBatchedKernels below.
 TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
@@ -177,6 +177,10 @@ TEST(RenderStages, CpuBatchedKernelsRenderTheSameFrames) {
        ShadowTechnique::Hard, true, true},
       {"1 x 1", 1, 1, AmbientModel::IrradianceMap, LightShape::Cap, ShadowTechnique::MSSM4,
        false, true},
+      {"bitmask", 97, 41, AmbientModel::IrradianceMap, LightShape::Cap, ShadowTechnique::Bitmask,
+       false, true},
+      {"bitmask, polygon lights (samples of weight 0)", 65, 17, AmbientModel::IrradianceMap,
+       LightShape::Polygon, ShadowTechnique::Bitmask, false, true},
   };
   for (const Case& k : cases) {
     SCOPED_TRACE(k.name);
@@ -246,4 +250,34 @@ TEST(OclgrindFrame, CpuBatchedKernels) {
       EXPECT_LE(diff, (centroid ? 0.04f : 0.01f) * peak) << toString(shape) << " " << centroid;
     }
   }
+}
+
+// The bitmask's batched resolve under the simulator (PENUMBRA_CPU_BATCHING=on, as above): a tiny
+// frame with 32 light samples, for bounds, races and divergence; its frame against the per-pixel
+// resolve's, within the simulator's rounding of dot() (as above: 1% of the peak).
+TEST(OclgrindFrame, BitmaskBatchedResolve) {
+  Context& c = test::ctx();
+  Environment env = builtinEnvironment(16);
+  const Scene scene = builtinScene(0.0f);
+  ExtractOptions eo;
+  eo.medianCut.lights = 2;
+  eo.medianCut.faceSize = 4;
+  const LightSet lights = extractLights(c, env, eo);
+  RenderOptions ro;
+  ro.width = 13;
+  ro.height = 7;
+  ro.shadowMapSize = 8;
+  ro.shadows = ShadowTechnique::Bitmask;
+  ro.bitmask.lightSamples = 32;
+  const Camera cam = frameCamera(scene, 13.0f / 7.0f);
+  const auto frames = framesWithAndWithoutCpuForms(c, scene, cam, lights, env, ro);
+  ASSERT_EQ(frames[0].size(), frames[1].size());
+  float peak = 0.0f, diff = 0.0f;
+  for (std::size_t i = 0; i < frames[0].size(); ++i) {
+    ASSERT_TRUE(std::isfinite(frames[1][i]));
+    peak = std::max(peak, std::fabs(frames[0][i]));
+    diff = std::max(diff, std::fabs(frames[0][i] - frames[1][i]));
+  }
+  EXPECT_GT(peak, 0.0f);
+  EXPECT_LE(diff, 0.01f * peak);
 }

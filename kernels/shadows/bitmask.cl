@@ -412,3 +412,78 @@ kernel void bitmask_resolve(global const float4* gnrm, global const pb_light* li
   vis[out] = total > 0.0f ? lit / total : 1.0f;
 #endif
 }
+
+#ifndef HARD
+// bitmask_resolve for CPU devices (src/core/device_kind.hpp), where PoCL runs it one work-item at
+// a time, each pixel's 256-sample loop scalar (`perf annotate`: no zmm instruction). Here a
+// work-item takes RS_GROUP consecutive pixels of one light: a scalar loop reads each pixel's slot,
+// mask words and normal (the same dot() as bitmask_resolve), then the samples run in order, each
+// over the pixels in a SIMD loop, so that every pixel's two sums are formed in bitmask_resolve's
+// order from the same operands: the same bits (tests/test_render_stages.cpp). A sample's weight
+// of 0 skips it for every pixel at once, as it does for each one there. Global size
+// (ceil(npixels / RS_GROUP), lights of the batch).
+#ifndef RS_GROUP
+#define RS_GROUP 64
+#endif
+kernel void bitmask_resolve_batch(global const float4* gnrm, global const pb_light* lights,
+                                  global const pb_list_grid* grids, int l0,
+                                  global const int* slot, global const float2* disk,
+                                  int npixels, global const uint* masks, global float* vis,
+                                  global const float* weights, global const float4* frames) {
+  const int px0 = get_global_id(0) * RS_GROUP, lb = get_global_id(1);
+  if (px0 >= npixels) return;
+  const int cnt = min(RS_GROUP, npixels - px0);
+  const int l = l0 + lb;
+  pb_light L = lights[l];
+  const float ta = grids[l].tan_alpha;
+  const float4 fa = frames[2 * l], fb = frames[2 * l + 1];
+  const float2 f = (float2)(fa.w, fb.w);
+  float nx[RS_GROUP], ny[RS_GROUP], nz[RS_GROUP], total[RS_GROUP], lit[RS_GROUP];
+  uint mw[WORDS][RS_GROUP];
+  int todo = 0;
+  for (int k = 0; k < RS_GROUP; ++k) {
+    const int px = px0 + min(k, cnt - 1);
+    const size_t out = (size_t)l * npixels + px;
+    global const uint* mask = masks + ((size_t)lb * npixels + px) * WORDS;
+    uint any = 0u;
+    for (int w = 0; w < WORDS; ++w) {
+      mw[w][k] = mask[w];
+      any |= mw[w][k];
+    }
+    // bitmask_resolve's early outs: 1 where the pixel is no view sample of the light, or no
+    // sample of it is blocked
+    if (k < cnt && (slot[out] < 0 || any == 0u)) vis[out] = 1.0f;
+    todo += k < cnt && slot[out] >= 0 && any != 0u;
+    const float3 n = gnrm[px].xyz;
+    nx[k] = dot(n, fa.xyz);
+    ny[k] = dot(n, fb.xyz);
+    nz[k] = dot(n, vec3(L.dir));
+    total[k] = 0.0f;
+    lit[k] = 0.0f;
+  }
+  if (todo == 0) return;
+  global const float* sw = weights + (size_t)l * (WORDS * 32);
+  for (int w = 0; w < WORDS; ++w)
+    for (int b = 0; b < 32; ++b) {
+      const float s = sw[w * 32 + b];
+      if (s == 0.0f) continue;  // outside a polygon light, or black texture
+      const float2 uv = disk[w * 32 + b] * ta * f;
+      const float q = 1.0f + dot(uv, uv);
+PB_SIMD_LOOP(16)
+      for (int k = 0; k < RS_GROUP; ++k) {
+        const float wgt = fmax(nz[k] + uv.x * nx[k] + uv.y * ny[k], 0.0f) / (q * q) * s;
+        total[k] += wgt;
+        lit[k] = ((mw[w][k] >> b) & 1u) == 0u ? lit[k] + wgt : lit[k];
+      }
+    }
+  for (int k = 0; k < cnt; ++k) {
+    const int px = px0 + k;
+    const size_t out = (size_t)l * npixels + px;
+    if (slot[out] < 0) continue;
+    uint any = 0u;
+    for (int w = 0; w < WORDS; ++w) any |= mw[w][k];
+    if (any == 0u) continue;
+    vis[out] = total[k] > 0.0f ? lit[k] / total[k] : 1.0f;
+  }
+}
+#endif

@@ -47,6 +47,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "shadows/shadow_options.hpp"
+#include "core/device_kind.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
@@ -58,6 +59,8 @@ namespace {
 // triangle stage at 160x90, 128 samples; 512 x 128 halves the band, 3.2-3.8 s, same masks); the
 // tables take 2 * 512 * 128 * samples / 8 bytes (2 MiB at 128 samples, 16 MiB at 1024).
 constexpr int kLutPhi = 512, kLutDelta = 128;
+// Pixels per work-item of bitmask_resolve_batch (RS_GROUP, its default).
+constexpr int kResolveGroup = 64;
 // Triangle work is split over this many row stripes of its region (large ground triangles).
 constexpr int kStripes = 16;
 
@@ -296,7 +299,10 @@ class BitmaskPass : public ShadowPass {
       cap->weights.assign(weights.begin(), weights.begin() + std::size_t(nl) * N);
     }
     cl::Kernel tk = ctx.kernel("bitmask.cl", "bitmask_triangles", opts);
-    cl::Kernel rk = ctx.kernel("bitmask.cl", "bitmask_resolve", opts);
+    // the resolve's CPU form on CPU devices (soft masks only; the hard resolve reads one bit)
+    const bool cpuResolve = !hard_ && useCpuBatching(ctx);
+    cl::Kernel rk = ctx.kernel("bitmask.cl", cpuResolve ? "bitmask_resolve_batch" : "bitmask_resolve",
+                               opts + (cpuResolve ? simdLoopOption(ctx) : std::string()));
     cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
     for (int l0 = 0; l0 < nl; l0 += batch) {
       const int count = std::min(batch, nl - l0);
@@ -311,7 +317,10 @@ class BitmaskPass : public ShadowPass {
                      f.lightBuffer, grids, cl_int(l0), counts, ends, lists, f.gpos, cl_int(npx),
                      lut_, diskBuf_, cl_int(kStripes), zfar, masks, orient, cl_float(rot),
                      frameBuf);
-      ctx.launchWith("bitmask/resolve", rk, cl::NDRange(npx, count), cl::NullRange, f.gnrm,
+      ctx.launchWith("bitmask/resolve", rk,
+                     cpuResolve ? cl::NDRange((npx + kResolveGroup - 1) / kResolveGroup, count)
+                                : cl::NDRange(npx, count),
+                     cl::NullRange, f.gnrm,
                      f.lightBuffer, grids, cl_int(l0), slot, diskBuf_, cl_int(npx), masks, f.vis,
                      weightBuf, frameBuf);
       if (cap) {
