@@ -44,10 +44,10 @@
 #include <unordered_map>
 
 #include "shadows/bitmask.hpp"
+#include "core/device_kind.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/scan.hpp"
 #include "shadows/shadow_options.hpp"
-#include "core/device_kind.hpp"
 #include "shadows/shadow_pass.hpp"
 
 namespace penumbra::detail {
