@@ -8,12 +8,14 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "common.hpp"
 #include "render/ground.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -142,10 +144,12 @@ void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vecto
 
 struct KernelRun {
   int mismatches = 0, changed = 0, maskedChanged = 0, groundChanged = 0;
+  std::vector<float> vis;
 };
 
-// Runs the kernel on a synthetic frame with light 2 masked off.
-KernelRun runKernel(int w, int h, unsigned seed) {
+// Runs one kernel form (batched: the CPU form, ground_visibility_batch) on a synthetic frame with
+// light 2 masked off.
+KernelRun runKernel(int w, int h, unsigned seed, bool batched = false) {
   const Synthetic s = synthetic(w, h, seed);
   RenderOptions ro;
   detail::BufferPool pool(ctx());
@@ -160,8 +164,11 @@ KernelRun runKernel(int w, int h, unsigned seed) {
   f.ground = testGround();
   std::vector<cl_uchar> mask(s.lights.size(), 1);
   mask[2] = 0;  // a light whose visibility is exact: left alone
-  detail::GroundOcclusion ground(pool);
-  ground.run(f, pool.upload("mask", mask));
+  {
+    const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(batched ? "on" : "off"));
+    detail::GroundOcclusion ground(pool);
+    ground.run(f, pool.upload("mask", mask));
+  }
   const std::vector<float> vis = ctx().download<float>(f.vis, s.vis.size(), "vis");
   std::vector<float> want;
   std::vector<char> clear;
@@ -176,29 +183,46 @@ KernelRun runKernel(int w, int h, unsigned seed) {
       r.groundChanged += onGroundOf[i % np] != 0;
     }
   }
+  r.vis = vis;
   return r;
 }
 
 }  // namespace
 
-// 1x1, a row, a column, odd sizes and one larger than a work-group.
+// 1x1, a row, a column, odd sizes and one larger than the CPU form's 64 pixels a work-item; both
+// forms against the reference, and against each other bit for bit (on PoCL: the CPU form forms
+// each pixel's sums from the same operands in the same order).
 TEST(Ground, KernelMatchesHostReference) {
   int changed = 0;
   for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {1, 9}, {9, 1}, {7, 5}, {67, 33}}) {
-    const KernelRun r = runKernel(w, h, unsigned(w * 131 + h));
-    EXPECT_EQ(r.mismatches, 0) << w << "x" << h;
-    EXPECT_EQ(r.maskedChanged, 0) << w << "x" << h;
-    EXPECT_EQ(r.groundChanged, 0) << w << "x" << h;
-    changed += r.changed;
+    const KernelRun one = runKernel(w, h, unsigned(w * 131 + h), false);
+    const KernelRun batched = runKernel(w, h, unsigned(w * 131 + h), true);
+    for (const KernelRun* r : {&one, &batched}) {
+      EXPECT_EQ(r->mismatches, 0) << w << "x" << h << (r == &one ? " per pixel" : " batched");
+      EXPECT_EQ(r->maskedChanged, 0) << w << "x" << h;
+      EXPECT_EQ(r->groundChanged, 0) << w << "x" << h;
+    }
+    ASSERT_EQ(one.vis.size(), batched.vis.size());
+    // bit for bit on PoCL; another driver may fuse the products otherwise in one form
+    const bool pocl =
+        ctx().info().platform.find("Portable Computing Language") != std::string::npos;
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < one.vis.size(); ++i)
+      differ += pocl ? std::memcmp(&one.vis[i], &batched.vis[i], sizeof(float)) != 0
+                     : !(std::fabs(one.vis[i] - batched.vis[i]) <= 1e-5f);
+    EXPECT_EQ(differ, 0u) << w << "x" << h << ": the two forms";
+    changed += one.changed;
   }
   std::printf("[ penumbra ] %d pairs changed\n", changed);
   EXPECT_GT(changed, 1000);
 }
 
 TEST(OclgrindGround, Kernel) {
-  const KernelRun r = runKernel(9, 7, 5u);
-  EXPECT_EQ(r.mismatches, 0);
-  EXPECT_GT(r.changed, 0);
+  for (bool batched : {false, true}) {
+    const KernelRun r = runKernel(67, 3, 5u, batched);
+    EXPECT_EQ(r.mismatches, 0) << batched;
+    EXPECT_GT(r.changed, 0) << batched;
+  }
 }
 
 // Each light that reaches below the horizontal gets its axis and kGroundDirs directions inside its

@@ -78,3 +78,79 @@ kernel void ground_visibility(global const float4* gpos, global const float4* gn
     vis[o] = ground_hit(p.x, p.z, h, w.x, w.y, w.z, x0, x1, z0, z1) ? keep : vis[o] * keep;
   }
 }
+
+// The CPU form (src/core/device_kind.hpp; the same bits): PoCL runs ground_visibility one
+// work-item at a time (`perf annotate`: no zmm instruction), each pixel's direction loop scalar.
+// Here a work-item takes GR_GROUP consecutive pixels: a scalar loop reads them (and decides
+// which stand above the ground), then each light's directions run in order, each over the pixels
+// in a SIMD loop, every pixel's sums formed as ground_visibility forms them (a direction that does
+// not count for a pixel leaves its sums as they are, where the per-pixel loop skips it). Global
+// size ceil(npixels / GR_GROUP).
+#ifndef GR_GROUP
+#define GR_GROUP 64
+#endif
+kernel void ground_visibility_batch(global const float4* gpos, global const float4* gnrm,
+                                    global const float4* ggeo, global const float4* dirs,
+                                    global const int* glights, int ngl, int npixels, float4 rect,
+                                    float4 rect2, global const uchar* mask, global float* vis) {
+  const int px0 = get_global_id(0) * GR_GROUP;
+  if (px0 >= npixels) return;
+  const int cnt = min(GR_GROUP, npixels - px0);
+  const float gy = rect.x, x0 = rect.y, x1 = rect.z, z0 = rect.w, z1 = rect2.x, eps = rect2.y;
+  float Px[GR_GROUP], Pz[GR_GROUP], H[GR_GROUP], Nx[GR_GROUP], Ny[GR_GROUP], Nz[GR_GROUP],
+      reach[GR_GROUP], total[GR_GROUP], blocked[GR_GROUP];
+  bool above[GR_GROUP];
+  int any = 0;
+  for (int k = 0; k < GR_GROUP; ++k) {
+    const int px = px0 + min(k, cnt - 1);
+    const float4 p = gpos[px];
+    const float h = p.y - gy;
+    above[k] = k < cnt && p.w != 0.0f && h - rect2.z * ggeo[px].y > eps;
+    any += above[k];
+    const float3 n = gnrm[px].xyz;
+    Px[k] = p.x;
+    Pz[k] = p.z;
+    H[k] = h;
+    Nx[k] = n.x;
+    Ny[k] = n.y;
+    Nz[k] = n.z;
+    const float fx = fmax(fabs(p.x - x0), fabs(p.x - x1)), fz = fmax(fabs(p.z - z0), fabs(p.z - z1));
+    reach[k] = sqrt(fx * fx + fz * fz);
+  }
+  if (any == 0) return;
+  for (int k = 0; k < ngl; ++k) {
+    const int l = glights[k];
+    if (!mask[l]) continue;
+    global const float4* d = dirs + (size_t)k * (GR_DIRS + 1);
+    const float4 w = d[0];
+    int live = 0;
+    for (int j = 0; j < GR_GROUP; ++j) {
+      total[j] = 0.0f;
+      blocked[j] = 0.0f;
+      live += above[j] && w.w * reach[j] > H[j];
+    }
+    if (live == 0) continue;
+    for (int i = 1; i <= GR_DIRS; ++i) {
+      const float4 di = d[i];
+PB_SIMD_LOOP(16)
+      for (int j = 0; j < GR_GROUP; ++j) {
+        const float c = Nx[j] * di.x + Ny[j] * di.y + Nz[j] * di.z;
+        const bool counts = c > 0.0f;
+        const bool hit = ground_hit(Px[j], Pz[j], H[j], di.x, di.y, di.z, x0, x1, z0, z1);
+        const float t = total[j] + c, b = blocked[j] + c;
+        total[j] = counts ? t : total[j];
+        blocked[j] = counts && hit ? b : blocked[j];
+      }
+    }
+    global float* row = vis + (size_t)l * npixels + px0;
+PB_SIMD_LOOP(16)
+    for (int j = 0; j < GR_GROUP; ++j) {
+      const bool go = above[j] && w.w * reach[j] > H[j] && blocked[j] > 0.0f;
+      if (go) {
+        const float keep = 1.0f - blocked[j] / total[j];
+        row[j] = ground_hit(Px[j], Pz[j], H[j], w.x, w.y, w.z, x0, x1, z0, z1) ? keep
+                                                                                : row[j] * keep;
+      }
+    }
+  }
+}

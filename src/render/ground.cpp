@@ -8,6 +8,7 @@
 #include <cstring>
 #include <string>
 
+#include "core/device_kind.hpp"
 #include "lights/sampling.hpp"
 #include "scene/shadow_offset.hpp"
 
@@ -65,13 +66,19 @@ int GroundOcclusion::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
     indices_ = indices;
   }
   const GroundPlane& g = f.ground.plane;
-  cl::Kernel k =
-      f.ctx.kernel("ground.cl", "ground_visibility", "-DGR_DIRS=" + std::to_string(kGroundDirs));
+  // the CPU form on CPU devices (ground.cl, ground_visibility_batch: the same bits)
+  const bool batched = useCpuBatching(f.ctx);
+  cl::Kernel k = f.ctx.kernel(
+      "ground.cl", batched ? "ground_visibility_batch" : "ground_visibility",
+      "-DGR_DIRS=" + std::to_string(kGroundDirs) + (batched ? simdLoopOption(f.ctx) : ""));
   const cl_float4 rect{{g.y, g.x0, g.x1, g.z0}};
   const cl_float4 rect2{{g.z1, f.ground.eps, f.ground.lift, 0.0f}};
-  f.ctx.launchWith("ground", k, cl::NDRange(std::size_t(f.pixels)), cl::NullRange, f.gpos, f.gnrm,
-                   f.ggeo, dirsB_, indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect,
-                   rect2, lightMask, f.vis);
+  constexpr std::size_t kGroup = 64;  // GR_GROUP
+  const std::size_t items =
+      batched ? (std::size_t(f.pixels) + kGroup - 1) / kGroup : std::size_t(f.pixels);
+  f.ctx.launchWith("ground", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm, f.ggeo, dirsB_,
+                   indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect, rect2, lightMask,
+                   f.vis);
   return int(indices.size());
 }
 
