@@ -303,12 +303,12 @@ TEST(OclgrindMSSM4, BatchedVisibilityKernel) {
 // margins decide them.
 TEST(MSSM4, PairsTheHorizonStepRewritesAreWrittenZero) {
   const int pixels = 1000, nl = 5, S = 37;
+  const auto filtered = bothVisibilityKernels(pixels, nl, S, 29, false);
+  const auto skipped = bothVisibilityKernels(pixels, nl, S, 29, true);
+  const VisibilityInputs in = visibilityInputs(pixels, nl, S, 29);
   for (int batched : {0, 1}) {
-    const auto filtered = bothVisibilityKernels(pixels, nl, S, 29, false);
-    const auto skipped = bothVisibilityKernels(pixels, nl, S, 29, true);
     const std::vector<std::uint32_t>& with = batched ? skipped.second : skipped.first;
     const std::vector<std::uint32_t>& without = batched ? filtered.second : filtered.first;
-    const VisibilityInputs in = visibilityInputs(pixels, nl, S, 29);
     int band = 0, kept = 0, bandNotZero = 0, keptChanged = 0;
     for (int l = 0; l < nl; ++l) {
       const pb_light& L = in.hostLights[std::size_t(l)];

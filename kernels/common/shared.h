@@ -170,6 +170,14 @@ PB_INLINE float pb_cap_irradiance(float cos_alpha, float cos_beta) {
   return e > 0.0f ? e : 0.0f;
 }
 
+/* Whether a cap of half-angle a (sin_a = sin(a)) whose axis has cosine c with a surface's normal
+ * is on its horizon: the axis below (c <= 0), part of the cap above (c > -sin a). The horizon step
+ * (kernels/render/horizon.cl) rewrites such pairs with margin 0; margin > 0 narrows the band on
+ * both sides (kernels/shadows/filter.clh, horizon_rewrites: the pairs it surely rewrites). */
+PB_INLINE int pb_on_horizon(float c, float sin_a, float margin) {
+  return c <= -margin && c > -sin_a + margin;
+}
+
 /* Irradiance at a surface with unit normal n from a convex spherical polygon of unit radiance
  * (lights.hpp: 3..PB_MAX_POLY_VERTS unit vertices v, packed xyz, ordered so that
  * (v_i x v_i+1) . d > 0 about the polygon's inside d). Lambert's formula (Lambert 1760, as Arvo

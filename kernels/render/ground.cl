@@ -99,7 +99,7 @@ kernel void ground_visibility_batch(global const float4* gpos, global const floa
   const float gy = rect.x, x0 = rect.y, x1 = rect.z, z0 = rect.w, z1 = rect2.x, eps = rect2.y;
   float Px[GR_GROUP], Pz[GR_GROUP], H[GR_GROUP], Nx[GR_GROUP], Ny[GR_GROUP], Nz[GR_GROUP],
       reach[GR_GROUP], total[GR_GROUP], blocked[GR_GROUP];
-  bool above[GR_GROUP];
+  bool above[GR_GROUP], reached[GR_GROUP];  // reached: above, and the light's cap can meet the ground
   int any = 0;
   for (int k = 0; k < GR_GROUP; ++k) {
     const int px = px0 + min(k, cnt - 1);
@@ -127,7 +127,8 @@ kernel void ground_visibility_batch(global const float4* gpos, global const floa
     for (int j = 0; j < GR_GROUP; ++j) {
       total[j] = 0.0f;
       blocked[j] = 0.0f;
-      live += above[j] && w.w * reach[j] > H[j];
+      reached[j] = above[j] && w.w * reach[j] > H[j];
+      live += reached[j];
     }
     if (live == 0) continue;
     for (int i = 1; i <= GR_DIRS; ++i) {
@@ -145,8 +146,7 @@ PB_SIMD_LOOP(16)
     global float* row = vis + (size_t)l * npixels + px0;
 PB_SIMD_LOOP(16)
     for (int j = 0; j < GR_GROUP; ++j) {
-      const bool go = above[j] && w.w * reach[j] > H[j] && blocked[j] > 0.0f;
-      if (go) {
+      if (reached[j] && blocked[j] > 0.0f) {
         const float keep = 1.0f - blocked[j] / total[j];
         row[j] = ground_hit(Px[j], Pz[j], H[j], w.x, w.y, w.z, x0, x1, z0, z1) ? keep
                                                                                 : row[j] * keep;

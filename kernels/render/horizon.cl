@@ -126,7 +126,7 @@ kernel void horizon_visibility(global const float4* gpos, global const float4* g
     const float wx = lights[l].dir[0], wy = lights[l].dir[1], wz = lights[l].dir[2];
     const float ca = lights[l].dir[3], sa = sqrt(fmax(1.0f - ca * ca, 0.0f));
     const float c = n.x * wx + n.y * wy + n.z * wz;
-    if (!(c <= 0.0f && c > -sa)) continue;
+    if (!pb_on_horizon(c, sa, 0.0f)) continue;
     const size_t o = (size_t)l * npixels + p;
     int src[HZ_MAX_SOURCES];
     float m[4];
@@ -174,7 +174,7 @@ PB_SIMD_LOOP(16)
     for (int j = 0; j < HZ_GROUP; ++j) {
       const float c = nx[j] * wx + ny[j] * wy + nz[j] * wz;
       cs[j] = c;
-      pair[j] = live[j] && c <= 0.0f && c > -sa;
+      pair[j] = live[j] && pb_on_horizon(c, sa, 0.0f);
       pairs += pair[j];
     }
     if (pairs == 0) continue;

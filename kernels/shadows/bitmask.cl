@@ -440,6 +440,7 @@ kernel void bitmask_resolve_batch(global const float4* gnrm, global const pb_lig
   const float2 f = (float2)(fa.w, fb.w);
   float nx[RS_GROUP], ny[RS_GROUP], nz[RS_GROUP], total[RS_GROUP], lit[RS_GROUP];
   uint mw[WORDS][RS_GROUP];
+  bool go[RS_GROUP];  // the pixel's visibility is the sums' ratio
   int todo = 0;
   for (int k = 0; k < RS_GROUP; ++k) {
     const int px = px0 + min(k, cnt - 1);
@@ -452,8 +453,9 @@ kernel void bitmask_resolve_batch(global const float4* gnrm, global const pb_lig
     }
     // bitmask_resolve's early outs: 1 where the pixel is no view sample of the light, or no
     // sample of it is blocked
-    if (k < cnt && (slot[out] < 0 || any == 0u)) vis[out] = 1.0f;
-    todo += k < cnt && slot[out] >= 0 && any != 0u;
+    go[k] = k < cnt && slot[out] >= 0 && any != 0u;
+    if (k < cnt && !go[k]) vis[out] = 1.0f;
+    todo += go[k];
     const float3 n = gnrm[px].xyz;
     nx[k] = dot(n, fa.xyz);
     ny[k] = dot(n, fb.xyz);
@@ -476,14 +478,7 @@ PB_SIMD_LOOP(16)
         lit[k] = ((mw[w][k] >> b) & 1u) == 0u ? lit[k] + wgt : lit[k];
       }
     }
-  for (int k = 0; k < cnt; ++k) {
-    const int px = px0 + k;
-    const size_t out = (size_t)l * npixels + px;
-    if (slot[out] < 0) continue;
-    uint any = 0u;
-    for (int w = 0; w < WORDS; ++w) any |= mw[w][k];
-    if (any == 0u) continue;
-    vis[out] = total[k] > 0.0f ? lit[k] / total[k] : 1.0f;
-  }
+  for (int k = 0; k < cnt; ++k)
+    if (go[k]) vis[(size_t)l * npixels + px0 + k] = total[k] > 0.0f ? lit[k] / total[k] : 1.0f;
 }
 #endif

@@ -24,10 +24,11 @@ inline bool isCpuDevice(Context& ctx) {
 }
 
 // Whether to run the CPU forms of the kernels that have one (the banded summed-area tables, MSSM4's
-// batched visibility, batched shading, the bitmask's resolve, the ground step, ...): on CPU devices. PENUMBRA_CPU_BATCHING=off (exactly) asks for the
-// one-work-item-per-pixel kernels GPUs run on any device (the same images: a check, and a way
-// around a driver that mis-vectorizes), =on for the CPU forms on any device (the tests run them
-// under oclgrind, which calls itself a GPU).
+// batched visibility, batched shading, the bitmask's resolve, the ground step, ...): on CPU
+// devices. PENUMBRA_CPU_BATCHING=off (exactly) asks for the one-work-item-per-pixel kernels GPUs
+// run on any device (the same images: a check, and a way around a driver that mis-vectorizes),
+// =on for the CPU forms on any device (the tests run them under oclgrind, which calls itself a
+// GPU).
 inline bool useCpuBatching(Context& ctx) {
   const char* v = std::getenv("PENUMBRA_CPU_BATCHING");
   if (v && std::strcmp(v, "off") == 0) return false;

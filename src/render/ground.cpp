@@ -66,14 +66,16 @@ int GroundOcclusion::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
     indices_ = indices;
   }
   const GroundPlane& g = f.ground.plane;
-  // the CPU form on CPU devices (ground.cl, ground_visibility_batch: the same bits)
+  // the CPU form on CPU devices (ground.cl, ground_visibility_batch: the same bits), kGroup
+  // pixels a work-item (GR_GROUP)
+  constexpr int kGroup = 64;
   const bool batched = useCpuBatching(f.ctx);
   cl::Kernel k = f.ctx.kernel(
       "ground.cl", batched ? "ground_visibility_batch" : "ground_visibility",
-      "-DGR_DIRS=" + std::to_string(kGroundDirs) + (batched ? simdLoopOption(f.ctx) : ""));
+      "-DGR_DIRS=" + std::to_string(kGroundDirs) +
+          (batched ? " -DGR_GROUP=" + std::to_string(kGroup) + simdLoopOption(f.ctx) : ""));
   const cl_float4 rect{{g.y, g.x0, g.x1, g.z0}};
   const cl_float4 rect2{{g.z1, f.ground.eps, f.ground.lift, 0.0f}};
-  constexpr std::size_t kGroup = 64;  // GR_GROUP
   const std::size_t items =
       batched ? (std::size_t(f.pixels) + kGroup - 1) / kGroup : std::size_t(f.pixels);
   f.ctx.launchWith("ground", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm, f.ggeo, dirsB_,

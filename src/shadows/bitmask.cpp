@@ -59,7 +59,7 @@ namespace {
 // triangle stage at 160x90, 128 samples; 512 x 128 halves the band, 3.2-3.8 s, same masks); the
 // tables take 2 * 512 * 128 * samples / 8 bytes (2 MiB at 128 samples, 16 MiB at 1024).
 constexpr int kLutPhi = 512, kLutDelta = 128;
-// Pixels per work-item of bitmask_resolve_batch (RS_GROUP, its default).
+// Pixels per work-item of bitmask_resolve_batch (RS_GROUP).
 constexpr int kResolveGroup = 64;
 // Triangle work is split over this many row stripes of its region (large ground triangles).
 constexpr int kStripes = 16;
@@ -291,7 +291,8 @@ class BitmaskPass : public ShadowPass {
     listSize_ = S;
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
-                             (hard_ ? " -DHARD" : "");
+                             (hard_ ? " -DHARD" : "") + " -DRS_GROUP=" +
+                             std::to_string(kResolveGroup) + simdLoopOption(ctx);
     cl::Buffer& frameBuf = f.pool.upload("bitmask light frames", frameData);
     cl::Buffer& weightBuf = f.pool.upload("bitmask sample weights", weights);
     if (cap) {
@@ -301,8 +302,8 @@ class BitmaskPass : public ShadowPass {
     cl::Kernel tk = ctx.kernel("bitmask.cl", "bitmask_triangles", opts);
     // the resolve's CPU form on CPU devices (soft masks only; the hard resolve reads one bit)
     const bool cpuResolve = !hard_ && useCpuBatching(ctx);
-    cl::Kernel rk = ctx.kernel("bitmask.cl", cpuResolve ? "bitmask_resolve_batch" : "bitmask_resolve",
-                               opts + (cpuResolve ? simdLoopOption(ctx) : std::string()));
+    cl::Kernel rk =
+        ctx.kernel("bitmask.cl", cpuResolve ? "bitmask_resolve_batch" : "bitmask_resolve", opts);
     cl::Kernel sk = ctx.kernel("bitmask.cl", "bitmask_self", opts);
     for (int l0 = 0; l0 < nl; l0 += batch) {
       const int count = std::min(batch, nl - l0);
