@@ -20,6 +20,32 @@
 /* The opposite, for a loop whose body reads whole vectors (a long4 per lattice value) that a
  * vectorized loop would turn into one gather per component. */
 #define PB_SCALAR_LOOP PB_PRAGMA(clang loop vectorize(disable))
+/* dot() and cross() of two float3 as PoCL's library computes them, on scalars: dot is
+ * (p0 + p1) + p2 of rounded products, each component of cross a difference of two rounded
+ * products (no fused multiply-add in either). The CPU forms call them in their SIMD loops, where
+ * vector types would stop the vectorizer, and get the bits of their per-pixel forms' dot() and
+ * cross(). */
+static inline __attribute__((always_inline)) float dot3_s(float ax, float ay, float az, float bx,
+                                                         float by, float bz) {
+  float p0 = ax * bx;
+  float p1 = ay * by;
+  float p2 = az * bz;
+  float s = p0 + p1;
+  return p2 + s;
+}
+static inline __attribute__((always_inline)) void cross3_s(float ax, float ay, float az, float bx,
+                                                          float by, float bz, float* cx,
+                                                          float* cy, float* cz) {
+  float x0 = ay * bz;
+  float x1 = az * by;
+  float y0 = az * bx;
+  float y1 = ax * bz;
+  float z0 = ax * by;
+  float z1 = ay * bx;
+  *cx = x0 - x1;
+  *cy = y0 - y1;
+  *cz = z0 - z1;
+}
 #else
 #include <math.h>
 #define PB_INLINE static inline

@@ -192,36 +192,14 @@ static void outline_row_span(const outline_edges* e, int y, int* xs, int* xe) {
 // PB_SIMD_LOOP), then does the atomics of the pixels hit. The loop's operations are
 // view_ray's and ray_triangle's in scalars, rounded as they are: the same sums in the same
 // expressions (so the same multiply-adds are fused), and cross() and dot() as PoCL's library
-// computes them (products rounded, then subtracted or added: no fused multiply-add). Same bits as
+// computes them (cross3_s, dot3_s in shared.h: products rounded, then subtracted or added, no
+// fused multiply-add). Same bits as
 // the per-pixel loop on PoCL (tests/test_raster.cpp, Raster.RowSpansChangeNoPixel).
 #ifdef RASTER_ROW_SIMD
 #ifndef RASTER_CHUNK
 #define RASTER_CHUNK 16
 #endif
 #define RS static inline __attribute__((always_inline))
-
-// dot(a, b) of two float3: (p0 + p1) + p2 of rounded products.
-RS float rdot3(float ax, float ay, float az, float bx, float by, float bz) {
-  float p0 = ax * bx;
-  float p1 = ay * by;
-  float p2 = az * bz;
-  float s = p0 + p1;
-  return p2 + s;
-}
-
-// cross(a, b): each component a difference of two rounded products.
-RS void rcross3(float ax, float ay, float az, float bx, float by, float bz, float* cx, float* cy,
-                float* cz) {
-  float x0 = ay * bz;
-  float x1 = az * by;
-  float y0 = az * bx;
-  float y1 = ax * bz;
-  float z0 = ax * by;
-  float z1 = ay * bx;
-  *cx = x0 - x1;
-  *cy = y0 - y1;
-  *cz = z0 - z1;
-}
 
 // Pixels xs..xe of row y of orthographic view v: depth[row + x] = min(t) over the triangle
 // (a, b, c), as the per-pixel loop of raster_triangles writes it. owned: this work-item is the
@@ -252,11 +230,11 @@ PB_SIMD_LOOP(RASTER_CHUNK)
       float oy = v->origin[1] + sx * sr * v->right[1] + sy * su * v->up[1];
       float oz = v->origin[2] + sx * sr * v->right[2] + sy * su * v->up[2];
       float s0 = ox - a.x, s1 = oy - a.y, s2 = oz - a.z;
-      float u = rdot3(s0, s1, s2, p.x, p.y, p.z) * inv;
+      float u = dot3_s(s0, s1, s2, p.x, p.y, p.z) * inv;
       float q0, q1, q2;
-      rcross3(s0, s1, s2, e1.x, e1.y, e1.z, &q0, &q1, &q2);
-      float w = rdot3(d.x, d.y, d.z, q0, q1, q2) * inv;
-      float t = rdot3(e2.x, e2.y, e2.z, q0, q1, q2) * inv;
+      cross3_s(s0, s1, s2, e1.x, e1.y, e1.z, &q0, &q1, &q2);
+      float w = dot3_s(d.x, d.y, d.z, q0, q1, q2) * inv;
+      float t = dot3_s(e2.x, e2.y, e2.z, q0, q1, q2) * inv;
       bool in = !(u < -RASTER_EPS || u > 1.0f + RASTER_EPS) &&
                 !(w < -RASTER_EPS || u + w > 1.0f + RASTER_EPS) && t > 0.0f;
       hit[k] = in ? as_uint(t) : PB_DEPTH_EMPTY;

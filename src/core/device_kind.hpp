@@ -4,6 +4,7 @@
 // parallelism there). A device that also calls itself a GPU (oclgrind reports every type) counts
 // as a GPU, so that the simulator checks what GPUs run.
 #pragma once
+#include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -40,6 +41,16 @@ inline bool useCpuBatching(Context& ctx) {
 // (kernels/common/shared.h, PB_SIMD_LOOP).
 inline std::string simdLoopOption(Context& ctx) {
   return ctx.info().platform.find("Oclgrind") != std::string::npos ? " -DPB_NO_SIMD_LOOPS" : "";
+}
+
+// A CPU form whose work-item takes `group` consecutive pixels (or texels, rows' runs, ...): its
+// build options (the group size as -D<macro>, the kernel's own default kept only for a build
+// without the host, and simdLoopOption) and its work-item count over n of them.
+inline std::string cpuFormOptions(Context& ctx, const char* macro, int group) {
+  return std::string(" -D") + macro + "=" + std::to_string(group) + simdLoopOption(ctx);
+}
+inline std::size_t cpuFormItems(std::size_t n, int group) {
+  return (n + std::size_t(group) - 1) / std::size_t(group);
 }
 
 }  // namespace penumbra::detail

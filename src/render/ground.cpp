@@ -73,11 +73,11 @@ int GroundOcclusion::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
   cl::Kernel k = f.ctx.kernel(
       "ground.cl", batched ? "ground_visibility_batch" : "ground_visibility",
       "-DGR_DIRS=" + std::to_string(kGroundDirs) +
-          (batched ? " -DGR_GROUP=" + std::to_string(kGroup) + simdLoopOption(f.ctx) : ""));
+          (batched ? cpuFormOptions(f.ctx, "GR_GROUP", kGroup) : ""));
   const cl_float4 rect{{g.y, g.x0, g.x1, g.z0}};
   const cl_float4 rect2{{g.z1, f.ground.eps, f.ground.lift, 0.0f}};
   const std::size_t items =
-      batched ? (std::size_t(f.pixels) + kGroup - 1) / kGroup : std::size_t(f.pixels);
+      batched ? cpuFormItems(std::size_t(f.pixels), kGroup) : std::size_t(f.pixels);
   f.ctx.launchWith("ground", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm, f.ggeo, dirsB_,
                    indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect, rect2, lightMask,
                    f.vis);

@@ -49,11 +49,10 @@ void Horizon::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
   }
   const bool batched = useCpuBatching(f.ctx);
   cl::Kernel k = batched ? f.ctx.kernel("horizon.cl", "horizon_visibility_batch",
-                                        "-DHZ_GROUP=" + std::to_string(kGroup) +
-                                            simdLoopOption(f.ctx))
+                                        cpuFormOptions(f.ctx, "HZ_GROUP", kGroup))
                          : f.ctx.kernel("horizon.cl", "horizon_visibility");
   const std::size_t items =
-      batched ? (std::size_t(f.pixels) + kGroup - 1) / kGroup : std::size_t(f.pixels);
+      batched ? cpuFormItems(std::size_t(f.pixels), kGroup) : std::size_t(f.pixels);
   f.ctx.launchWith("horizon", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm,
                    f.lightBuffer, lightMask, cl_int(nl), cl_int(f.pixels), offsetsB_, indicesB_,
                    f.vis);

@@ -25,11 +25,10 @@ cl::Buffer shade(Context& ctx, BufferPool& pool, const ShadeInputs& in, const Li
   // (kernels/render/shade.cl); the same bits as shade.
   const bool batched = useCpuBatching(ctx);
   cl::Kernel k = batched ? ctx.kernel("shade.cl", "shade_batch",
-                                      "-DSHADE_GROUP=" + std::to_string(kShadeGroup) +
-                                          simdLoopOption(ctx))
+                                      cpuFormOptions(ctx, "SHADE_GROUP", kShadeGroup))
                          : ctx.kernel("shade.cl", "shade");
   std::size_t wg = batched ? 1 : ctx.workGroupSize(k, 64);
-  const std::size_t items = batched ? (std::size_t(npx) + kShadeGroup - 1) / kShadeGroup
+  const std::size_t items = batched ? cpuFormItems(std::size_t(npx), kShadeGroup)
                                     : (std::size_t(npx) + wg - 1) / wg * wg;
   // The ambient residual, added unshadowed (zeros when the light set has none).
   std::vector<cl_float4> amb(9, cl_float4{{0, 0, 0, 0}});

@@ -291,8 +291,8 @@ class BitmaskPass : public ShadowPass {
     listSize_ = S;
     const std::string opts = "-DLUT_PHI=" + std::to_string(kLutPhi) + " -DLUT_DELTA=" +
                              std::to_string(kLutDelta) + " -DWORDS=" + std::to_string(W) +
-                             (hard_ ? " -DHARD" : "") + " -DRS_GROUP=" +
-                             std::to_string(kResolveGroup) + simdLoopOption(ctx);
+                             (hard_ ? " -DHARD" : "") +
+                             cpuFormOptions(ctx, "RS_GROUP", kResolveGroup);
     cl::Buffer& frameBuf = f.pool.upload("bitmask light frames", frameData);
     cl::Buffer& weightBuf = f.pool.upload("bitmask sample weights", weights);
     if (cap) {
@@ -319,7 +319,7 @@ class BitmaskPass : public ShadowPass {
                      lut_, diskBuf_, cl_int(kStripes), zfar, masks, orient, cl_float(rot),
                      frameBuf);
       ctx.launchWith("bitmask/resolve", rk,
-                     cpuResolve ? cl::NDRange((npx + kResolveGroup - 1) / kResolveGroup, count)
+                     cpuResolve ? cl::NDRange(cpuFormItems(std::size_t(npx), kResolveGroup), count)
                                 : cl::NDRange(npx, count),
                      cl::NullRange, f.gnrm,
                      f.lightBuffer, grids, cl_int(l0), slot, diskBuf_, cl_int(npx), masks, f.vis,

@@ -13,8 +13,8 @@ void hardVisibility(Context& ctx, bool batched, const cl::Buffer& gpos, const cl
                     int size, int pixels, int nlights, float depthBias, cl::Buffer& vis) {
   if (batched) {
     cl::Kernel k = ctx.kernel("pcss.cl", "hard_visibility_batch",
-                              " -DHARD_GROUP=" + std::to_string(kHardGroup) + simdLoopOption(ctx));
-    const std::size_t groups = (std::size_t(pixels) + kHardGroup - 1) / kHardGroup;
+                              cpuFormOptions(ctx, "HARD_GROUP", kHardGroup));
+    const std::size_t groups = cpuFormItems(std::size_t(pixels), kHardGroup);
     ctx.launchWith("hard/visibility", k, cl::NDRange(groups), cl::NullRange, gpos, gnrm, ggeo,
                    lights, cl_int(nlights), depth, cl_int(size), cl_int(pixels),
                    cl_float(depthBias), vis);

@@ -56,9 +56,8 @@ void mssm4Visibility(Context& ctx, bool batched, const cl::Buffer& gpos, const c
   const std::string sat = prefilterOption(Prefilter::SAT);
   if (batched) {
     cl::Kernel k = ctx.kernel("moments.cl", "mssm4_visibility_batch",
-                              sat + " -DVIS_GROUP=" + std::to_string(kMssm4Group) +
-                                  simdLoopOption(ctx));
-    const std::size_t groups = (std::size_t(pixels) + kMssm4Group - 1) / kMssm4Group;
+                              sat + cpuFormOptions(ctx, "VIS_GROUP", kMssm4Group));
+    const std::size_t groups = cpuFormItems(std::size_t(pixels), kMssm4Group);
     cl::Buffer identity;
     if (!rows) identity = ctx.upload(identityRows(nlights), stage + " rows");  // light l: row l
     ctx.launchWith(stage, k, cl::NDRange(groups, nlights), cl::NullRange, gpos, gnrm, ggeo,
