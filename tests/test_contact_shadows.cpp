@@ -35,7 +35,9 @@ D3 cross(D3 a, D3 b) {
 double dot(D3 a, D3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 // A synthetic frame: random triangles in the unit box, every pixel on one of them (or on nothing),
-// random lights.
+// random lights. block > 1: the pixels of each block x block square share their triangle (or the
+// background), so that a pixel inside a block has only its own triangle around it (the camera
+// side's CPU form skips those); nlights lights.
 struct Synthetic {
   int w, h;
   std::vector<cl_float4> pos, gpos, ggeo;
@@ -45,7 +47,7 @@ struct Synthetic {
   std::vector<float> vis;
 };
 
-Synthetic synthetic(int w, int h, unsigned seed) {
+Synthetic synthetic(int w, int h, unsigned seed, int block = 1, int nlights = 5) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   Synthetic s{w, h, {}, {}, {}, {}, {}, {}, {}};
@@ -59,14 +61,18 @@ Synthetic synthetic(int w, int h, unsigned seed) {
                         cz + 0.3f * (u(rng) - 0.5f), 1.0f}});
     s.tris.push_back({{base, base + 1, base + 2, 0}});
   }
+  const int bw = (w + block - 1) / block, bh = (h + block - 1) / block;
+  std::vector<int> blockTri(block > 1 ? std::size_t(bw) * bh : 0);  // -1: the background
+  for (int& t : blockTri) t = u(rng) < 0.1f ? -1 : int(u(rng) * ntri) % ntri;
   for (int p = 0; p < w * h; ++p) {
-    if (u(rng) < 0.1f) {  // background
+    const int bt = block > 1 ? blockTri[std::size_t(p / w / block) * bw + (p % w) / block] : 0;
+    if (block > 1 ? bt < 0 : u(rng) < 0.1f) {  // background
       s.ids.push_back(PB_ID_EMPTY);
       s.gpos.push_back({{0, 0, 0, 0}});
       s.ggeo.push_back({{0, 1, 0, 0}});
       continue;
     }
-    const int t = int(u(rng) * ntri) % ntri;
+    const int t = block > 1 ? bt : int(u(rng) * ntri) % ntri;
     const cl_int4 tr = s.tris[std::size_t(t)];
     float a = u(rng), b = u(rng);
     if (a + b > 1) { a = 1 - a; b = 1 - b; }
@@ -80,7 +86,7 @@ Synthetic synthetic(int w, int h, unsigned seed) {
                        float(A[2] + a * (B[2] - A[2]) + b * (C[2] - A[2])), 1.0f}});
     s.ggeo.push_back({{float(n[0] / len), float(n[1] / len), float(n[2] / len), 0.0f}});
   }
-  for (int l = 0; l < 5; ++l) {
+  for (int l = 0; l < nlights; ++l) {
     pb_light L{};
     D3 d{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5};
     const double dl = std::sqrt(dot(d, d));
@@ -198,8 +204,18 @@ std::vector<cl_uchar> lightMask(const Synthetic& s, bool maskLight2) {
   return mask;
 }
 
-KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
-  const Synthetic s = synthetic(w, h, seed);
+// One run of contact_shadows: a synthetic frame (block, nlights: synthetic's), light 2 masked off
+// or not, in the CPU form (PENUMBRA_CPU_BATCHING=on: a run of a row a work-item, SIMD over the
+// lights) or a pixel a work-item (=off), whatever the device. *got: the visibility it left.
+struct CameraRun {
+  int w, h;
+  unsigned seed;
+  bool maskLight2 = true, batched = false;
+  int block = 1, nlights = 5;
+};
+
+KernelRun runKernel(const CameraRun& c, std::vector<float>* gotOut = nullptr) {
+  const Synthetic s = synthetic(c.w, c.h, c.seed, c.block, c.nlights);
   const float texels = 10.0f;
   const int mapSize = 16;
   RenderOptions ro;
@@ -207,28 +223,56 @@ KernelRun runKernel(int w, int h, unsigned seed, bool maskLight2 = true) {
   detail::BufferPool pool(ctx());
   detail::ShadowFrame f(ctx(), pool, ro, s.lights);
   fillFrame(f, pool, s, mapSize);
-  detail::contactShadows(f, pool.upload("mask", lightMask(s, maskLight2)));
+  {
+    const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(c.batched ? "on" : "off"));
+    detail::contactShadows(f, pool.upload("mask", lightMask(s, c.maskLight2)));
+  }
   const std::vector<float> got = ctx().download<float>(f.vis, s.vis.size(), "vis");
   std::vector<float> want;
   std::vector<char> close;
-  reference(s, texels, mapSize, maskLight2, want, close);
+  reference(s, texels, mapSize, c.maskLight2, want, close);
+  if (gotOut) *gotOut = got;
   return tally(s, got, want, close);
+}
+
+// The pixels of a synthetic frame with another triangle in their 5 x 5 window (the ones the CPU
+// form tests), and all its pixels on a triangle.
+std::array<int, 2> pixelsWithNeighbours(const Synthetic& s) {
+  std::array<int, 2> n{0, 0};
+  for (int y = 0; y < s.h; ++y)
+    for (int x = 0; x < s.w; ++x) {
+      const cl_uint own = s.ids[std::size_t(y) * s.w + x];
+      if (own == PB_ID_EMPTY) continue;
+      ++n[1];
+      bool other = false;
+      for (int j = std::max(0, y - 2); j <= std::min(s.h - 1, y + 2); ++j)
+        for (int i = std::max(0, x - 2); i <= std::min(s.w - 1, x + 2); ++i) {
+          const cl_uint id = s.ids[std::size_t(j) * s.w + i];
+          other = other || (id != PB_ID_EMPTY && id != own);
+        }
+      n[0] += other;
+    }
+  return n;
 }
 
 }  // namespace
 
 // 1x1, a row, a column, odd sizes and one wider than a work-group, 5 lights each, with light 2
-// masked off and then not.
+// masked off and then not; a pixel a work-item and the CPU form, which must agree bit for bit.
 TEST(ContactShadows, KernelMatchesHostReference) {
   int zeroed = 0, zeroedLight2 = 0;
   for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {1, 9}, {9, 1}, {7, 5}, {67, 33}}) {
-    const KernelRun masked = runKernel(w, h, unsigned(w * 131 + h));
-    EXPECT_EQ(masked.mismatches, 0) << w << "x" << h;
-    EXPECT_EQ(masked.zeroedLight2, 0) << w << "x" << h;
-    const KernelRun all = runKernel(w, h, unsigned(w * 131 + h), false);
-    EXPECT_EQ(all.mismatches, 0) << w << "x" << h;
-    zeroed += masked.zeroed;
-    zeroedLight2 += all.zeroedLight2;
+    for (bool batched : {false, true}) {
+      const unsigned seed = unsigned(w * 131 + h);
+      const KernelRun masked = runKernel({w, h, seed, true, batched});
+      EXPECT_EQ(masked.mismatches, 0) << w << "x" << h << (batched ? ", CPU form" : "");
+      EXPECT_EQ(masked.zeroedLight2, 0) << w << "x" << h << (batched ? ", CPU form" : "");
+      const KernelRun all = runKernel({w, h, seed, false, batched});
+      EXPECT_EQ(all.mismatches, 0) << w << "x" << h << (batched ? ", CPU form" : "");
+      if (batched) continue;
+      zeroed += masked.zeroed;
+      zeroedLight2 += all.zeroedLight2;
+    }
   }
   // The synthetic frames do exercise hits (measured: 125 of the 11,325 entries set to 0; a third
   // start at 0 and half face away from their light), and the mask matters (light 2 unmasked:
@@ -237,8 +281,40 @@ TEST(ContactShadows, KernelMatchesHostReference) {
   EXPECT_GT(zeroedLight2, 5);
 }
 
+// The CPU form where it differs: pixels whose window holds only their own triangle (skipped
+// there), rows of more than one work-item's run (64 pixels) with a partial last one, and more
+// lights than its SIMD loop's 16 lanes (37: two full chunks and a partial one). Both forms against
+// the reference and against each other, bit for bit.
+TEST(ContactShadows, CpuFormMatchesOnBlocksAndManyLights) {
+  int zeroed = 0, skipped = 0, onGeometry = 0;
+  for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {130, 7}, {67, 33}, {5, 70}}) {
+    const unsigned seed = unsigned(w * 31 + h);
+    const auto around = pixelsWithNeighbours(synthetic(w, h, seed, 6, 37));
+    skipped += around[1] - around[0];
+    onGeometry += around[1];
+    std::vector<float> one, cpu;
+    const KernelRun a = runKernel({w, h, seed, true, false, 6, 37}, &one);
+    const KernelRun b = runKernel({w, h, seed, true, true, 6, 37}, &cpu);
+    EXPECT_EQ(a.mismatches, 0) << w << "x" << h;
+    EXPECT_EQ(b.mismatches, 0) << w << "x" << h << ", CPU form";
+    EXPECT_EQ(b.zeroedLight2, 0) << w << "x" << h << ", CPU form";
+    EXPECT_TRUE(one == cpu) << w << "x" << h << ": the two forms differ";
+    zeroed += b.zeroed;
+  }
+  std::printf("[ penumbra ] CPU form: %d entries set to 0; %d of %d pixels on geometry have only "
+              "their own triangle around them\n", zeroed, skipped, onGeometry);
+  // Measured: 172 entries set to 0; 711 of the 3,280 pixels on geometry skipped.
+  EXPECT_GT(zeroed, 50);
+  EXPECT_GT(skipped, onGeometry / 10);
+}
+
 TEST(OclgrindContact, Kernel) {
-  const KernelRun r = runKernel(9, 7, 5u);
+  for (bool batched : {false, true}) {
+    const KernelRun r = runKernel({9, 7, 5u, true, batched});
+    EXPECT_EQ(r.mismatches, 0) << batched;
+    EXPECT_GT(r.zeroed, 0) << batched;
+  }
+  const KernelRun r = runKernel({70, 9, 5u, true, true, 6, 20});
   EXPECT_EQ(r.mismatches, 0);
   EXPECT_GT(r.zeroed, 0);
 }

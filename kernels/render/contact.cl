@@ -44,28 +44,24 @@ static float contact_hit(float3 o, float3 d, float3 a, float3 b, float3 c) {
   return t > 0.0f ? t : INFINITY;
 }
 
-// Global (width, height). gpos, ggeo, ids: the camera G-buffer (position w = 0 where nothing);
-// pos, tris: the scene as the rasterizer reads it; mask: per light, 0 leaves it alone (a light
-// whose visibility already tests triangles); vis: light-major [light][pixel], in place.
-// map_size: the lights' shadow-map resolution (a texel is 2 * max(half-extents) / map_size).
-kernel void contact_shadows(global const float4* gpos, global const float4* ggeo,
-                            global const uint* ids, global const float4* pos,
-                            global const int4* tris, int ntris, global const pb_light* lights,
-                            global const uchar* mask, int nl,
-                            int width, int height, global float* vis, float texels,
-                            int map_size) {
-  int x = get_global_id(0), y = get_global_id(1);
-  if (x >= width || y >= height) return;
+// The triangles pixel p = (x, y) tests (list, at most CONTACT_MAX_IDS; returns their count, 0
+// on the background): the distinct ids of its window other than its own that reach above its
+// tangent plane. *P, *ng, *lift: its position, geometric normal and the rays' least lift. gpos,
+// ggeo, ids: the camera G-buffer (position w = 0 where nothing); pos, tris: the scene as the
+// rasterizer reads it.
+static int contact_list(int x, int y, global const float4* gpos, global const float4* ggeo,
+                        global const uint* ids, global const float4* pos,
+                        global const int4* tris, int ntris, int width, int height, uint* list,
+                        float3* P_out, float3* ng_out, float* lift_out) {
   int p = y * width + x;
   float4 P4 = gpos[p];
-  if (P4.w == 0.0f) return;
+  if (P4.w == 0.0f) return 0;
   float3 P = P4.xyz, ng = ggeo[p].xyz;
   uint own = ids[p];
   // Rays start `lift` or more above P's tangent plane (below), and a triangle is dropped only when
   // all of it is at most `lift` above that plane, so the rule stays exact although P itself is off
   // its plane by rounding (a few ulps of its coordinates).
   float lift = 4e-7f * (fabs(P.x) + fabs(P.y) + fabs(P.z));
-  uint list[CONTACT_MAX_IDS];
   int n = 0;
   for (int j = max(0, y - CONTACT_RADIUS); j <= min(height - 1, y + CONTACT_RADIUS); ++j)
     for (int i = max(0, x - CONTACT_RADIUS); i <= min(width - 1, x + CONTACT_RADIUS); ++i) {
@@ -80,6 +76,28 @@ kernel void contact_shadows(global const float4* gpos, global const float4* ggeo
         continue;
       list[n++] = id;
     }
+  *P_out = P;
+  *ng_out = ng;
+  *lift_out = lift;
+  return n;
+}
+
+// Global (width, height): a pixel a work-item. mask: per light, 0 leaves it alone (a light whose
+// visibility already tests triangles); vis: light-major [light][pixel], in place. map_size: the
+// lights' shadow-map resolution (a texel is 2 * max(half-extents) / map_size).
+kernel void contact_shadows(global const float4* gpos, global const float4* ggeo,
+                            global const uint* ids, global const float4* pos,
+                            global const int4* tris, int ntris, global const pb_light* lights,
+                            global const uchar* mask, int nl, int width, int height,
+                            global float* vis, float texels, int map_size) {
+  int x = get_global_id(0), y = get_global_id(1);
+  if (x >= width || y >= height) return;
+  int p = y * width + x;
+  uint list[CONTACT_MAX_IDS];
+  float3 P, ng;
+  float lift;
+  int n = contact_list(x, y, gpos, ggeo, ids, pos, tris, ntris, width, height, list, &P, &ng,
+                       &lift);
   if (n == 0) return;
   size_t pixels = (size_t)width * height;
   for (int l = 0; l < nl; ++l) {
@@ -101,6 +119,119 @@ kernel void contact_shadows(global const float4* gpos, global const float4* ggeo
       hit = contact_hit(o, d, pos[t.x].xyz, pos[t.y].xyz, pos[t.z].xyz) < len;
     }
     if (hit) vis[vi] = 0.0f;
+  }
+}
+
+// contact_hit(o, d, a, a + e1, a + e2) < len on scalars, in its operations and their rounding
+// (cross3_s and dot3_s round as the library's cross and dot), for contact_shadows_batch's SIMD
+// loop over lights. |det| < 1e-20 is written as two comparisons, and the loops' fmax and min as
+// conditionals (the same values for these operands: finite, and no signed zeros to order):
+// with the library's fabs, fmax or min in them PoCL 3.1 leaves both loops scalar ("loop not
+// vectorized" in its build log).
+static inline __attribute__((always_inline)) bool contact_hit_s(
+    float ox, float oy, float oz, float dx, float dy, float dz, float ax, float ay, float az,
+    float e1x, float e1y, float e1z, float e2x, float e2y, float e2z, float len) {
+  float px, py, pz, qx, qy, qz;
+  cross3_s(dx, dy, dz, e2x, e2y, e2z, &px, &py, &pz);
+  const float det = dot3_s(e1x, e1y, e1z, px, py, pz);
+  const float inv = 1.0f / det;
+  const float sx = ox - ax, sy = oy - ay, sz = oz - az;
+  const float u = dot3_s(sx, sy, sz, px, py, pz) * inv;
+  cross3_s(sx, sy, sz, e1x, e1y, e1z, &qx, &qy, &qz);
+  const float v = dot3_s(dx, dy, dz, qx, qy, qz) * inv;
+  const float t = dot3_s(e2x, e2y, e2z, qx, qy, qz) * inv;
+  return !(det < 1e-20f && det > -1e-20f) && !(u < 0.0f || u > 1.0f) &&
+         !(v < 0.0f || u + v > 1.0f) && t > 0.0f && t < len;
+}
+
+// The CPU form (src/core/device_kind.hpp; the same bits): PoCL runs contact_shadows a pixel at a
+// time. Here a work-item takes CS_GROUP pixels of a row, and
+// - finds, in SIMD loops over the pixels, those with a triangle other than their own in their
+//   window (each window row read once for the whole run, its columns clamped to the image: a
+//   clamped column repeats one inside the window). The others (the inside of a triangle, the
+//   ground's two above all: 45% of the built-in frame's pixels on geometry) have an empty list
+//   and are skipped;
+// - lists the rest's triangles with contact_list, as contact_shadows does, and where the list is
+//   not empty (one pixel in ten of them) runs contact_shadows' light loop CS_LANES lights at a
+//   time: each light's ray in a SIMD loop over the lights, then each listed triangle against every
+//   lane's ray in another (contact_hit_s), where contact_shadows casts one ray at a time.
+// Global (ceil(width / CS_GROUP), height).
+#ifndef CS_GROUP
+#define CS_GROUP 64
+#endif
+#define CS_LANES 16
+kernel void contact_shadows_batch(global const float4* gpos, global const float4* ggeo,
+                                  global const uint* ids, global const float4* pos,
+                                  global const int4* tris, int ntris,
+                                  global const pb_light* lights, global const uchar* mask,
+                                  int nl, int width, int height, global float* vis, float texels,
+                                  int map_size) {
+  const int x0 = get_global_id(0) * CS_GROUP, y = get_global_id(1);
+  if (x0 >= width || y >= height) return;
+  uint own[CS_GROUP];
+  int other[CS_GROUP];  // 1 where the window holds a triangle other than the pixel's own
+  for (int k = 0; k < CS_GROUP; ++k) {
+    own[k] = ids[y * width + min(x0 + k, width - 1)];
+    other[k] = 0;
+  }
+  uint run[CS_GROUP + 2 * CONTACT_RADIUS];  // one window row under the run, columns clamped
+  for (int j = max(0, y - CONTACT_RADIUS); j <= min(height - 1, y + CONTACT_RADIUS); ++j) {
+    for (int i = 0; i < CS_GROUP + 2 * CONTACT_RADIUS; ++i)
+      run[i] = ids[j * width + clamp(x0 - CONTACT_RADIUS + i, 0, width - 1)];
+    for (int di = 0; di <= 2 * CONTACT_RADIUS; ++di) {
+PB_SIMD_LOOP(16)
+      for (int k = 0; k < CS_GROUP; ++k) {
+        const uint id = run[k + di];
+        other[k] |= id != PB_ID_EMPTY && id != own[k] && id < (uint)ntris;
+      }
+    }
+  }
+  const size_t pixels = (size_t)width * height;
+  for (int k = 0; k < CS_GROUP && x0 + k < width; ++k) {
+    if (!other[k]) continue;
+    const int p = y * width + x0 + k;
+    uint list[CONTACT_MAX_IDS];
+    float3 P, ng;
+    float lift;
+    const int n = contact_list(x0 + k, y, gpos, ggeo, ids, pos, tris, ntris, width, height, list,
+                               &P, &ng, &lift);
+    if (n == 0) continue;
+    // contact_shadows' light loop, CS_LANES lights at a time in SIMD loops: each light's ray,
+    // then each listed triangle against every lane's ray
+    for (int l0 = 0; l0 < nl; l0 += CS_LANES) {
+      float Ox[CS_LANES], Oy[CS_LANES], Oz[CS_LANES], Dx[CS_LANES], Dy[CS_LANES], Dz[CS_LANES],
+          Len[CS_LANES];
+      int go[CS_LANES], hit[CS_LANES];
+PB_SIMD_LOOP(CS_LANES)
+      for (int i = 0; i < CS_LANES; ++i) {
+        const int l = l0 + i < nl ? l0 + i : nl - 1;
+        global const pb_light* L = lights + l;
+        const float dx = L->dir[0], dy = L->dir[1], dz = L->dir[2];
+        const float ex = L->ex[3], ey = L->ey[3];
+        const float texel = 2.0f * (ex > ey ? ex : ey) / (float)map_size;
+        const float off = 1e-3f * texel > 2.0f * lift ? 1e-3f * texel : 2.0f * lift;
+        Ox[i] = P.x + ng.x * off;
+        Oy[i] = P.y + ng.y * off;
+        Oz[i] = P.z + ng.z * off;
+        Dx[i] = dx;
+        Dy[i] = dy;
+        Dz[i] = dz;
+        Len[i] = texels * texel;
+        go[i] = l0 + i < nl && mask[l] != 0 && vis[(size_t)l * pixels + p] != 0.0f &&
+                dot3_s(dx, dy, dz, ng.x, ng.y, ng.z) > 0.0f;
+        hit[i] = 0;
+      }
+      for (int m = 0; m < n; ++m) {
+        const int4 t = tris[list[m]];
+        const float3 a = pos[t.x].xyz, e1 = pos[t.y].xyz - a, e2 = pos[t.z].xyz - a;
+PB_SIMD_LOOP(CS_LANES)
+        for (int i = 0; i < CS_LANES; ++i)
+          hit[i] |= contact_hit_s(Ox[i], Oy[i], Oz[i], Dx[i], Dy[i], Dz[i], a.x, a.y, a.z, e1.x,
+                                  e1.y, e1.z, e2.x, e2.y, e2.z, Len[i]);
+      }
+      for (int i = 0; i < CS_LANES && l0 + i < nl; ++i)
+        if (go[i] && hit[i]) vis[(size_t)(l0 + i) * pixels + p] = 0.0f;
+    }
   }
 }
 

@@ -15,8 +15,16 @@ bool hasContactInputs(const ShadowFrame& f) {
 void contactShadows(const ShadowFrame& f, const cl::Buffer& lightMask) {
   const int nl = int(f.lights.size());
   if (nl == 0 || !hasContactInputs(f)) return;
-  cl::Kernel k = f.ctx.kernel("contact.cl", "contact_shadows");
-  f.ctx.launchWith("contact-shadows", k, cl::NDRange(std::size_t(f.width), std::size_t(f.height)),
+  // the CPU form on CPU devices (contact.cl, contact_shadows_batch: the same bits), kGroup
+  // pixels of a row a work-item (CS_GROUP)
+  constexpr int kGroup = 64;
+  const bool batched = useCpuBatching(f.ctx);
+  cl::Kernel k = batched ? f.ctx.kernel("contact.cl", "contact_shadows_batch",
+                                        cpuFormOptions(f.ctx, "CS_GROUP", kGroup))
+                         : f.ctx.kernel("contact.cl", "contact_shadows");
+  const std::size_t columns =
+      batched ? cpuFormItems(std::size_t(f.width), kGroup) : std::size_t(f.width);
+  f.ctx.launchWith("contact-shadows", k, cl::NDRange(columns, std::size_t(f.height)),
                    cl::NullRange, f.gpos, f.ggeo, f.gids, f.positions, f.triangles,
                    cl_int(f.triangleCount),
                    f.lightBuffer, lightMask, cl_int(nl), cl_int(f.width), cl_int(f.height), f.vis,
