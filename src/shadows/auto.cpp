@@ -112,8 +112,13 @@ std::vector<CasterSample> casterSamples(const std::vector<cl_float4>& gpos,
 
 void casterSamples(const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
                    int step, std::vector<CasterSample>& out) {
+  casterSamples(gpos.data(), gnrm.data(), gpos.size(), step, out);
+}
+
+void casterSamples(const cl_float4* gpos, const cl_float4* gnrm, std::size_t pixels, int step,
+                   std::vector<CasterSample>& out) {
   out.clear();
-  for (std::size_t px = 0; px < gpos.size(); px += std::size_t(std::max(step, 1))) {
+  for (std::size_t px = 0; px < pixels; px += std::size_t(std::max(step, 1))) {
     const cl_float4 &p = gpos[px], &n = gnrm[px];
     if (p.s[3] != 1.0f) continue;
     out.push_back({{p.s[0], p.s[1], p.s[2]}, {n.s[0], n.s[1], n.s[2]}});
@@ -128,6 +133,15 @@ CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
   const double texel = 2.0 * std::max(hx, hy) / std::max(size, 1);
   gaps.clear();
   if (sines) sines->clear();
+  // Two passes: each sample facing the light, its texel and its depth along the light; then the
+  // map's depths at those texels. The second is a short loop of independent loads that the
+  // memory system overlaps: in one loop each load (the map was just drawn on the device, mostly
+  // outside this core's caches) waited behind the sample's arithmetic, and those loads were
+  // two thirds of this function's time (`perf annotate`).
+  std::vector<std::size_t> texels;
+  std::vector<double> depths;
+  texels.reserve(samples.size());
+  depths.reserve(samples.size());
   double cosSum = 0;
   for (const CasterSample& s : samples) {
     const float* n = s.normal;
@@ -144,10 +158,17 @@ CasterStats casterStats(const pb_light& L, const cl_uint* map, int size,
     }
     const int i = std::clamp(int((x / hx + 1) * 0.5 * size), 0, size - 1);
     const int j = std::clamp(int((1 - y / hy) * 0.5 * size), 0, size - 1);
+    texels.push_back(std::size_t(j) * size + i);
+    depths.push_back(d);
+  }
+  const double least = depthBias * range + 2 * texel;
+  const std::size_t* at = texels.data();
+  const double* depth = depths.data();
+  for (std::size_t k = 0; k < texels.size(); ++k) {
     float z;
-    std::memcpy(&z, &map[std::size_t(j) * size + i], sizeof z);  // +inf where empty
-    const double gap = d - double(z);
-    if (gap > depthBias * range + 2 * texel) gaps.push_back(gap);
+    std::memcpy(&z, &map[at[k]], sizeof z);  // +inf where empty
+    const double gap = depth[k] - double(z);
+    if (gap > least) gaps.push_back(gap);
   }
   CasterStats st;
   st.distance = median(gaps);
@@ -174,16 +195,24 @@ double autoPenumbraWidth(const AutoLight& l) { return 2 * l.tanAlpha * l.distanc
 double autoScreenIrradiance(const AutoLight& l) { return l.power * l.screenCos; }
 
 double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height) {
-  std::vector<double> d;
+  return pixelFootprint(gpos.data(), width, height, nullptr);
+}
+
+double pixelFootprint(const cl_float4* gpos, int width, int height, std::vector<double>* scratch) {
+  std::vector<double> own;
+  std::vector<double>& d = scratch ? *scratch : own;
+  d.clear();
   for (int y = 0; y < height; ++y)
     for (int x = 0; x + 1 < width; ++x) {
       const std::size_t i = std::size_t(y) * width + x;
       const cl_float4 &a = gpos[i], &b = gpos[i + 1];
       if (a.s[3] != 1.0f || b.s[3] != 1.0f) continue;
       const double dx = a.s[0] - b.s[0], dy = a.s[1] - b.s[1], dz = a.s[2] - b.s[2];
-      d.push_back(std::sqrt(dx * dx + dy * dy + dz * dz));
+      d.push_back(dx * dx + dy * dy + dz * dz);
     }
-  return median(d);
+  // The root of the squared distances' median: the distances' median (the root keeps their
+  // order, ties included), without a root per pair.
+  return std::sqrt(median(d));
 }
 
 std::vector<ShadowTechnique> chooseShadowTechniques(const std::vector<AutoLight>& lights,
@@ -269,26 +298,28 @@ class AutoPass : public ShadowPass {
   void computeVisibility(ShadowFrame& f) override {
     validate(f.opt.autoChoice);
     const int nl = int(f.lights.size()), S = f.mapSize;
-    // The camera's pixel footprint and each light's caster distance, from the G-buffer read back
-    // and the lights' depth maps mapped (every 4th pixel is plenty for a median). The G-buffer
-    // goes into vectors kept between frames: fresh ones are mmap'ed by the allocator past 32 MiB,
-    // then faulted in and zeroed every frame (bench/results/accuracy.md, "Light count against
-    // technique"). The maps (38 MiB for 64 lights at 384^2), of which the medians read a few
-    // texels, are mapped: on a CPU device that copies nothing (bench/results/cpu_speed.md).
-    readInto(f.ctx, f.gpos, gpos_, std::size_t(f.pixels), "auto positions");
-    readInto(f.ctx, f.gnrm, gnrm_, std::size_t(f.pixels), "auto normals");
+    // The camera's pixel footprint and each light's caster distance, from the G-buffer and the
+    // lights' depth maps mapped (every 4th pixel is plenty for a median): on a CPU device that
+    // copies nothing (bench/results/cpu_speed.md; the maps are 38 MiB for 64 lights at 384^2, of
+    // which the medians read a few texels, and the G-buffer's two planes 7 MiB at 640x360, which
+    // had been read into vectors kept between frames).
+    const std::size_t pixels = std::size_t(f.pixels);
+    Context::ReadView posView =
+        f.ctx.mapRead(f.gpos, pixels * sizeof(cl_float4), "auto positions");
+    Context::ReadView nrmView = f.ctx.mapRead(f.gnrm, pixels * sizeof(cl_float4), "auto normals");
     Context::ReadView mapView =
         f.ctx.mapRead(f.depth, std::size_t(S) * S * nl * sizeof(cl_uint), "auto shadow maps");
     const auto* maps = static_cast<const cl_uint*>(mapView.data());
-    const std::vector<cl_float4>&gpos = gpos_, &gnrm = gnrm_;
-    const double pixel = pixelFootprint(gpos, f.width, f.height);
+    const auto* gpos = static_cast<const cl_float4*>(posView.data());
+    const auto* gnrm = static_cast<const cl_float4*>(nrmView.data());
+    const double pixel = pixelFootprint(gpos, f.width, f.height, &footprint_);
     std::vector<AutoLight> info(nl);
     const bool known = f.areaLights && int(f.areaLights->size()) == nl;
     // Each light's caster distance is a median: every 4th pixel, at most kCasterSamples of them,
     // is plenty. The lights' medians run in threads (the device waits for the choice meanwhile).
     const int step =
         std::max(4, int((std::size_t(f.pixels) + kCasterSamples - 1) / kCasterSamples));
-    casterSamples(gpos, gnrm, step, samples_);
+    casterSamples(gpos, gnrm, pixels, step, samples_);
     const unsigned threads =
         std::max(1u, std::min(std::thread::hardware_concurrency(), unsigned(nl)));
     gaps_.resize(threads);
@@ -306,7 +337,10 @@ class AutoPass : public ShadowPass {
     for (unsigned t = 1; t < threads; ++t) pool.emplace_back(lights, t);
     lights(0);
     for (std::thread& t : pool) t.join();
-    mapView = Context::ReadView();  // unmapped before the techniques' kernels read the maps
+    // unmapped before the techniques' kernels read the maps (and the next frame's write the G-buffer)
+    mapView = Context::ReadView();
+    posView = Context::ReadView();
+    nrmView = Context::ReadView();
     for (int l = 0; l < nl; ++l) {
       info[l] = autoLight(f.lights[l], known ? &(*f.areaLights)[l] : nullptr, S, stats[l].distance);
       info[l].receiverSin = stats[l].receiverSin;
@@ -404,15 +438,8 @@ class AutoPass : public ShadowPass {
     bytes_ += rowBytes * k;
   }
 
-  template <class T>
-  static void readInto(Context& ctx, const cl::Buffer& b, std::vector<T>& v, std::size_t count,
-                       const std::string& what) {
-    v.resize(count);
-    if (count) ctx.read(b, v.data(), count * sizeof(T), what);
-  }
-
-  std::vector<cl_float4> gpos_, gnrm_;  // the last frame's read-backs, their storage reused
-  std::vector<CasterSample> samples_;     // casterDistance's pixels, storage reused
+  std::vector<CasterSample> samples_;  // casterDistance's pixels, storage reused
+  std::vector<double> footprint_;      // pixelFootprint's distances, storage reused
   std::vector<std::vector<double>> gaps_, sines_;  // its scratch, one per thread
   // A technique's subset, kept between frames: the frame holds references to these.
   struct Sub {

@@ -48,6 +48,8 @@ std::vector<CasterSample> casterSamples(const std::vector<cl_float4>& gpos,
                                         const std::vector<cl_float4>& gnrm, int step = 1);
 void casterSamples(const std::vector<cl_float4>& gpos, const std::vector<cl_float4>& gnrm,
                    int step, std::vector<CasterSample>& out);
+void casterSamples(const cl_float4* gpos, const cl_float4* gnrm, std::size_t pixels, int step,
+                   std::vector<CasterSample>& out);
 double casterDistance(const pb_light& L, const cl_uint* map, int size,
                       const std::vector<CasterSample>& samples, float depthBias,
                       std::vector<double>& gaps);
@@ -74,8 +76,10 @@ double autoScreenIrradiance(const AutoLight& l);
 
 // A camera pixel's footprint on the scene, world units: the median distance between the
 // positions of horizontally adjacent pixels that both see geometry (gpos: float4 per pixel, w = 1
-// on geometry, row by row). 0 when no two such pixels exist.
+// on geometry, row by row). 0 when no two such pixels exist. scratch: storage for the distances,
+// kept by a caller that asks every frame (null: its own).
 double pixelFootprint(const std::vector<cl_float4>& gpos, int width, int height);
+double pixelFootprint(const cl_float4* gpos, int width, int height, std::vector<double>* scratch);
 
 // Each light's technique: Bitmask (exact), Hard, PCSS or MSSM4, by the rule of AutoOptions
 // (include/penumbra/options.hpp, explained in src/shadows/auto.cpp). pixel: pixelFootprint's
