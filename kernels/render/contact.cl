@@ -124,10 +124,7 @@ kernel void contact_shadows(global const float4* gpos, global const float4* ggeo
 
 // contact_hit(o, d, a, a + e1, a + e2) < len on scalars, in its operations and their rounding
 // (cross3_s and dot3_s round as the library's cross and dot), for contact_shadows_batch's SIMD
-// loop over lights. |det| < 1e-20 is written as two comparisons, and the loops' fmax and min as
-// conditionals (the same values for these operands: finite, and no signed zeros to order):
-// with the library's fabs, fmax or min in them PoCL 3.1 leaves both loops scalar ("loop not
-// vectorized" in its build log).
+// loop over lights.
 static inline __attribute__((always_inline)) bool contact_hit_s(
     float ox, float oy, float oz, float dx, float dy, float dz, float ax, float ay, float az,
     float e1x, float e1y, float e1z, float e2x, float e2y, float e2z, float len) {
@@ -140,7 +137,7 @@ static inline __attribute__((always_inline)) bool contact_hit_s(
   cross3_s(sx, sy, sz, e1x, e1y, e1z, &qx, &qy, &qz);
   const float v = dot3_s(dx, dy, dz, qx, qy, qz) * inv;
   const float t = dot3_s(e2x, e2y, e2z, qx, qy, qz) * inv;
-  return !(det < 1e-20f && det > -1e-20f) && !(u < 0.0f || u > 1.0f) &&
+  return !(fabs(det) < 1e-20f) && !(u < 0.0f || u > 1.0f) &&
          !(v < 0.0f || u + v > 1.0f) && t > 0.0f && t < len;
 }
 
@@ -204,12 +201,11 @@ PB_SIMD_LOOP(16)
       int go[CS_LANES], hit[CS_LANES];
 PB_SIMD_LOOP(CS_LANES)
       for (int i = 0; i < CS_LANES; ++i) {
-        const int l = l0 + i < nl ? l0 + i : nl - 1;
+        const int l = min(l0 + i, nl - 1);
         global const pb_light* L = lights + l;
         const float dx = L->dir[0], dy = L->dir[1], dz = L->dir[2];
-        const float ex = L->ex[3], ey = L->ey[3];
-        const float texel = 2.0f * (ex > ey ? ex : ey) / (float)map_size;
-        const float off = 1e-3f * texel > 2.0f * lift ? 1e-3f * texel : 2.0f * lift;
+        const float texel = 2.0f * fmax(L->ex[3], L->ey[3]) / (float)map_size;
+        const float off = fmax(1e-3f * texel, 2.0f * lift);
         Ox[i] = P.x + ng.x * off;
         Oy[i] = P.y + ng.y * off;
         Oz[i] = P.z + ng.z * off;
