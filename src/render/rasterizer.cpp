@@ -101,8 +101,15 @@ DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H, float 
   g.normal = pool_.buffer("G-buffer normals", npx * 16);
   g.geometricNormal = pool_.buffer("G-buffer geometric normals", npx * 16);
   g.albedo = pool_.buffer("G-buffer albedo", npx * 16);
-  cl::Kernel k = ctx_.kernel("raster.cl", "gbuffer_resolve");
-  ctx_.launchWith("gbuffer/resolve", k, cl::NDRange(W, H), cl::NullRange,
+  // the CPU form on CPU devices (raster.cl, gbuffer_resolve_batch: the same bits), kGroup
+  // pixels of a row a work-item (GB_GROUP)
+  constexpr int kGroup = 64;
+  const bool batched = useCpuBatching(ctx_);
+  cl::Kernel k = batched ? ctx_.kernel("raster.cl", "gbuffer_resolve_batch",
+                                       cpuFormOptions(ctx_, "GB_GROUP", kGroup))
+                         : ctx_.kernel("raster.cl", "gbuffer_resolve");
+  const std::size_t columns = batched ? cpuFormItems(std::size_t(W), kGroup) : std::size_t(W);
+  ctx_.launchWith("gbuffer/resolve", k, cl::NDRange(columns, std::size_t(H)), cl::NullRange,
                   scene_->positionBuffer(), scene_->normalBuffer(), scene_->triangleBuffer(),
                   scene_->albedoBuffer(), camera, g.ids, g.position, g.normal, g.geometricNormal,
                   g.albedo, cl_float(shadowOffset));
