@@ -27,6 +27,7 @@
 #include "shadows/bitmask.hpp"
 #include "shadows/shadow_pass.hpp"
 #include "common.hpp"
+#include "support/scoped_env.hpp"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -285,6 +286,47 @@ TEST(BitmaskAwkward, SizesAndOneListHoldingEverySample) {
     EXPECT_GE(a.pairFraction(), 0.999);
     expectResolveMatches(r);
     expectListsMatch(r.cap, k.S);
+  }
+}
+
+// The list stages' CPU forms (vs_bounds_batch, vs_count_batch: a run of 64 pixels a work-item,
+// one atomic per run of samples in one texel) against the per-pixel kernels: the same grids
+// (bounds), list lengths, samples, masks (the far depths per texel bound which texels a triangle
+// tests: a wrong one would drop occlusion) and visibility, on frames narrower and wider than a
+// run, with one list and with many, soft and hard.
+TEST(BitmaskAwkward, ListCpuFormsMatchThePerPixelKernels) {
+  Scene scene = smallScene();
+  LightSet lights = oneLight({0.3f, 1.0f, 0.2f}, 12);
+  lights.lights.push_back(oneLight({-0.5f, 0.8f, 0.1f}, 4).lights[0]);
+  struct Case { int w, h, S; bool hard; };
+  for (Case k : {Case{37, 23, 7, false}, Case{5, 3, 1, false}, Case{131, 41, 13, true},
+                 Case{97, 61, 16, false}}) {
+    SCOPED_TRACE(std::to_string(k.w) + "x" + std::to_string(k.h) + " grid " + std::to_string(k.S));
+    RenderOptions ro;
+    ro.width = k.w;
+    ro.height = k.h;
+    ro.shadows = k.hard ? ShadowTechnique::BitmaskHard : ShadowTechnique::Bitmask;
+    if (!k.hard) ro.bitmask.lightSamples = 64;
+    ro.bitmask.listSize = k.S;
+    BitmaskRun runs[2];
+    for (int cpu = 0; cpu < 2; ++cpu) {
+      const test::ScopedEnv env("PENUMBRA_CPU_BATCHING", std::string(cpu ? "on" : "off"));
+      runs[cpu] = render(scene, smallCamera(), lights, ro);
+    }
+    const BitmaskCapture &a = runs[0].cap, &b = runs[1].cap;
+    ASSERT_EQ(a.grids.size(), b.grids.size());
+    EXPECT_EQ(std::memcmp(a.grids.data(), b.grids.data(), a.grids.size() * sizeof(pb_list_grid)),
+              0);
+    EXPECT_EQ(a.counts, b.counts);
+    int samples = 0;
+    for (std::size_t i = 0; i < a.slot.size(); ++i) {
+      EXPECT_EQ(a.slot[i] >= 0, b.slot[i] >= 0) << "pair " << i;
+      samples += a.slot[i] >= 0;
+    }
+    EXPECT_GT(samples, k.w * k.h / 4);  // the lights see the scene
+    EXPECT_EQ(a.masks, b.masks);
+    EXPECT_EQ(runs[0].vis, runs[1].vis);
+    expectListsMatch(b, k.S);
   }
 }
 

@@ -349,6 +349,26 @@ PB_INLINE int pb_grid_texel(const pb_list_grid* g, float x, float y) {
   return j * g->size + i;
 }
 
+#ifdef __OPENCL_VERSION__
+/* The light frame's coordinates of world point p (lateral x, y and depth z from the near plane),
+ * on scalars (dot3_s: the library's dot() rounding), for every kernel that bins or tests view
+ * samples (kernels/shadows/viewsamples.cl, bitmask.cl), in their SIMD loops too: a sample's list
+ * texel must come out the same wherever it is computed. */
+static inline __attribute__((always_inline)) void pb_light_coords_s(const pb_light* L, float px,
+                                                                    float py, float pz, float* x,
+                                                                    float* y, float* z) {
+  const float rx = px - L->origin[0], ry = py - L->origin[1], rz = pz - L->origin[2];
+  *x = dot3_s(rx, ry, rz, L->ex[0], L->ex[1], L->ex[2]);
+  *y = dot3_s(rx, ry, rz, L->ey[0], L->ey[1], L->ey[2]);
+  *z = -dot3_s(rx, ry, rz, L->dir[0], L->dir[1], L->dir[2]);
+}
+static inline float3 pb_light_coords(const pb_light* L, float3 p) {
+  float x, y, z;
+  pb_light_coords_s(L, p.x, p.y, p.z, &x, &y, &z);
+  return (float3)(x, y, z);
+}
+#endif
+
 /* A median-cut region: texels [x0,x1) x [y0,y1) of one cube face; regions with the same group
  * form one light (only when fewer than six lights are asked for, whole faces are grouped). */
 typedef struct {

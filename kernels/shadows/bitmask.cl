@@ -58,12 +58,6 @@
 
 static float3 vec3(const float* v) { return (float3)(v[0], v[1], v[2]); }
 
-// Light-frame lateral coordinates and depth of world point p (as kernels/shadows/viewsamples.cl).
-static float3 light_coords(const pb_light* L, float3 p) {
-  float3 r = p - vec3(L->origin);
-  return (float3)(dot(r, vec3(L->ex)), dot(r, vec3(L->ey)), -dot(r, vec3(L->dir)));
-}
-
 #ifndef HARD
 // atan2 to a few 1e-7 rad (Abramowitz & Stegun 4.4.49 on [-1, 1], |error| <= 2e-8, plus float
 // rounding), several times cheaper than the library's on the CPU. The cell only has to hold the
@@ -124,7 +118,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
   float R[3];
   float zmin = INFINITY;
   for (int i = 0; i < 3; ++i) {
-    c[i] = light_coords(&L, V[i]);
+    c[i] = pb_light_coords(&L, V[i]);
     zmin = fmin(zmin, c[i].z);
     R[i] = g.tan_alpha * fmax(g.zmax - c[i].z, 0.0f);
   }
@@ -217,7 +211,7 @@ kernel void bitmask_triangles(global const float4* pos, global const int4* tris,
         // coordinates by the same function as there, so the same bits
         int px = list[first + s];
         float3 p = gpos[px].xyz;
-        float3 q = light_coords(&L, p);
+        float3 q = pb_light_coords(&L, p);
         // The sample's own depth bounds the region exactly at that depth (radius
         // tan(alpha) (z_p - z_i) at vertex i): most samples of a texel leave here.
         if (q.z <= zmin) continue;

@@ -14,7 +14,7 @@
 //   (scan)      exclusive offsets from an inclusive scan of the lengths (src/core/scan.cpp, int64)
 //   vs_scatter  each sample's pixel index into one array, lists[light][offset + index] (4 bytes
 //               an entry; the triangle stage recomputes the light-frame coordinates from the
-//               G-buffer position, as the same light_coords gives them here)
+//               G-buffer position, as the same pb_light_coords gives them here)
 // The order inside a list depends on the atomics, nothing computed from the lists does.
 #include "shared.h"
 
@@ -29,14 +29,6 @@ static int ordered_int(float f) {
   return i >= 0 ? i : i ^ 0x7fffffff;
 }
 static float ordered_float(int i) { return as_float(i >= 0 ? i : i ^ 0x7fffffff); }
-
-// The light frame's coordinates of world point p: lateral x, y and depth z from the near plane.
-static float3 light_coords(const pb_light* L, float3 p) {
-  float3 r = p - (float3)(L->origin[0], L->origin[1], L->origin[2]);
-  return (float3)(dot(r, (float3)(L->ex[0], L->ex[1], L->ex[2])),
-                  dot(r, (float3)(L->ey[0], L->ey[1], L->ey[2])),
-                  -dot(r, (float3)(L->dir[0], L->dir[1], L->dir[2])));
-}
 
 // Geometry whose shading normal sees part of the light's cap (cap not wholly below the horizon).
 static bool is_view_sample(float4 p, float3 n, const pb_light* L) {
@@ -54,7 +46,7 @@ kernel void vs_bounds(global const float4* gpos, global const float4* gnrm,
   pb_light L = lights[l];
   int v[6] = {INT_MAX, INT_MIN, INT_MAX, INT_MIN, INT_MIN, 0};
   if (px < npixels && is_view_sample(gpos[px], gnrm[px].xyz, &L)) {
-    float3 c = light_coords(&L, gpos[px].xyz);
+    float3 c = pb_light_coords(&L, gpos[px].xyz);
     v[0] = v[1] = ordered_int(c.x);
     v[2] = v[3] = ordered_int(c.y);
     v[4] = ordered_int(c.z);
@@ -131,7 +123,7 @@ kernel void vs_count(global const float4* gpos, global const float4* gnrm,
     return;
   }
   pb_list_grid g = grids[l];
-  float3 c = light_coords(&L, gpos[px].xyz);
+  float3 c = pb_light_coords(&L, gpos[px].xyz);
   int t = pb_grid_texel(&g, c.x, c.y);
   size_t at = (size_t)l * g.size * g.size + t;
   slot[out] = atomic_inc(&counts[at]);
@@ -159,7 +151,108 @@ kernel void vs_scatter(global const float4* gpos, global const pb_light* lights,
   if (s < 0) return;
   pb_light L = lights[l];
   pb_list_grid g = grids[l];
-  float3 c = light_coords(&L, gpos[px].xyz);
+  float3 c = pb_light_coords(&L, gpos[px].xyz);
   size_t t = (size_t)l * g.size * g.size + pb_grid_texel(&g, c.x, c.y);
   lists[(size_t)l * npixels + (size_t)(ends[t] - counts[t]) + s] = px;
 }
+
+// ---- CPU forms (src/core/device_kind.hpp; the same results) ----
+// PoCL runs vs_bounds' tree reduction as loops split at each barrier, and vs_count a pixel at a
+// time with two locked atomics each (131 thousand view samples on the 32-light frame's exact
+// light). Here a work-item takes VS_GROUP consecutive pixels of one light: their tests and light
+// coordinates in a SIMD loop (pb_light_coords_s; is_view_sample's test on scalars, dot3_s
+// rounding as dot()), then
+// - vs_bounds_batch: the run's minima, maxima and count, one atomic each, as one of vs_bounds'
+//   work-groups adds its own (minima, maxima and sums of integers: the same in any grouping);
+// - vs_count_batch: each run of consecutive samples in one texel takes its slots with one
+//   atomic_add of its length and keeps its farthest depth with one atomic_max (consecutive pixels
+//   mostly fall in one texel of the 64 x 64 grid). The slots of a texel's samples are again
+//   0..n-1 in some order, which is all vs_count promises: nothing computed from the lists
+//   depends on their order.
+// Global (ceil(npixels / VS_GROUP), lights).
+#ifndef VS_GROUP
+#define VS_GROUP 64
+#endif
+
+// The view sample test and light coordinates of pixels px0 .. px0 + VS_GROUP - 1 (those past
+// npixels, and those that are no view sample, get in[k] = 0).
+static inline __attribute__((always_inline)) void vs_batch_coords(
+    global const float* gpos, global const float* gnrm, const pb_light* L, int px0, int npixels,
+    int* in, float* x, float* y, float* z) {
+  const float sin_a = sqrt(fmax(1.0f - L->dir[3] * L->dir[3], 0.0f));
+PB_SIMD_LOOP(16)
+  for (int k = 0; k < VS_GROUP; ++k) {
+    const int px = min(px0 + k, npixels - 1);
+    const float nw = dot3_s(gnrm[4 * px], gnrm[4 * px + 1], gnrm[4 * px + 2], L->dir[0], L->dir[1],
+                            L->dir[2]);
+    in[k] = px0 + k < npixels && gpos[4 * px + 3] != 0.0f && nw > -sin_a;
+    pb_light_coords_s(L, gpos[4 * px], gpos[4 * px + 1], gpos[4 * px + 2], &x[k], &y[k], &z[k]);
+  }
+}
+
+kernel void vs_bounds_batch(global const float* gpos, global const float* gnrm,
+                            global const pb_light* lights, int npixels,
+                            volatile global int* bounds) {
+  const int px0 = get_global_id(0) * VS_GROUP, l = get_global_id(1);
+  if (px0 >= npixels) return;
+  const pb_light L = lights[l];
+  int in[VS_GROUP];
+  float x[VS_GROUP], y[VS_GROUP], z[VS_GROUP];
+  vs_batch_coords(gpos, gnrm, &L, px0, npixels, in, x, y, z);
+  int v0 = INT_MAX, v1 = INT_MIN, v2 = INT_MAX, v3 = INT_MIN, v4 = INT_MIN, v5 = 0;
+PB_SIMD_LOOP(16)
+  for (int k = 0; k < VS_GROUP; ++k) {
+    const int ox = ordered_int(x[k]), oy = ordered_int(y[k]), oz = ordered_int(z[k]);
+    v0 = min(v0, in[k] ? ox : INT_MAX);
+    v1 = max(v1, in[k] ? ox : INT_MIN);
+    v2 = min(v2, in[k] ? oy : INT_MAX);
+    v3 = max(v3, in[k] ? oy : INT_MIN);
+    v4 = max(v4, in[k] ? oz : INT_MIN);
+    v5 += in[k];
+  }
+  if (v5 == 0) return;
+  volatile global int* b = bounds + (size_t)l * 8;
+  atomic_min(&b[0], v0);
+  atomic_max(&b[1], v1);
+  atomic_min(&b[2], v2);
+  atomic_max(&b[3], v3);
+  atomic_max(&b[4], v4);
+  atomic_add(&b[5], v5);
+}
+
+kernel void vs_count_batch(global const float* gpos, global const float* gnrm,
+                           global const pb_light* lights, global const pb_list_grid* grids,
+                           int npixels, volatile global int* counts, global int* slot,
+                           volatile global int* zfar) {
+  const int px0 = get_global_id(0) * VS_GROUP, l = get_global_id(1);
+  if (px0 >= npixels) return;
+  const pb_light L = lights[l];
+  const pb_list_grid g = grids[l];
+  int in[VS_GROUP], texel[VS_GROUP], oz[VS_GROUP];
+  float x[VS_GROUP], y[VS_GROUP], z[VS_GROUP];
+  vs_batch_coords(gpos, gnrm, &L, px0, npixels, in, x, y, z);
+PB_SIMD_LOOP(16)
+  for (int k = 0; k < VS_GROUP; ++k) {
+    texel[k] = in[k] ? pb_grid_texel(&g, x[k], y[k]) : -1;
+    oz[k] = ordered_int(z[k]);
+  }
+  const int cnt = min(VS_GROUP, npixels - px0);
+  global int* out = slot + (size_t)l * npixels + px0;
+  volatile global int* lc = counts + (size_t)l * g.size * g.size;
+  volatile global int* lz = zfar + (size_t)l * g.size * g.size;
+  for (int k = 0; k < cnt;) {
+    if (texel[k] < 0) {
+      out[k++] = -1;
+      continue;
+    }
+    // the run k .. e - 1 of samples in texel t (pixels that are no sample end it)
+    const int t = texel[k];
+    int e = k + 1, far = oz[k];
+    while (e < cnt && texel[e] == t) far = max(far, oz[e++]);
+    const int first = atomic_add(&lc[t], e - k);
+    atomic_max(&lz[t], far);
+    for (int i = k; i < e; ++i) out[i] = first + (i - k);
+    k = e;
+  }
+}
+

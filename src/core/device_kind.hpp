@@ -25,8 +25,8 @@ inline bool isCpuDevice(Context& ctx) {
 }
 
 // Whether to run the CPU forms of the kernels that have one (the banded summed-area tables, MSSM4's
-// batched visibility, batched shading, the bitmask's resolve, the ground step, ...): on CPU
-// devices. PENUMBRA_CPU_BATCHING=off (exactly) asks for the one-work-item-per-pixel kernels GPUs
+// batched visibility, batched shading, the bitmask's lists and resolve, the ground and horizon
+// steps, contact shadows, the G-buffer's resolve, ...): on CPU devices. PENUMBRA_CPU_BATCHING=off (exactly) asks for the one-work-item-per-pixel kernels GPUs
 // run on any device (the same images: a check, and a way around a driver that mis-vectorizes),
 // =on for the CPU forms on any device (the tests run them under oclgrind, which calls itself a
 // GPU).

@@ -232,7 +232,17 @@ class BitmaskPass : public ShadowPass {
     cl::Buffer& slot = f.pool.buffer("bitmask sample slots", pairs * sizeof(cl_int));
     cl::Buffer& lists = f.pool.buffer("bitmask lists", pairs * sizeof(cl_int));
     cl::Buffer& zfar = f.pool.buffer("bitmask list far depths", texels * sizeof(cl_int));
-    {
+    // the list stages' CPU forms on CPU devices (viewsamples.cl, vs_bounds_batch and
+    // vs_count_batch: the same bounds, lengths and far depths), kListGroup pixels a work-item
+    constexpr int kListGroup = 64;
+    const bool cpuLists = useCpuBatching(ctx);
+    const std::string listOptions = cpuFormOptions(ctx, "VS_GROUP", kListGroup);
+    const std::size_t listItems = cpuFormItems(std::size_t(npx), kListGroup);
+    if (cpuLists) {
+      cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_bounds_batch", listOptions);
+      ctx.launchWith("bitmask/lists/bounds", k, cl::NDRange(listItems, nl), cl::NullRange, f.gpos,
+                     f.gnrm, f.lightBuffer, cl_int(npx), bounds);
+    } else {
       cl::Kernel k;
       std::size_t wg = 0;
       for (std::size_t t = 256; t >= 1; t /= 2) {
@@ -256,9 +266,11 @@ class BitmaskPass : public ShadowPass {
     const cl_int lowest = INT_MIN;
     ctx.fill(zfar, &lowest, sizeof lowest, texels * sizeof(cl_int), "bitmask list far depths");
     {
-      cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_count");
-      ctx.launchWith("bitmask/lists/count", k, cl::NDRange(npx, nl), cl::NullRange, f.gpos, f.gnrm,
-                     f.lightBuffer, grids, cl_int(npx), counts, slot, zfar);
+      cl::Kernel k = cpuLists ? ctx.kernel("viewsamples.cl", "vs_count_batch", listOptions)
+                              : ctx.kernel("viewsamples.cl", "vs_count");
+      ctx.launchWith("bitmask/lists/count", k,
+                     cl::NDRange(cpuLists ? listItems : std::size_t(npx), nl), cl::NullRange,
+                     f.gpos, f.gnrm, f.lightBuffer, grids, cl_int(npx), counts, slot, zfar);
     }
     {
       cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_widen");
