@@ -577,8 +577,9 @@ CameraBuffers cameraBuffers(const Scene& scene, const View& v, bool cpuForms) {
     for (int p = 0; p < 4; ++p)
       out.planes[p] = ctx().download<cl_float4>(*planes[p], n, "test camera G-buffer");
     if (cpuForms) {
-      cl::Kernel k = ctx().kernel("raster.cl", "gbuffer_resolve_batch",
-                                  "-DGB_GROUP=64 -DGB_LOW=0x1p127f" + detail::simdLoopOption(ctx()));
+      cl::Kernel k =
+          ctx().kernel("raster.cl", "gbuffer_resolve_batch",
+                       "-DGB_GROUP=64 -DGB_LOW=0x1p127f" + detail::simdLoopOption(ctx()));
       cl::Buffer fb[4];
       for (auto& b : fb) b = ctx().buffer(n * sizeof(cl_float4), "test fallback plane");
       ctx().launchWith("test fallback", k, cl::NDRange((std::size_t(v.w) + 63) / 64, v.h),
@@ -648,8 +649,9 @@ void expectCameraBandsMatch(const Scene& scene, int w, int h, std::size_t minCov
 // The CPU form of the camera's G-buffer passes (raster_bands: bands of rows, one writer each,
 // depth and id in one pass) keeps the depths and the triangle ids of the two passes of atomics,
 // and the resolve's (gbuffer_resolve_batch, 64 pixels of a row a work-item, and its per-pixel
-// fallback) the four planes of gbuffer_resolve, bit for bit: 1 x 1, one column, one row, an odd frame, and one taller than the bands and wider
-// than a work-group, on a scene where a mesh is there twice (equal depths: the least index wins).
+// fallback) the four planes of gbuffer_resolve, bit for bit: 1 x 1, one column, one row, an odd
+// frame, and one taller than the bands and wider than a work-group, on a scene where a mesh is
+// there twice (equal depths: the least index wins).
 // Negative control: keeping the last triangle at an equal depth instead (<= for < in
 // raster_triangle's pass 2) fails on the twins.
 TEST(Raster, CameraBandsMatchTheTwoPasses) {

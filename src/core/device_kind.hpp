@@ -26,10 +26,10 @@ inline bool isCpuDevice(Context& ctx) {
 
 // Whether to run the CPU forms of the kernels that have one (the banded summed-area tables, MSSM4's
 // batched visibility, batched shading, the bitmask's lists and resolve, the ground and horizon
-// steps, contact shadows, the G-buffer's resolve, ...): on CPU devices. PENUMBRA_CPU_BATCHING=off (exactly) asks for the one-work-item-per-pixel kernels GPUs
-// run on any device (the same images: a check, and a way around a driver that mis-vectorizes),
-// =on for the CPU forms on any device (the tests run them under oclgrind, which calls itself a
-// GPU).
+// steps, contact shadows, the G-buffer's resolve, ...): on CPU devices. PENUMBRA_CPU_BATCHING=off
+// (exactly) asks for the one-work-item-per-pixel kernels GPUs run on any device (the same images:
+// a check, and a way around a driver that mis-vectorizes), =on for the CPU forms on any device
+// (the tests run them under oclgrind, which calls itself a GPU).
 inline bool useCpuBatching(Context& ctx) {
   const char* v = std::getenv("PENUMBRA_CPU_BATCHING");
   if (v && std::strcmp(v, "off") == 0) return false;
@@ -51,6 +51,22 @@ inline std::string cpuFormOptions(Context& ctx, const char* macro, int group) {
 }
 inline std::size_t cpuFormItems(std::size_t n, int group) {
   return (n + std::size_t(group) - 1) / std::size_t(group);
+}
+
+// Kernel `name` of `file` over n pixels (or rows' pixels), or on CPU devices its CPU form
+// `name`_batch, built with cpuFormOptions(macro, group) after `options`: the kernel to launch and
+// its work-item count along the pixels (n, or cpuFormItems(n, group)).
+struct KernelForm {
+  cl::Kernel kernel;
+  std::size_t items;
+};
+inline KernelForm kernelForm(Context& ctx, const std::string& file, const std::string& name,
+                             const char* macro, int group, std::size_t n,
+                             const std::string& options = "") {
+  if (useCpuBatching(ctx))
+    return {ctx.kernel(file, name + "_batch", options + cpuFormOptions(ctx, macro, group)),
+            cpuFormItems(n, group)};
+  return {ctx.kernel(file, name, options), n};
 }
 
 }  // namespace penumbra::detail

@@ -15,16 +15,11 @@ bool hasContactInputs(const ShadowFrame& f) {
 void contactShadows(const ShadowFrame& f, const cl::Buffer& lightMask) {
   const int nl = int(f.lights.size());
   if (nl == 0 || !hasContactInputs(f)) return;
-  // the CPU form on CPU devices (contact.cl, contact_shadows_batch: the same bits), kGroup
-  // pixels of a row a work-item (CS_GROUP)
-  constexpr int kGroup = 64;
-  const bool batched = useCpuBatching(f.ctx);
-  cl::Kernel k = batched ? f.ctx.kernel("contact.cl", "contact_shadows_batch",
-                                        cpuFormOptions(f.ctx, "CS_GROUP", kGroup))
-                         : f.ctx.kernel("contact.cl", "contact_shadows");
-  const std::size_t columns =
-      batched ? cpuFormItems(std::size_t(f.width), kGroup) : std::size_t(f.width);
-  f.ctx.launchWith("contact-shadows", k, cl::NDRange(columns, std::size_t(f.height)),
+  // the CPU form on CPU devices (contact.cl, contact_shadows_batch: the same bits), 64 pixels of
+  // a row a work-item (CS_GROUP)
+  KernelForm k =
+      kernelForm(f.ctx, "contact.cl", "contact_shadows", "CS_GROUP", 64, std::size_t(f.width));
+  f.ctx.launchWith("contact-shadows", k.kernel, cl::NDRange(k.items, std::size_t(f.height)),
                    cl::NullRange, f.gpos, f.ggeo, f.gids, f.positions, f.triangles,
                    cl_int(f.triangleCount),
                    f.lightBuffer, lightMask, cl_int(nl), cl_int(f.width), cl_int(f.height), f.vis,

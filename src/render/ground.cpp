@@ -66,21 +66,15 @@ int GroundOcclusion::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
     indices_ = indices;
   }
   const GroundPlane& g = f.ground.plane;
-  // the CPU form on CPU devices (ground.cl, ground_visibility_batch: the same bits), kGroup
-  // pixels a work-item (GR_GROUP)
-  constexpr int kGroup = 64;
-  const bool batched = useCpuBatching(f.ctx);
-  cl::Kernel k = f.ctx.kernel(
-      "ground.cl", batched ? "ground_visibility_batch" : "ground_visibility",
-      "-DGR_DIRS=" + std::to_string(kGroundDirs) +
-          (batched ? cpuFormOptions(f.ctx, "GR_GROUP", kGroup) : ""));
+  // the CPU form on CPU devices (ground.cl, ground_visibility_batch: the same bits), 64 pixels a
+  // work-item (GR_GROUP)
+  KernelForm k = kernelForm(f.ctx, "ground.cl", "ground_visibility", "GR_GROUP", 64,
+                            std::size_t(f.pixels), "-DGR_DIRS=" + std::to_string(kGroundDirs));
   const cl_float4 rect{{g.y, g.x0, g.x1, g.z0}};
   const cl_float4 rect2{{g.z1, f.ground.eps, f.ground.lift, 0.0f}};
-  const std::size_t items =
-      batched ? cpuFormItems(std::size_t(f.pixels), kGroup) : std::size_t(f.pixels);
-  f.ctx.launchWith("ground", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm, f.ggeo, dirsB_,
-                   indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect, rect2, lightMask,
-                   f.vis);
+  f.ctx.launchWith("ground", k.kernel, cl::NDRange(k.items), cl::NullRange, f.gpos, f.gnrm,
+                   f.ggeo, dirsB_, indicesB_, cl_int(indices.size()), cl_int(f.pixels), rect,
+                   rect2, lightMask, f.vis);
   return int(indices.size());
 }
 

@@ -47,13 +47,9 @@ void Horizon::run(const ShadowFrame& f, const cl::Buffer& lightMask) {
     offsets_ = offsets;
     indices_ = indices;
   }
-  const bool batched = useCpuBatching(f.ctx);
-  cl::Kernel k = batched ? f.ctx.kernel("horizon.cl", "horizon_visibility_batch",
-                                        cpuFormOptions(f.ctx, "HZ_GROUP", kGroup))
-                         : f.ctx.kernel("horizon.cl", "horizon_visibility");
-  const std::size_t items =
-      batched ? cpuFormItems(std::size_t(f.pixels), kGroup) : std::size_t(f.pixels);
-  f.ctx.launchWith("horizon", k, cl::NDRange(items), cl::NullRange, f.gpos, f.gnrm,
+  KernelForm k = kernelForm(f.ctx, "horizon.cl", "horizon_visibility", "HZ_GROUP", kGroup,
+                            std::size_t(f.pixels));
+  f.ctx.launchWith("horizon", k.kernel, cl::NDRange(k.items), cl::NullRange, f.gpos, f.gnrm,
                    f.lightBuffer, lightMask, cl_int(nl), cl_int(f.pixels), offsetsB_, indicesB_,
                    f.vis);
 }

@@ -101,15 +101,11 @@ DeviceGBuffer Rasterizer::gbuffer(const cl::Buffer& camera, int W, int H, float 
   g.normal = pool_.buffer("G-buffer normals", npx * 16);
   g.geometricNormal = pool_.buffer("G-buffer geometric normals", npx * 16);
   g.albedo = pool_.buffer("G-buffer albedo", npx * 16);
-  // the CPU form on CPU devices (raster.cl, gbuffer_resolve_batch: the same bits), kGroup
+  // the CPU form on CPU devices (raster.cl, gbuffer_resolve_batch: the same bits on PoCL), 64
   // pixels of a row a work-item (GB_GROUP)
-  constexpr int kGroup = 64;
-  const bool batched = useCpuBatching(ctx_);
-  cl::Kernel k = batched ? ctx_.kernel("raster.cl", "gbuffer_resolve_batch",
-                                       cpuFormOptions(ctx_, "GB_GROUP", kGroup))
-                         : ctx_.kernel("raster.cl", "gbuffer_resolve");
-  const std::size_t columns = batched ? cpuFormItems(std::size_t(W), kGroup) : std::size_t(W);
-  ctx_.launchWith("gbuffer/resolve", k, cl::NDRange(columns, std::size_t(H)), cl::NullRange,
+  KernelForm k =
+      kernelForm(ctx_, "raster.cl", "gbuffer_resolve", "GB_GROUP", 64, std::size_t(W));
+  ctx_.launchWith("gbuffer/resolve", k.kernel, cl::NDRange(k.items, std::size_t(H)), cl::NullRange,
                   scene_->positionBuffer(), scene_->normalBuffer(), scene_->triangleBuffer(),
                   scene_->albedoBuffer(), camera, g.ids, g.position, g.normal, g.geometricNormal,
                   g.albedo, cl_float(shadowOffset));

@@ -337,7 +337,8 @@ class AutoPass : public ShadowPass {
     for (unsigned t = 1; t < threads; ++t) pool.emplace_back(lights, t);
     lights(0);
     for (std::thread& t : pool) t.join();
-    // unmapped before the techniques' kernels read the maps (and the next frame's write the G-buffer)
+    // unmapped before the techniques' kernels read the maps (and the next frame's write the
+    // G-buffer)
     mapView = Context::ReadView();
     posView = Context::ReadView();
     nrmView = Context::ReadView();

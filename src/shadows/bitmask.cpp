@@ -235,13 +235,12 @@ class BitmaskPass : public ShadowPass {
     // the list stages' CPU forms on CPU devices (viewsamples.cl, vs_bounds_batch and
     // vs_count_batch: the same bounds, lengths and far depths), kListGroup pixels a work-item
     constexpr int kListGroup = 64;
-    const bool cpuLists = useCpuBatching(ctx);
-    const std::string listOptions = cpuFormOptions(ctx, "VS_GROUP", kListGroup);
-    const std::size_t listItems = cpuFormItems(std::size_t(npx), kListGroup);
-    if (cpuLists) {
-      cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_bounds_batch", listOptions);
-      ctx.launchWith("bitmask/lists/bounds", k, cl::NDRange(listItems, nl), cl::NullRange, f.gpos,
-                     f.gnrm, f.lightBuffer, cl_int(npx), bounds);
+    if (useCpuBatching(ctx)) {
+      cl::Kernel k = ctx.kernel("viewsamples.cl", "vs_bounds_batch",
+                                cpuFormOptions(ctx, "VS_GROUP", kListGroup));
+      ctx.launchWith("bitmask/lists/bounds", k,
+                     cl::NDRange(cpuFormItems(std::size_t(npx), kListGroup), nl), cl::NullRange,
+                     f.gpos, f.gnrm, f.lightBuffer, cl_int(npx), bounds);
     } else {
       cl::Kernel k;
       std::size_t wg = 0;
@@ -266,10 +265,9 @@ class BitmaskPass : public ShadowPass {
     const cl_int lowest = INT_MIN;
     ctx.fill(zfar, &lowest, sizeof lowest, texels * sizeof(cl_int), "bitmask list far depths");
     {
-      cl::Kernel k = cpuLists ? ctx.kernel("viewsamples.cl", "vs_count_batch", listOptions)
-                              : ctx.kernel("viewsamples.cl", "vs_count");
-      ctx.launchWith("bitmask/lists/count", k,
-                     cl::NDRange(cpuLists ? listItems : std::size_t(npx), nl), cl::NullRange,
+      KernelForm k =
+          kernelForm(ctx, "viewsamples.cl", "vs_count", "VS_GROUP", kListGroup, std::size_t(npx));
+      ctx.launchWith("bitmask/lists/count", k.kernel, cl::NDRange(k.items, nl), cl::NullRange,
                      f.gpos, f.gnrm, f.lightBuffer, grids, cl_int(npx), counts, slot, zfar);
     }
     {
