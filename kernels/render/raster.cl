@@ -527,7 +527,7 @@ kernel void gbuffer_resolve_batch(global const float4* pos, global const float4*
       Bz[GB_GROUP], Cx[GB_GROUP], Cy[GB_GROUP], Cz[GB_GROUP];
   float Na[4][GB_GROUP], Nb[4][GB_GROUP], Nc[4][GB_GROUP];
   int hit[GB_GROUP], odd[GB_GROUP];
-  float out[12][GB_GROUP];  // position xyz, shading normal xyz, geometric normal xyz
+  float out[9][GB_GROUP];  // position xyz, shading normal xyz, geometric normal xyz
   for (int k = 0; k < GB_GROUP; ++k) {
     const uint id = ids[row + min(k, cnt - 1)];
     hit[k] = k < cnt && id != PB_ID_EMPTY;
