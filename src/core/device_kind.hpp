@@ -44,8 +44,8 @@ inline std::string simdLoopOption(Context& ctx) {
 }
 
 // A CPU form whose work-item takes `group` consecutive pixels (or texels, rows' runs, ...): its
-// build options (the group size as -D<macro>, the kernel's own default kept only for a build
-// without the host, and simdLoopOption) and its work-item count over n of them.
+// build options (the group size as -D<macro>, which overrides the kernel's #ifndef default, and
+// simdLoopOption) and its work-item count over n of them.
 inline std::string cpuFormOptions(Context& ctx, const char* macro, int group) {
   return std::string(" -D") + macro + "=" + std::to_string(group) + simdLoopOption(ctx);
 }
