@@ -182,7 +182,6 @@ kernel void scan_col_segments(global const T* data, global T* seg_sums, int widt
 // Step 2: per (column, image), an exclusive scan over the segment sums, in place. Serial in the
 // segment count (height/SEG, small); columns and images run in parallel. Global size (width
 // rounded up, batch).
-// The banded method's band offsets are the same scan over its band sums, in A.
 kernel void scan_col_offsets(global A* seg_sums, int width, int nseg) {
   const int x = get_global_id(0), b = get_global_id(1);
   if (x >= width) return;
@@ -229,8 +228,8 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
 //   S(x, y) = sum_{x' <= x} I(x', y) + S(x, y - 1).
 // One work-item per (band of rows, image) sweeps its band. A band below the first needs row
 // y0 - 1 of the table, the running sum along x of the column sums of every row above it: step 1
-// sums each band's columns (scan_band_sums), scan_col_offsets turns those sums into each band's
-// exclusive offsets, and step 2 (scan_band_apply) starts its sweep from them. With one band per
+// (scan_band_offsets) sums the columns down the image, leaving each band the sums of the rows
+// above it, and step 2 (scan_band_apply) starts its sweep from them. With one band per
 // image only step 2 runs, and the image is read and written once: a copy's traffic. With B > 1
 // bands it is read once more. Integer tables come out identical to the passes' (integer addition
 // is associative); float ones round differently (a serial sum along each row, error growing with
@@ -238,24 +237,43 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
 // that carries the sums in double, and this one only when asked on a device without fp64
 // (src/core/scan.cpp).
 
-// Step 1: band_sums[(image * nbands + band) * width + x] = sum of column x over the band's rows.
-// Global size (nbands, batch), one work-item per group.
-kernel void scan_band_sums(global const T* data, global A* band_sums, int width, int height,
-                           int band_rows) {
-  const int band = get_global_id(0), nbands = get_global_size(0);
+// Step 1: band_offsets[(image * nbands + band) * width + x] = the sum of column x over every row
+// above the band (zero for the first band), in one launch. Global size (strips, batch), one
+// work-item per group: work-item s takes the columns [s w / strips, (s + 1) w / strips) of its
+// image down to the last band's first row, carrying each column's running sum from one band's row
+// of offsets to the next (a row of the strip, which stays in cache). Splitting by columns keeps
+// every core busy whatever the band count, and the sums leave as offsets: no scan over the bands.
+// Four rows a step, added in row order (the same sums as one row at a time).
+kernel void scan_band_offsets(global const T* data, global A* band_offsets, int width,
+                              int height, int band_rows) {
+  const int strip = get_global_id(0), nstrips = get_global_size(0);
   const size_t img = get_global_id(1);
-  const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
-  global A* out = band_sums + (img * nbands + band) * (size_t)width;
-  for (int x = 0; x < width; ++x) out[x] = AZERO;
-  if (band == nbands - 1) return;  // no band below needs the last one's sums: zeros, not read
-  for (int y = y0; y < y1; ++y) {
+  const int nbands = (height + band_rows - 1) / band_rows;
+  const int x0 = (int)((long)width * strip / nstrips);
+  const int x1 = (int)((long)width * (strip + 1) / nstrips);
+  global A* run = band_offsets + img * nbands * (size_t)width;
+  for (int x = x0; x < x1; ++x) run[x] = AZERO;
+  for (int band = 1; band < nbands; ++band) {
+    global A* next = run + width;
+    for (int x = x0; x < x1; ++x) next[x] = run[x];
+    const int y1 = band * band_rows;
+    int y = y1 - band_rows;
     global const T* row = data + (img * height + y) * (size_t)width;
-    for (int x = 0; x < width; ++x) out[x] += TO_ACC(row[x]);
+    for (; y + 4 <= y1; y += 4, row += 4 * (size_t)width) {
+      global const T* r1 = row + width;
+      global const T* r2 = r1 + width;
+      global const T* r3 = r2 + width;
+      for (int x = x0; x < x1; ++x)
+        next[x] = next[x] + TO_ACC(row[x]) + TO_ACC(r1[x]) + TO_ACC(r2[x]) + TO_ACC(r3[x]);
+    }
+    for (; y < y1; ++y, row += width)
+      for (int x = x0; x < x1; ++x) next[x] += TO_ACC(row[x]);
+    run = next;
   }
 }
 
-// Step 2: the sweep over one band, in place. band_offsets as scan_col_offsets leaves band_sums:
-// the column sums of every row above the band (read only when nbands > 1).
+// Step 2: the sweep over one band, in place. band_offsets as step 1 leaves them: the column sums
+// of every row above the band (read only when nbands > 1).
 kernel void scan_band_apply(global T* data, global const T* band_offsets, int width, int height,
                             int band_rows) {
   const int band = get_global_id(0), nbands = get_global_size(0);
@@ -300,8 +318,7 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // tighter than the passes, whose float additions run through up to VPT + SEG + 2 log2 WG levels.
 // The sweep keeps row y - 1 of the table in double in a row of scratch per (band, image),
 // `carry`, which stays in cache (width values).
-// Steps 1 and 2 are scan_band_sums and scan_col_offsets above, built with SCAN_ACC: `carry` is
-// their band-sums buffer.
+// Step 1 is scan_band_offsets above, built with SCAN_ACC: `carry` is its offsets buffer.
 #ifdef SCAN_ACC
 // Step 3: the sweep. The band's carry row first becomes row y0 - 1 of the table (the running sum
 // along x of the column sums above the band; zero for the first band, whose carry is not read

@@ -81,29 +81,38 @@ std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
          " -DCOL_LOCKSTEP=" + (lockstep ? "1" : "0");
 }
 
-// Bands per image for the banded method: two sweeps per compute unit over the whole batch, so
-// that neither core idles while the other finishes (a batch that already has that many images
-// keeps one band each, the one-pass case); but no more bands than the batch has MiB over 2: more
-// than one band costs two more launches (the band sums and their offsets), about what sweeping
-// 2 MiB takes on PoCL (bench_scan, 256^2 float4, 1 MiB: 0.30 of a copy's bandwidth in four bands,
-// 0.53 in one; long4, 2 MiB: 0.26 and 0.79).
-int defaultBands(Context& ctx, int batch, std::size_t batchBytes) {
+std::size_t computeUnits(Context& ctx) {
   cl_uint units = 1;
   try {
     units = ctx.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
   } catch (const cl::Error& e) {
     rethrowCl(e, "summedAreaTable: querying the compute units");
   }
-  const long long want = 2LL * std::max<cl_uint>(units, 1);
+  return std::max<cl_uint>(units, 1);
+}
+
+// Bands per image for the banded method. More than one band reads the rows above the last band
+// once more (step 1), and pays only where the bands' sweeps run side by side with memory bandwidth
+// to spare. With two compute units they do not: one float4 image, medians of 100 tables each
+// (2-core EPYC, PoCL 3.1), 1024^2 in one band 0.73-0.78 ms against 1.23-1.28 in four (the four
+// sweeps alone 0.79-1.01: the second core adds little bandwidth), 2048^2 3.9-4.4 against 5.1-5.5,
+// 256^2 39 us against 50 in two (its second work-group starts after the first has finished:
+// the sweep is shorter than a worker thread's wake-up). So up to two units each image is one
+// band. With more, one band per unit over the batch (a batch with that many images keeps one band
+// each), but no more bands than the batch has MiB over 2 (the extra launch costs about what
+// sweeping 2 MiB takes on PoCL).
+int defaultBands(Context& ctx, int batch, std::size_t batchBytes) {
+  const long long units = (long long)computeUnits(ctx);
+  if (units <= 2) return 1;
   const long long worth = std::max<long long>(1, (long long)(batchBytes >> 21));
-  return int(std::max<long long>(1, std::min((want + batch - 1) / batch, worth)));
+  return int(std::max<long long>(1, std::min((units + batch - 1) / batch, worth)));
 }
 
 // The banded one-pass method (kernels/common/scan.cl, "Banded one-pass method"): `bands` bands
 // per image (1 <= bands <= height). With doubleSums (float types on an fp64 device) the sums are
 // carried in double (scan.cl, "accumulated in double"): the band sums are then also the sweep's
 // carry rows, so they are allocated for every band and the sweep is scan_band_apply_acc. Stages:
-// STAGE/bands/sums and STAGE/bands/offsets with more than one band, then STAGE/bands.
+// STAGE/bands/offsets with more than one band, then STAGE/bands.
 void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int height, int batch,
                  int bands, bool doubleSums, const std::string& stage) {
   std::string opts = options(type, 1, 1, 1, false);  // the pass knobs are unused here
@@ -124,13 +133,12 @@ void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int h
   cl::Buffer sums = ctx.buffer(checkedMul(sumsElems, accBytes, "band-sum bytes"),
                                stage + " band sums");
   if (bands > 1) {
-    cl::Kernel sumK = ctx.kernel(kFile, "scan_band_sums", opts);
-    cl::Kernel offK = ctx.kernel(kFile, "scan_col_offsets", opts);
-    ctx.launchWith(stage + "/bands/sums", sumK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
-                   sums, cl_int(width), cl_int(height), cl_int(bandRows));
-    const std::size_t owg = std::min<std::size_t>(ctx.workGroupSize(offK, kColumnWg), nextPow2(width));
-    ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(roundUp(width, owg), batch),
-                   cl::NDRange(owg, 1), sums, cl_int(width), cl_int(bands));
+    // step 1's strips: two per compute unit over the batch, each at least one column
+    const std::size_t strips = std::clamp<std::size_t>(
+        (2 * computeUnits(ctx) + batch - 1) / batch, 1, std::size_t(width));
+    cl::Kernel offK = ctx.kernel(kFile, "scan_band_offsets", opts);
+    ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(strips, batch), cl::NDRange(1, 1),
+                   data, sums, cl_int(width), cl_int(height), cl_int(bandRows));
   }
   cl::Kernel applyK =
       ctx.kernel(kFile, doubleSums ? "scan_band_apply_acc" : "scan_band_apply", opts);
