@@ -277,6 +277,7 @@ kernel void contact_map(global const float* gpos, global const float* gnrm,
   float Px[CM_GROUP], Py[CM_GROUP], Pz[CM_GROUP], Gx[CM_GROUP], Gy[CM_GROUP], Gz[CM_GROUP],
       Nx[CM_GROUP], Ny[CM_GROUP], Nz[CM_GROUP];
   int pix[CM_GROUP];  // pixel index, -1 outside the image or on the background
+  int ngeo = 0;
   for (int k = 0; k < CM_GROUP; ++k) {
     const int x = x0 + k % CM_TILE, y = y0 + k / CM_TILE;
     const bool in = x < width && y < height;
@@ -291,7 +292,9 @@ kernel void contact_map(global const float* gpos, global const float* gnrm,
     Nx[k] = gnrm[4 * px];
     Ny[k] = gnrm[4 * px + 1];
     Nz[k] = gnrm[4 * px + 2];
+    ngeo += pix[k] >= 0;
   }
+  if (ngeo == 0) return;  // a tile of background (sky): no pixel to shadow
   const size_t S2 = (size_t)map_size * map_size;
   for (int l = 0; l < nl; ++l) {
     if (mask[l] == 0) continue;
