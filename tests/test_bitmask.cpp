@@ -701,6 +701,47 @@ TEST(BitmaskReport, StatsAndBytes) {
   EXPECT_EQ(report["bitmask"]["light_samples"], 64) << report.dump(2);
 }
 
+// Without a capture the list lengths' read-back is queued and summed only when the statistics
+// are asked for (after the shading is queued): the same figures as the capture's, frame after
+// frame of one renderer (the second frame's read waits for none of the first's), and under
+// `auto`, whose exact lights run the technique on a subset.
+TEST(BitmaskReport, DeferredStatsMatchTheCapture) {
+  Scene scene = smallScene();
+  RenderOptions ro;
+  ro.width = 40;
+  ro.height = 30;
+  ro.shadows = ShadowTechnique::Bitmask;
+  ro.bitmask.lightSamples = 64;
+  ro.shadowMapSize = 512;
+  const LightSet lights = oneLight({0.3f, 1.0f, 0.2f}, 12);
+  const BitmaskRun ref = render(scene, smallCamera(), lights, ro);
+  const LightSet other = oneLight({-0.4f, 1.0f, 0.1f}, 8);
+  const BitmaskRun ref2 = render(scene, smallCamera(), other, ro);
+  ASSERT_NE(ref.cap.stats.viewSamples, 0);
+  Renderer renderer(ctx());
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const auto* run : {&ref, &ref2}) {
+      const Frame f = renderer.render(scene, smallCamera(), run == &ref ? lights : other,
+                                      Environment{builtinEnvironment()}, ro);
+      std::map<std::string, double> st(f.stats.begin(), f.stats.end());
+      EXPECT_EQ(st["view_samples"], double(run->cap.stats.viewSamples));
+      EXPECT_EQ(st["occupied_texels"], double(run->cap.stats.occupiedTexels));
+      EXPECT_EQ(st["max_list_length"], double(run->cap.stats.maxList));
+      EXPECT_DOUBLE_EQ(st["mean_list_length"], run->cap.stats.meanList);
+    }
+  }
+  // the same light alone under auto, given the exact technique by a budget of one
+  RenderOptions ao = ro;
+  ao.shadows = ShadowTechnique::Auto;
+  ao.autoChoice.exactLights = 1;
+  const Frame f =
+      renderer.render(scene, smallCamera(), lights, Environment{builtinEnvironment()}, ao);
+  std::map<std::string, double> st(f.stats.begin(), f.stats.end());
+  ASSERT_EQ(st["auto/lights_exact"], 1.0);
+  EXPECT_EQ(st["bitmask/view_samples"], double(ref.cap.stats.viewSamples));
+  EXPECT_EQ(st["bitmask/occupied_texels"], double(ref.cap.stats.occupiedTexels));
+}
+
 // Under oclgrind (--check-api --data-races): a tiny frame of each variant, every kernel of the
 // pass (a closed box exercises the back-face rule and bitmask_self, and a jittered frame the
 // rotated look-up), with a list longer than the grid's texels and a batch of two lights.

@@ -144,6 +144,9 @@ class Context {
   /// The same without waiting: `src` must stay unchanged until the returned event completes.
   cl::Event writeAsync(cl::Buffer& b, const void* src, std::size_t bytes, const std::string& what);
   void read(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what);
+  /// The same without waiting: `dst` must stay valid, and is filled, once the returned event
+  /// completes (wait on it before reading `dst`).
+  cl::Event readAsync(const cl::Buffer& b, void* dst, std::size_t bytes, const std::string& what);
   template <class T>
   std::vector<T> download(const cl::Buffer& b, std::size_t count, const std::string& what) {
     std::vector<T> out(count);

@@ -73,6 +73,12 @@ std::string seconds(double s) { return detail::numberText(s); }
   }
   ::dup2(err, 2);
   ::close(err);
+  // The default action for the crash signals, whatever handler the parent had: the OpenCL
+  // driver's compiler (libLLVM, loaded with PoCL) installs one for SIGSEGV when a Context is
+  // created, which returns from a raised signal and prints its own report to stderr, the text the
+  // parent quotes; AddressSanitizer's reports and exits. A fault in the reader must end the child
+  // by its signal, and be reported as such, in every build.
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
   if (limits.memoryBytes > 0) {
     rlimit r{};
     r.rlim_cur = r.rlim_max = currentAddressSpace() + limits.memoryBytes;

@@ -556,6 +556,17 @@ void Context::read(const cl::Buffer& b, void* dst, std::size_t bytes, const std:
   }
 }
 
+cl::Event Context::readAsync(const cl::Buffer& b, void* dst, std::size_t bytes,
+                             const std::string& what) {
+  cl::Event ev;
+  try {
+    queue_.enqueueReadBuffer(b, CL_FALSE, 0, bytes, dst, nullptr, &ev);
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "reading back " + what);
+  }
+  return ev;
+}
+
 Context::ReadView Context::mapRead(const cl::Buffer& b, std::size_t bytes,
                                   const std::string& what) {
   if (bytes == 0) return ReadView();  // a map of no bytes is an error in OpenCL

@@ -24,7 +24,20 @@ void Visibility::begin(const ShadowOptions& shared, ShadowTechnique t, int pixel
     passKind_ = t;
   }
   bytes_ = 0;
+  std::lock_guard<std::mutex> lock(statsMutex_);
+  steps_.clear();
   stats_.clear();
+  statsPending_ = false;
+}
+
+const std::vector<std::pair<std::string, double>>& Visibility::stats() const {
+  std::lock_guard<std::mutex> lock(statsMutex_);
+  if (statsPending_) {
+    stats_ = pass_->frameStats();
+    stats_.insert(stats_.end(), steps_.begin(), steps_.end());
+    statsPending_ = false;
+  }
+  return stats_;
 }
 
 void Visibility::compute(ShadowFrame& f) {
@@ -37,7 +50,7 @@ void Visibility::compute(ShadowFrame& f) {
   if (runsPass()) {
     pass_->computeVisibility(f);
     bytes_ = pass_->frameBytes(f.opt, std::size_t(f.mapSize) * f.mapSize * lights_);
-    stats_ = pass_->frameStats();
+    std::vector<std::pair<std::string, double>> steps;
     // The lights whose visibility came from a map: contact.cl's occluders a map cannot resolve,
     // then horizon.cl's lights on the horizon. The techniques that test triangles themselves (the
     // bitmask's) need neither.
@@ -70,11 +83,16 @@ void Visibility::compute(ShadowFrame& f) {
         // last: it scales the final value of each pair
         if (ground) groundLights = ground_.run(f, mapMaskBuffer_);
       }
-      if (horizon) stats_.emplace_back("horizon/lights", double(n));
-      if (contact) stats_.emplace_back("contact/lights", double(n));
-      if (contactMaps) stats_.emplace_back("contact/map_lights", double(n));
-      if (ground) stats_.emplace_back("ground/lights", double(groundLights));
+      if (horizon) steps.emplace_back("horizon/lights", double(n));
+      if (contact) steps.emplace_back("contact/lights", double(n));
+      if (contactMaps) steps.emplace_back("contact/map_lights", double(n));
+      if (ground) steps.emplace_back("ground/lights", double(groundLights));
     }
+    // stats() builds the statistics when asked, after the frame's later stages are queued
+    std::lock_guard<std::mutex> lock(statsMutex_);
+    steps_ = std::move(steps);
+    stats_.clear();
+    statsPending_ = true;
   } else if (lights_ > 0) {
     const cl_float one = 1.0f;
     ctx_.fill(vis_, &one, 4, std::size_t(pixels_) * lights_ * 4, "visibility buffer");

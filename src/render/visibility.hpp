@@ -5,6 +5,7 @@
 #pragma once
 #include <cstddef>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -42,7 +43,9 @@ class Visibility {
   // map gave, when those steps ran, and "ground/lights", the lights that reach below the
   // horizontal, when the ground step ran; 0 and none when no pass ran.
   std::size_t frameBytes() const { return bytes_; }
-  const std::vector<std::pair<std::string, double>>& stats() const { return stats_; }
+  // The pass's statistics are asked for here, not in compute(), so that a pass may leave a
+  // read-back queued behind the frame's later stages (the bitmask's list lengths).
+  const std::vector<std::pair<std::string, double>>& stats() const;
   // The last frame's visibility read back, light-major (Renderer::lastVisibility).
   std::vector<float> download();
 
@@ -58,7 +61,10 @@ class Visibility {
   Horizon horizon_;  // lights on the horizon (render/horizon.hpp)
   GroundOcclusion ground_;  // the ground's occlusion of low lights (render/ground.hpp)
   std::size_t bytes_ = 0;
-  std::vector<std::pair<std::string, double>> stats_;
+  std::vector<std::pair<std::string, double>> steps_;  // the horizon, contact and ground counts
+  mutable std::mutex statsMutex_;
+  mutable bool statsPending_ = false;  // stats_ still to be built from pass_ and steps_
+  mutable std::vector<std::pair<std::string, double>> stats_;
 };
 
 }  // namespace penumbra::detail

@@ -353,7 +353,7 @@ class AutoPass : public ShadowPass {
                                      f.triangleCount > 0);
     pixel_ = pixel;
     bytes_ = 0;
-    subStats_.clear();
+    ran_.clear();
     for (ShadowTechnique t : kChoices) {
       std::vector<int> subset, rows;
       for (int l = 0; l < nl; ++l)
@@ -371,8 +371,7 @@ class AutoPass : public ShadowPass {
       }
       const std::size_t texels = std::size_t(S) * S * subset.size();
       bytes_ += pass->frameBytes(f.opt, texels);
-      for (auto& [name, v] : pass->frameStats())
-        subStats_.emplace_back(std::string(toString(t)) + "/" + name, v);
+      ran_.push_back(t);
     }
   }
 
@@ -393,7 +392,10 @@ class AutoPass : public ShadowPass {
     s.emplace_back("auto/pixel_footprint", pixel_);
     for (std::size_t l = 0; l < choice_.size(); ++l)
       s.emplace_back("auto/light_" + std::to_string(l), double(int(choice_[l])));
-    s.insert(s.end(), subStats_.begin(), subStats_.end());
+    // asked here, not when the techniques ran: the bitmask's statistics wait for its read-back
+    for (ShadowTechnique t : ran_)
+      for (auto& [name, v] : passes_.at(t)->frameStats())
+        s.emplace_back(std::string(toString(t)) + "/" + name, v);
     return s;
   }
 
@@ -450,7 +452,7 @@ class AutoPass : public ShadowPass {
   std::map<ShadowTechnique, std::unique_ptr<ShadowPass>> passes_;  // kept between frames
   std::map<ShadowTechnique, Sub> subs_;
   std::vector<ShadowTechnique> choice_;
-  std::vector<std::pair<std::string, double>> subStats_;
+  std::vector<ShadowTechnique> ran_;  // the techniques this frame ran, in order
   double pixel_ = 0;
   std::size_t bytes_ = 0;
 };

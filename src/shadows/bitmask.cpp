@@ -130,6 +130,12 @@ void buildTables(const std::vector<std::array<float, 2>>& disk, std::vector<cl_u
 class BitmaskPass : public ShadowPass {
  public:
   explicit BitmaskPass(bool hard) : hard_(hard) {}
+  ~BitmaskPass() override {
+    try {
+      if (countsRead_()) countsRead_.wait();  // the read must not land in freed memory
+    } catch (const cl::Error&) {
+    }
+  }
 
   void computeVisibility(ShadowFrame& f) override {
     const BitmaskOptions& bo = f.opt.bitmask;
@@ -283,8 +289,9 @@ class BitmaskPass : public ShadowPass {
     }
 
     BitmaskCapture* cap = gCapture;
-    // The lists' statistics read the lengths back, which waits for the device: after the
-    // triangles are queued, unless a capture reads the lists in the batch loop below.
+    // The lists' statistics read the lengths back: queued after the triangles, and waited for
+    // only when frameStats() asks, so the device is not left idle mid-frame; a capture reads
+    // the lists (and waits) before the batch loop below.
     if (cap) collect(f, counts, grids, slot, nl, S, W, cap);
     cl::Buffer& orient = f.pool.upload("bitmask mesh orientation", orientHost);
 
@@ -361,6 +368,7 @@ class BitmaskPass : public ShadowPass {
   bool lightFromShadowMap(int) const override { return false; }  // exact: tests triangles
   std::size_t frameBytes(const RenderOptions&, std::size_t) const override { return heldBytes_; }
   std::vector<std::pair<std::string, double>> frameStats() const override {
+    settleStats();
     const BitmaskStats& st = stats_;
     return {{"list_size", double(listSize_)},
             {"view_samples", double(st.viewSamples)},
@@ -392,22 +400,22 @@ class BitmaskPass : public ShadowPass {
     return std::vector<cl_int>(o.begin(), o.end());
   }
 
-  // Statistics (and the capture's lists and G-buffer) from a read-back of the list lengths.
+  // Statistics from the list lengths read back (countsHost_): without a capture the read is
+  // queued (countsRead_) and summed by settleStats() when frameStats() asks; with one it is
+  // waited for here, and the capture also takes the lists and the G-buffer.
   void collect(ShadowFrame& f, cl::Buffer& counts, cl::Buffer& grids, cl::Buffer& slot, int nl,
                int S, int W, BitmaskCapture* cap) {
     Context& ctx = f.ctx;
     const std::size_t texels = std::size_t(S) * S * nl, pairs = std::size_t(f.pixels) * nl;
-    std::vector<cl_int> c = ctx.download<cl_int>(counts, texels, "bitmask list lengths");
-    BitmaskStats st;
-    st.texels = std::int64_t(texels);
-    for (cl_int v : c) {
-      st.viewSamples += v;
-      if (v > 0) ++st.occupiedTexels;
-      st.maxList = std::max(st.maxList, int(v));
-    }
-    st.meanList = st.occupiedTexels ? double(st.viewSamples) / double(st.occupiedTexels) : 0.0;
-    stats_ = st;
+    if (countsRead_()) countsRead_.wait();  // an earlier frame's read still writing countsHost_
+    countsRead_ = cl::Event();
+    countsHost_.resize(texels);
+    countsRead_ = ctx.readAsync(counts, countsHost_.data(), texels * sizeof(cl_int),
+                                "bitmask list lengths");
     if (!cap) return;
+    settleStats();
+    const std::vector<cl_int>& c = countsHost_;
+    const BitmaskStats st = stats_;
     cap->hard = hard_;
     cap->pixels = f.pixels;
     cap->words = W;
@@ -430,6 +438,27 @@ class BitmaskPass : public ShadowPass {
     cap->stats = st;
   }
 
+  // Waits for the queued read of the list lengths, if any, and sums them into stats_.
+  void settleStats() const {
+    if (!countsRead_()) return;
+    try {
+      countsRead_.wait();
+    } catch (const cl::Error& e) {
+      countsRead_ = cl::Event();
+      rethrowCl(e, "bitmask: reading back the list lengths");
+    }
+    countsRead_ = cl::Event();
+    BitmaskStats st;
+    st.texels = std::int64_t(countsHost_.size());
+    for (cl_int v : countsHost_) {
+      st.viewSamples += v;
+      if (v > 0) ++st.occupiedTexels;
+      st.maxList = std::max(st.maxList, int(v));
+    }
+    st.meanList = st.occupiedTexels ? double(st.viewSamples) / double(st.occupiedTexels) : 0.0;
+    stats_ = st;
+  }
+
   bool hard_;
   std::vector<std::array<float, 2>> disk_;
   cl::Buffer diskBuf_, lut_;
@@ -438,7 +467,10 @@ class BitmaskPass : public ShadowPass {
   double diskRot_ = -1;
   std::size_t heldBytes_ = 0;
   int listSize_ = 0;
-  BitmaskStats stats_;  // the last frame's, reported by frameStats()
+  // the last frame's, reported by frameStats(); summed from countsHost_ once countsRead_ is done
+  mutable BitmaskStats stats_;
+  std::vector<cl_int> countsHost_;
+  mutable cl::Event countsRead_;
 };
 
 }  // namespace
