@@ -1,5 +1,6 @@
 // Lights on the horizon (ShadowOptions::horizonVisibility, kernels/render/horizon.cl): both kernel
-// forms against a plain C++ loop on awkward image sizes, the two forms bit for bit, open ground
+// forms against a plain C++ loop on awkward image sizes (also with more sources than the kernels'
+// list holds), the two forms bit for bit, open ground
 // under a light whose centre is below its horizon left lit (with its negative control), an
 // occluder of the lit part found through the light above it, and the kernel under oclgrind.
 #include <gtest/gtest.h>
@@ -57,7 +58,7 @@ Synthetic synthetic(int w, int h, unsigned seed, int nl = 12) {
 // horizon's and the rim's angles from the axis. `clear` is false where a comparison is within
 // 1e-4 of its threshold (float rounding may go either way there).
 void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vector<float>& out,
-               std::vector<char>& clear) {
+               std::vector<char>& clear, int* mostSources = nullptr) {
   const int np = s.w * s.h, nl = int(s.lights.size());
   out = s.vis;
   clear.assign(out.size(), 1);
@@ -92,6 +93,7 @@ void reference(const Synthetic& s, const std::vector<cl_uchar>& mask, std::vecto
         }
       }
       out[o] = count > 0 ? float(sum / count) : 1.0f;
+      if (mostSources) *mostSources = std::max(*mostSources, count);
     }
   }
 }
@@ -101,9 +103,10 @@ struct KernelRun {
   std::vector<float> vis;
 };
 
-// Runs one kernel form (batched: the CPU form) on a synthetic frame with light 2 masked off.
-KernelRun runKernel(int w, int h, unsigned seed, bool batched) {
-  const Synthetic s = synthetic(w, h, seed);
+// Runs one kernel form (batched: the CPU form) on a synthetic frame with light 2 masked off;
+// mostSources: the most sources any replaced pair has (the reference's count).
+KernelRun runKernelOn(const Synthetic& s, bool batched, int* mostSources = nullptr) {
+  const int w = s.w, h = s.h;
   RenderOptions ro;
   detail::BufferPool pool(ctx());
   detail::ShadowFrame f(ctx(), pool, ro, s.lights);
@@ -124,7 +127,7 @@ KernelRun runKernel(int w, int h, unsigned seed, bool batched) {
   r.vis = ctx().download<float>(f.vis, s.vis.size(), "vis");
   std::vector<float> want;
   std::vector<char> clear;
-  reference(s, mask, want, clear);
+  reference(s, mask, want, clear, mostSources);
   const std::size_t np = std::size_t(w) * h;
   for (std::size_t i = 0; i < r.vis.size(); ++i) {
     if (clear[i] && std::fabs(r.vis[i] - want[i]) > 1e-5f) ++r.mismatches;
@@ -137,7 +140,65 @@ KernelRun runKernel(int w, int h, unsigned seed, bool batched) {
   return r;
 }
 
+KernelRun runKernel(int w, int h, unsigned seed, bool batched) {
+  return runKernelOn(synthetic(w, h, seed), batched);
+}
+
+// Many lights close together, as a median cut gives around a bright sky: nl directions within 12
+// degrees of one axis, caps of 20-35 degrees, and normals 0-4 degrees below the axis' horizon
+// (in runs; about half the lights are above such a pixel's horizon), so that pairs have more sources than the kernels' list holds (HZ_MAX_SOURCES, 32)
+// and the kernels read them all again.
+Synthetic crowded(int w, int h, unsigned seed, int nl) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Synthetic s = synthetic(w, h, seed, nl);
+  const std::array<float, 3> a = randomUnit(rng);
+  const D3 axis{a[0], a[1], a[2]};
+  // a unit vector perpendicular to the axis, from a random one
+  auto perpendicular = [&]() {
+    const std::array<float, 3> r = randomUnit(rng);
+    const double c = r[0] * axis[0] + r[1] * axis[1] + r[2] * axis[2];
+    return unitD({r[0] - c * axis[0], r[1] - c * axis[1], r[2] - c * axis[2]});
+  };
+  // the axis turned by t radians towards a random perpendicular
+  auto turned = [&](double t) {
+    const D3 q = perpendicular();
+    return D3{std::cos(t) * axis[0] + std::sin(t) * q[0], std::cos(t) * axis[1] + std::sin(t) * q[1],
+              std::cos(t) * axis[2] + std::sin(t) * q[2]};
+  };
+  for (pb_light& L : s.lights) {
+    const D3 d = turned(12.0 * M_PI / 180 * u(rng));
+    for (int k = 0; k < 3; ++k) L.dir[k] = float(d[k]);
+    L.dir[3] = float(std::cos((20.0 + 15.0 * u(rng)) * M_PI / 180));
+  }
+  D3 n{};
+  for (std::size_t p = 0; p < s.gnrm.size(); ++p) {
+    if (p == 0 || u(rng) < 0.3) n = turned(M_PI / 2 + 4.0 * M_PI / 180 * u(rng));
+    s.gnrm[p] = {{float(n[0]), float(n[1]), float(n[2]), 0.0f}};
+  }
+  return s;
+}
+
 }  // namespace
+
+// Pairs with more than 32 sources (crowded lights) take the kernels' second way, the sources read
+// again: both forms against the reference and each other, on frames narrower and wider than the
+// CPU form's 64 pixels.
+TEST(Horizon, MoreSourcesThanTheListHolds) {
+  for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {9, 1}, {67, 5}}) {
+    const Synthetic s = crowded(w, h, unsigned(w * 7 + h), 80);
+    int most = 0;
+    const KernelRun batched = runKernelOn(s, true, &most);
+    const KernelRun plain = runKernelOn(s, false);
+    EXPECT_EQ(batched.mismatches, 0) << w << "x" << h;
+    EXPECT_EQ(plain.mismatches, 0) << w << "x" << h;
+    EXPECT_EQ(batched.maskedChanged, 0) << w << "x" << h;
+    EXPECT_EQ(batched.vis, plain.vis) << w << "x" << h;
+    std::printf("[ penumbra ] %dx%d: %d pairs replaced, at most %d sources\n", w, h,
+                batched.replaced, most);
+    if (w * h > 1) EXPECT_GT(most, 32) << w << "x" << h;
+  }
+}
 
 // 1x1, a row, a column, odd sizes and one larger than the CPU form's 64 pixels a work-item; both
 // forms against the reference and against each other, bit for bit.
