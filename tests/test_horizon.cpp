@@ -1,8 +1,8 @@
 // Lights on the horizon (ShadowOptions::horizonVisibility, kernels/render/horizon.cl): both kernel
 // forms against a plain C++ loop on awkward image sizes (also with more sources than the kernels'
-// list holds), the two forms bit for bit, open ground
-// under a light whose centre is below its horizon left lit (with its negative control), an
-// occluder of the lit part found through the light above it, and the kernel under oclgrind.
+// list holds), the two forms bit for bit, open ground under a light whose centre is below its
+// horizon left lit (with its negative control), an occluder of the lit part found through the
+// light above it, and the kernel under oclgrind.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -231,7 +231,7 @@ kernel void scan_col_apply(global T* data, global const T* seg_sums, int width, 
 // (scan_band_offsets) sums the columns down the image, leaving each band the sums of the rows
 // above it, and step 2 (scan_band_apply) starts its sweep from them. With one band per
 // image only step 2 runs, and the image is read and written once: a copy's traffic. With B > 1
-// bands it is read once more. Integer tables come out identical to the passes' (integer addition
+// bands the rows above the last band are read once more (src/core/scan.cpp picks B). Integer tables come out identical to the passes' (integer addition
 // is associative); float ones round differently (a serial sum along each row, error growing with
 // the width rather than with its logarithm), so for float tables the host takes the form below
 // that carries the sums in double, and this one only when asked on a device without fp64
