@@ -186,7 +186,7 @@ Synthetic crowded(int w, int h, unsigned seed, int nl) {
 // CPU form's 64 pixels.
 TEST(Horizon, MoreSourcesThanTheListHolds) {
   for (auto [w, h] : std::vector<std::array<int, 2>>{{1, 1}, {9, 1}, {67, 5}}) {
-    const Synthetic s = crowded(w, h, unsigned(w * 7 + h), 80);
+    const Synthetic s = crowded(w, h, unsigned(w * 7 + h), 80);  // 1x1: bounds only
     int most = 0;
     const KernelRun batched = runKernelOn(s, true, &most);
     const KernelRun plain = runKernelOn(s, false);

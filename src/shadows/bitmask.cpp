@@ -445,6 +445,7 @@ class BitmaskPass : public ShadowPass {
       countsRead_.wait();
     } catch (const cl::Error& e) {
       countsRead_ = cl::Event();
+      stats_ = BitmaskStats{};  // not the previous frame's figures, should stats be asked again
       rethrowCl(e, "bitmask: reading back the list lengths");
     }
     countsRead_ = cl::Event();
