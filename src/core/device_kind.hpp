@@ -24,6 +24,18 @@ inline bool isCpuDevice(Context& ctx) {
   return (type & CL_DEVICE_TYPE_CPU) && !(type & CL_DEVICE_TYPE_GPU);
 }
 
+// The device's compute units (at least 1): its cores on a CPU driver, the tuning hint the CPU
+// forms size their work by (the rasterizer's views, the summed-area tables' bands).
+inline std::size_t computeUnits(Context& ctx) {
+  cl_uint units = 1;
+  try {
+    units = ctx.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  } catch (const cl::Error& e) {
+    rethrowCl(e, "querying the compute units");
+  }
+  return units > 0 ? units : 1;
+}
+
 // Whether to run the CPU forms of the kernels that have one (the banded summed-area tables, MSSM4's
 // batched visibility, batched shading, the bitmask's lists and resolve, the ground and horizon
 // steps, contact shadows, the G-buffer's resolve, ...): on CPU devices. PENUMBRA_CPU_BATCHING=off

@@ -81,16 +81,6 @@ std::string options(ScanType type, int wg, int vpt, int seg, bool lockstep) {
          " -DCOL_LOCKSTEP=" + (lockstep ? "1" : "0");
 }
 
-std::size_t computeUnits(Context& ctx) {
-  cl_uint units = 1;
-  try {
-    units = ctx.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
-  } catch (const cl::Error& e) {
-    rethrowCl(e, "summedAreaTable: querying the compute units");
-  }
-  return std::max<cl_uint>(units, 1);
-}
-
 // Bands per image for the banded method. More than one band reads the rows above the last band
 // once more (step 1), and pays only where the bands' sweeps run side by side with memory bandwidth
 // to spare. With two compute units they do not: one float4 image, medians of 100 tables each
@@ -102,7 +92,7 @@ std::size_t computeUnits(Context& ctx) {
 // each), but no more bands than the batch has MiB over 2 (the extra launch costs about what
 // sweeping 2 MiB takes on PoCL).
 int defaultBands(Context& ctx, int batch, std::size_t batchBytes) {
-  const long long units = (long long)computeUnits(ctx);
+  const long long units = (long long)detail::computeUnits(ctx);
   if (units <= 2) return 1;
   const long long worth = std::max<long long>(1, (long long)(batchBytes >> 21));
   return int(std::max<long long>(1, std::min((units + batch - 1) / batch, worth)));
@@ -135,7 +125,7 @@ void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int h
   if (bands > 1) {
     // step 1's strips: two per compute unit over the batch, each at least one column
     const std::size_t strips = std::clamp<std::size_t>(
-        (2 * computeUnits(ctx) + batch - 1) / batch, 1, std::size_t(width));
+        (2 * detail::computeUnits(ctx) + batch - 1) / batch, 1, std::size_t(width));
     cl::Kernel offK = ctx.kernel(kFile, "scan_band_offsets", opts);
     ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(strips, batch), cl::NDRange(1, 1),
                    data, sums, cl_int(width), cl_int(height), cl_int(bandRows));

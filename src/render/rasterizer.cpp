@@ -38,11 +38,7 @@ void Rasterizer::setFrame(const DeviceScene& scene, int mapSize, bool frontBackF
       views_ = ctx_.kernel("raster.cl", "raster_views", options);
       rows_ = ctx_.kernel("raster.cl", "triangle_rows", options);
       bands_ = ctx_.kernel("raster.cl", "raster_bands", options);
-      try {
-        cores_ = int(ctx_.device().getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>());
-      } catch (const cl::Error&) {
-        cores_ = 1;
-      }
+      cores_ = int(computeUnits(ctx_));
     }
   }
 }

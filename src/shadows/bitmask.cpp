@@ -407,8 +407,7 @@ class BitmaskPass : public ShadowPass {
                int S, int W, BitmaskCapture* cap) {
     Context& ctx = f.ctx;
     const std::size_t texels = std::size_t(S) * S * nl, pairs = std::size_t(f.pixels) * nl;
-    if (countsRead_()) countsRead_.wait();  // an earlier frame's read still writing countsHost_
-    countsRead_ = cl::Event();
+    settleStats();  // an earlier frame's read, if still pending, is done with countsHost_
     countsHost_.resize(texels);
     countsRead_ = ctx.readAsync(counts, countsHost_.data(), texels * sizeof(cl_int),
                                 "bitmask list lengths");
