@@ -320,15 +320,28 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // `carry`, which stays in cache (width values).
 // Step 1 is scan_band_offsets above, built with SCAN_ACC: `carry` is its offsets buffer.
 #ifdef SCAN_ACC
+// ACC_ADD(a, b) is a + b. On x86 CPUs with FMA (the compiler defines __FMA__) it is written as the
+// fused multiply-add b * one + a, with `one` = 1.0 passed at run time so that the compiler cannot
+// fold it back into an addition. The result is the same bits: b * 1 is exact and the fused
+// operation rounds once, as the addition does. What changes is the unit: the sweep's eight
+// additions per step then issue on the multiply-add pipes instead of sharing the adder pipes with
+// its eight float/double conversions. Measured on PoCL (2-core EPYC, one float4 table, medians of
+// 300, device time): 256^2 41 -> 32 us, 1024^2 788 -> 673 us, 2048^2 3.49 -> 2.98 ms.
+#ifdef __FMA__
+#define ACC_ADD(a, b) fma((b), ones, (a))
+#else
+#define ACC_ADD(a, b) ((a) + (b))
+#endif
 // Step 3: the sweep. The band's carry row first becomes row y0 - 1 of the table (the running sum
 // along x of the column sums above the band; zero for the first band, whose carry is not read
 // before), then follows the sweep down: S(x, y) = S(x, y - 1) + sum_{x' <= x} I(x', y).
 kernel void scan_band_apply_acc(global T* data, global A* carry, int width, int height,
-                                int band_rows) {
+                                int band_rows, double one) {
   const int band = get_global_id(0), nbands = get_global_size(0);
   const size_t img = get_global_id(1);
   const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
   if (y0 >= y1) return;
+  const A ones = (A)(one);  // for ACC_ADD
   global A* above = carry + (img * nbands + band) * (size_t)width;
   if (band > 0) {
     A acc = AZERO;
@@ -350,11 +363,12 @@ kernel void scan_band_apply_acc(global T* data, global A* carry, int width, int 
     global T* r3 = r2 + width;
     A a0 = AZERO, a1 = AZERO, a2 = AZERO, a3 = AZERO;
     for (int x = 0; x < width; ++x) {
-      a0 += TO_ACC(row[x]);
-      a1 += TO_ACC(r1[x]);
-      a2 += TO_ACC(r2[x]);
-      a3 += TO_ACC(r3[x]);
-      const A s0 = above[x] + a0, s1 = s0 + a1, s2 = s1 + a2, s3 = s2 + a3;
+      a0 = ACC_ADD(a0, TO_ACC(row[x]));
+      a1 = ACC_ADD(a1, TO_ACC(r1[x]));
+      a2 = ACC_ADD(a2, TO_ACC(r2[x]));
+      a3 = ACC_ADD(a3, TO_ACC(r3[x]));
+      const A s0 = ACC_ADD(above[x], a0), s1 = ACC_ADD(s0, a1), s2 = ACC_ADD(s1, a2),
+              s3 = ACC_ADD(s2, a3);
       above[x] = s3;
       row[x] = FROM_ACC(s0);
       r1[x] = FROM_ACC(s1);
@@ -365,8 +379,8 @@ kernel void scan_band_apply_acc(global T* data, global A* carry, int width, int 
   for (; y < y1; ++y, row += width) {
     A acc = AZERO;
     for (int x = 0; x < width; ++x) {
-      acc += TO_ACC(row[x]);
-      const A s = above[x] + acc;
+      acc = ACC_ADD(acc, TO_ACC(row[x]));
+      const A s = ACC_ADD(above[x], acc);
       above[x] = s;
       row[x] = FROM_ACC(s);
     }

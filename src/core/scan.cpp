@@ -130,10 +130,17 @@ void bandedTable(Context& ctx, cl::Buffer& data, ScanType type, int width, int h
     ctx.launchWith(stage + "/bands/offsets", offK, cl::NDRange(strips, batch), cl::NDRange(1, 1),
                    data, sums, cl_int(width), cl_int(height), cl_int(bandRows));
   }
-  cl::Kernel applyK =
-      ctx.kernel(kFile, doubleSums ? "scan_band_apply_acc" : "scan_band_apply", opts);
-  ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
-                 sums, cl_int(width), cl_int(height), cl_int(bandRows));
+  if (doubleSums) {
+    // the last argument is the 1.0 of scan.cl's ACC_ADD, given at run time so that it stays a
+    // fused multiply-add
+    cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply_acc", opts);
+    ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                   sums, cl_int(width), cl_int(height), cl_int(bandRows), cl_double(1.0));
+  } else {
+    cl::Kernel applyK = ctx.kernel(kFile, "scan_band_apply", opts);
+    ctx.launchWith(stage + "/bands", applyK, cl::NDRange(bands, batch), cl::NDRange(1, 1), data,
+                   sums, cl_int(width), cl_int(height), cl_int(bandRows));
+  }
 }
 
 }  // namespace
