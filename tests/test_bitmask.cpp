@@ -567,7 +567,7 @@ TEST(BitmaskClosed, InsideSamplesAreBlockedBelowTheirOwnPlane) {
   ro.height = 36;
   ro.shadows = ShadowTechnique::Bitmask;
   ro.bitmask.lightSamples = 128;
-  // a light 6 degrees above the horizon, 14 wide: the floor's plane cuts it
+  // a light 6 degrees above the horizon, of half-angle 14 degrees: the floor's plane cuts it
   BitmaskRun r = render(scene, smallCamera(), oneLight({1.0f, 0.1f, 0.2f}, 14), ro);
   const BitmaskCapture& c = r.cap;
   ASSERT_EQ(c.lights.size(), 1u);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <iostream>
 #include <limits>
@@ -245,6 +246,90 @@ TEST(Scan, FloatBandsRoundOnce) {
   EXPECT_LE(b, 1.01 * additionDepth(s, banded) * std::ldexp(1.0, -24));
   if (ctx().info().fp64) EXPECT_LT(b, p);
 }
+// The float tables' banded form bit for bit: a host copy of its double sums, in the kernels'
+// order (scan.cl: scan_band_offsets' columns four rows a step, each band's carry row, the sweep's
+// running sums four rows at a time, then one), rounded to float once. Any output bit that moves
+// fails here, where the tolerance of the tests above would let it through: a float sum anywhere,
+// a sum lost or counted twice, a scale (the fused form's 1.0 given wrong). A different order of
+// the double additions almost never moves an output bit (the rounding to float drops their last
+// bits), so this pins the table the sweep must give, not the order it gets there. Inputs span
+// 2^-20..2^20 with both signs, so nearly every float addition would round.
+static std::vector<float> hostSweep(const std::vector<float>& in, Size s, int L, int bands) {
+  const int bandRows = (s.h + bands - 1) / bands;
+  const int nb = (s.h + bandRows - 1) / bandRows;
+  std::vector<float> out(in.size());
+  const std::size_t W = std::size_t(s.w);
+  for (int b = 0; b < s.batch; ++b)
+    for (int c = 0; c < L; ++c) {
+      auto at = [&](int x, int y) { return (std::size_t(b) * s.h * W + std::size_t(y) * W + x) * L + c; };
+      std::vector<double> run(W, 0.0);  // scan_band_offsets: the column sums above the band
+      for (int band = 0; band < nb; ++band) {
+        if (band > 0) {
+          const int y1 = band * bandRows;
+          int y = y1 - bandRows;
+          for (; y + 4 <= y1; y += 4)
+            for (std::size_t x = 0; x < W; ++x)
+              run[x] = run[x] + double(in[at(int(x), y)]) + double(in[at(int(x), y + 1)]) +
+                       double(in[at(int(x), y + 2)]) + double(in[at(int(x), y + 3)]);
+          for (; y < y1; ++y)
+            for (std::size_t x = 0; x < W; ++x) run[x] += double(in[at(int(x), y)]);
+        }
+        std::vector<double> above(W, 0.0);  // scan_band_apply_acc's carry row
+        if (band > 0) {
+          double acc = 0.0;
+          for (std::size_t x = 0; x < W; ++x) above[x] = acc += run[x];
+        }
+        const int y0 = band * bandRows, y1 = std::min(s.h, y0 + bandRows);
+        int y = y0;
+        for (; y + 4 <= y1; y += 4) {
+          double a[4] = {0, 0, 0, 0};
+          for (std::size_t x = 0; x < W; ++x) {
+            for (int r = 0; r < 4; ++r) a[r] += double(in[at(int(x), y + r)]);
+            double sum = above[x];
+            for (int r = 0; r < 4; ++r) {
+              sum += a[r];
+              out[at(int(x), y + r)] = float(sum);
+            }
+            above[x] = sum;
+          }
+        }
+        for (; y < y1; ++y) {
+          double a = 0;
+          for (std::size_t x = 0; x < W; ++x) {
+            a += double(in[at(int(x), y)]);
+            above[x] += a;
+            out[at(int(x), y)] = float(above[x]);
+          }
+        }
+      }
+    }
+  return out;
+}
+
+TEST(Scan, FloatBandsAreTheirDoubleSumsBitForBit) {
+  ASSERT_TRUE(ctx().info().fp64) << "the float tables' banded form sums in double on fp64 devices";
+  std::mt19937 rng(53);
+  for (ScanType t : {ScanType::Float, ScanType::Float4})
+    for (Size s : {Size{1, 1, 1}, Size{1, 13, 1}, Size{13, 1, 1}, Size{37, 29, 2}, Size{257, 9, 1},
+                   Size{64, 67, 1}})
+      for (int bands : {1, 3}) {
+        const int L = lanes(t);
+        std::vector<float> in(std::size_t(s.w) * s.h * s.batch * L);
+        for (auto& v : in)
+          v = std::ldexp(float(rng() % 2000000) / 1e6f - 1.0f, int(rng() % 41) - 20);
+        ScanTuning tune;
+        tune.bands = bands;
+        const auto got = deviceSat(t, in, s, tune);
+        const auto want = hostSweep(in, s, L, bands);
+        std::size_t bad = 0;
+        for (std::size_t i = 0; i < got.size(); ++i)
+          if (std::memcmp(&got[i], &want[i], sizeof(float)) != 0 && bad++ < 3)
+            ADD_FAILURE() << label(t, s) << ", " << bands << " bands: scalar " << i << " got "
+                          << got[i] << " want " << want[i];
+        EXPECT_EQ(bad, 0u) << label(t, s) << ", " << bands << " bands";
+      }
+}
+
 TEST(Scan, BandedAt2048IsExact) {
   ScanTuning tune;
   tune.bands = 6;  // 2048 rows: five bands of 342 and a short one

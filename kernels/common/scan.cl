@@ -325,8 +325,10 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // fold it back into an addition. The result is the same bits: b * 1 is exact and the fused
 // operation rounds once, as the addition does. What changes is the unit: the sweep's eight
 // additions per step then issue on the multiply-add pipes instead of sharing the adder pipes with
-// its eight float/double conversions. Measured on PoCL (2-core EPYC, one float4 table, medians of
-// 300, device time): 256^2 41 -> 32 us, 1024^2 788 -> 673 us, 2048^2 3.49 -> 2.98 ms.
+// its eight float/double conversions. Measured on PoCL (2-core AMD EPYC, Zen 5, one float4 table,
+// medians of 300, device time): 256^2 41 -> 32 us, 1024^2 788 -> 673 us, 2048^2 3.49 -> 2.98 ms.
+// Where additions and multiply-adds share ports it should gain nothing (not measured there); the
+// bits are the same on any device.
 #ifdef __FMA__
 #define ACC_ADD(a, b) fma((b), ones, (a))
 #else
