@@ -467,16 +467,27 @@ Mesh closedBox(const std::string& name, Vec3 lo, Vec3 hi, bool inward = false) {
   return m;
 }
 
-std::vector<int> orientationOf(const Scene& scene) {
+// The scene's triangles in one list, in mesh order (the order the device's triangle ids follow),
+// each with its mesh index as the fourth component.
+struct FlatScene {
   std::vector<std::array<float, 3>> pos;
   std::vector<std::array<int, 4>> tris;
+};
+
+FlatScene flatten(const Scene& scene) {
+  FlatScene f;
   for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-    const int base = int(pos.size());
-    for (auto& p : scene.meshes[mi].positions) pos.push_back({p[0], p[1], p[2]});
+    const int base = int(f.pos.size());
+    for (auto& p : scene.meshes[mi].positions) f.pos.push_back({p[0], p[1], p[2]});
     for (auto& t : scene.meshes[mi].triangles)
-      tris.push_back({base + t[0], base + t[1], base + t[2], int(mi)});
+      f.tris.push_back({base + t[0], base + t[1], base + t[2], int(mi)});
   }
-  return detail::meshOrientation(pos, tris, int(scene.meshes.size()));
+  return f;
+}
+
+std::vector<int> orientationOf(const Scene& scene) {
+  const FlatScene f = flatten(scene);
+  return detail::meshOrientation(f.pos, f.tris, int(scene.meshes.size()));
 }
 
 // Relative RMSE of `image` against `ref` over the reference's geometry pixels.
@@ -554,14 +565,7 @@ TEST(BitmaskClosed, InsideSamplesAreBlockedBelowTheirOwnPlane) {
   scene.meshes.push_back(closedBox("room", {-2.0f, -0.5f, -2.0f}, {2.0f, 4.0f, 4.0f}));
   const std::vector<int> orient = orientationOf(scene);
   ASSERT_EQ(orient, (std::vector<int>{1}));
-  std::vector<std::array<double, 3>> pos;
-  std::vector<std::array<int, 4>> tris;
-  for (std::size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-    const int base = int(pos.size());
-    for (auto& p : scene.meshes[mi].positions) pos.push_back({p[0], p[1], p[2]});
-    for (auto& t : scene.meshes[mi].triangles)
-      tris.push_back({base + t[0], base + t[1], base + t[2], int(mi)});
-  }
+  const FlatScene flat = flatten(scene);
   RenderOptions ro;
   ro.width = 48;
   ro.height = 36;
@@ -574,12 +578,12 @@ TEST(BitmaskClosed, InsideSamplesAreBlockedBelowTheirOwnPlane) {
   long long checked = 0, missing = 0, above = 0, insideSamples = 0;
   for (int px = 0; px < c.pixels; ++px) {
     if (c.slot[std::size_t(px)] < 0 || c.gids[std::size_t(px)] == 0xffffffffu) continue;
-    const auto& t = tris.at(c.gids[std::size_t(px)]);
+    const auto& t = flat.tris.at(c.gids[std::size_t(px)]);
     if (orient[std::size_t(t[3])] == 0) continue;
     std::array<double, 3> e1, e2, n;
     for (int k = 0; k < 3; ++k) {
-      e1[k] = pos[t[1]][k] - pos[t[0]][k];
-      e2[k] = pos[t[2]][k] - pos[t[0]][k];
+      e1[k] = double(flat.pos[t[1]][k]) - flat.pos[t[0]][k];
+      e2[k] = double(flat.pos[t[2]][k]) - flat.pos[t[0]][k];
     }
     n = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
     const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
