@@ -580,22 +580,20 @@ TEST(BitmaskClosed, InsideSamplesAreBlockedBelowTheirOwnPlane) {
     if (c.slot[std::size_t(px)] < 0 || c.gids[std::size_t(px)] == 0xffffffffu) continue;
     const auto& t = flat.tris.at(c.gids[std::size_t(px)]);
     if (orient[std::size_t(t[3])] == 0) continue;
-    std::array<double, 3> e1, e2, n;
+    dvec::D3 e1, e2;
     for (int k = 0; k < 3; ++k) {
       e1[k] = double(flat.pos[t[1]][k]) - flat.pos[t[0]][k];
       e2[k] = double(flat.pos[t[2]][k]) - flat.pos[t[0]][k];
     }
-    n = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    for (double& v : n) v *= orient[std::size_t(t[3])] / len;  // outward, unit
+    dvec::D3 n = dvec::unitD(dvec::cross(e1, e2));
+    for (double& v : n) v *= orient[std::size_t(t[3])];  // outward
     const auto& g = c.ggeo[std::size_t(px)];
-    if (n[0] * g[0] + n[1] * g[1] + n[2] * g[2] >= 0) continue;  // seen from outside
+    if (dvec::dot(n, {g[0], g[1], g[2]}) >= 0) continue;  // seen from outside
     ++insideSamples;
     for (std::size_t k = 0; k < c.disk.size(); ++k) {
       const auto d = detail::bitmaskSampleDirection(c.lights[0], c.grids[0].tan_alpha, c.disk[k][0],
                                                     c.disk[k][1]);
-      const double s = (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) /
-                       std::sqrt(double(d[0]) * d[0] + double(d[1]) * d[1] + double(d[2]) * d[2]);
+      const double s = dvec::dot(n, dvec::unitD({d[0], d[1], d[2]}));
       above += s > 1e-3;
       if (s > -1e-3) continue;
       ++checked;

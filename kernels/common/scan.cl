@@ -330,7 +330,7 @@ kernel void scan_band_apply(global T* data, global const T* band_offsets, int wi
 // Where additions and multiply-adds share ports it should gain nothing (not measured there); the
 // bits are the same on any device.
 #ifdef __FMA__
-#define ACC_ADD(a, b) fma((b), ones, (a))
+#define ACC_ADD(a, b) fma((b), (A)(one), (a))
 #else
 #define ACC_ADD(a, b) ((a) + (b))
 #endif
@@ -343,7 +343,6 @@ kernel void scan_band_apply_acc(global T* data, global A* carry, int width, int 
   const size_t img = get_global_id(1);
   const int y0 = band * band_rows, y1 = min(height, y0 + band_rows);
   if (y0 >= y1) return;
-  const A ones = (A)(one);  // for ACC_ADD
   global A* above = carry + (img * nbands + band) * (size_t)width;
   if (band > 0) {
     A acc = AZERO;
